@@ -1,0 +1,35 @@
+# Two commands from a fresh machine:  `make demo`  and  `make test`.
+# Both create .venv on first use and install the pinned dependencies once; the stamp file
+# makes a second run skip the install unless requirements/constraints/setup.py changed.
+
+SHELL := /bin/bash
+.SHELLFLAGS := -eo pipefail -c
+PYTHON ?= python3
+VENV   := .venv
+PY     := $(VENV)/bin/python
+STAMP  := $(VENV)/.installed
+PIP    := $(PY) -m pip install --quiet --disable-pip-version-check
+export AMENT_PREFIX_PATH := $(abspath $(VENV))
+export ROS_AUTOMATIC_DISCOVERY_RANGE ?= LOCALHOST
+
+.PHONY: demo test venv lint clean
+
+venv: $(STAMP)
+
+$(STAMP): requirements.txt constraints.txt setup.py setup.cfg package.xml
+	test -x $(PY) || $(PYTHON) -m venv $(VENV)
+	$(PIP) -r requirements.txt -c constraints.txt 2>&1 | { grep -v '^WARNING: Location' || true; }
+	$(PIP) --no-deps --no-build-isolation -e . 2>&1 | { grep -v '^WARNING: Location' || true; }
+	touch $(STAMP)
+
+demo: $(STAMP)
+	$(VENV)/bin/rearrangement-plan config/scenes/default.yaml --seed 0
+
+test: $(STAMP)
+	$(PY) -m pytest -q test
+
+lint: $(STAMP)
+	$(PY) -m pip install --quiet ruff==0.17.5 && $(VENV)/bin/ruff check rearrangement_planner msg_adapters test
+
+clean:
+	rm -rf $(VENV) build *.egg-info

@@ -1,0 +1,1 @@
+"""Nonprehensile whole-arm rearrangement planning: the ROS-free core."""

@@ -1,0 +1,19 @@
+"""One exception root for the core, with messages that say what was wrong and what would be right."""
+
+
+class RearrangementError(Exception):
+    """Base class of every error the core raises on purpose."""
+
+
+class RobotModelError(RearrangementError):
+    """A robot URDF or robot config is missing, malformed or inconsistent."""
+
+
+class SceneError(RearrangementError):
+    """A scene is malformed. `field` is the dotted path of the offending field (e.g.
+    ``objects[1].pose``) and `problem` says what is wrong with it."""
+
+    def __init__(self, field: str, problem: str):
+        self.field = field
+        self.problem = problem
+        super().__init__(f"{field}: {problem}" if field else problem)
