@@ -1,0 +1,37 @@
+"""The planning state x = (q, o^1 ... o^M) of King et al. §II-A: the arm configuration and the
+planar pose (x, y, yaw) of every movable object, in the base frame (m, rad)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True, eq=False)
+class State:
+    q: np.ndarray        # (nq,) joint positions, rad
+    objects: np.ndarray  # (M, 3) object poses (x, y, yaw) in the base frame
+
+    def __post_init__(self) -> None:
+        q = np.array(self.q, dtype=float)
+        objects = np.array(self.objects, dtype=float).reshape(-1, 3)
+        q.setflags(write=False)
+        objects.setflags(write=False)
+        object.__setattr__(self, "q", q)
+        object.__setattr__(self, "objects", objects)
+
+    def with_q(self, q: np.ndarray) -> State:
+        return State(q, self.objects)
+
+    def with_objects(self, objects: np.ndarray) -> State:
+        return State(self.q, objects)
+
+    def equals(self, other: State, atol: float = 0.0) -> bool:
+        return bool(np.allclose(self.q, other.q, atol=atol, rtol=0)
+                    and np.allclose(self.objects, other.objects, atol=atol, rtol=0))
+
+
+def wrap_angle(a: np.ndarray | float) -> np.ndarray | float:
+    """Wrap angles to [-pi, pi)."""
+    return (np.asarray(a) + np.pi) % (2 * np.pi) - np.pi
