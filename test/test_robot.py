@@ -153,7 +153,7 @@ def test_capsules_cover_the_segments_between_joint_axes(panda):
             for s in np.linspace(0.0, 1.0, 9):
                 point = a + s * (b - a)
                 assert min(capsule_distance(point, shape, pose)
-                           for shape, pose in zip(panda.contact_shapes, poses)) <= 0.0, point
+                           for shape, pose in zip(panda.contact_shapes, poses)) <= 1e-9, point
 
 
 def capsule_distance(point, shape, pose):
