@@ -228,6 +228,10 @@ class RobotModel:
                 f"robot '{config.name}': every planning joint needs a positive velocity limit")
         self.tool_frame_id = self.frame_id(config.tool_frame)
         self._shape_frame_ids = np.array([self.frame_id(s.link) for s in config.contact_shapes])
+        # Shapes share links: fetch each link pose once, then index (hot path of the physics).
+        self._shape_links, self._shape_link_index = np.unique(
+            self._shape_frame_ids, return_inverse=True)
+        self._shape_links = [int(f) for f in self._shape_links]
         self._shape_offsets = np.stack([s.offset for s in config.contact_shapes]) \
             if config.contact_shapes else np.zeros((0, 4, 4))
         self.shape_bounding_radii = _readonly(
@@ -339,5 +343,6 @@ class RobotModel:
     def shape_poses(self, q: np.ndarray) -> np.ndarray:
         """(S, 4, 4) world poses of the contact shapes, in config order."""
         self._update(q)
-        link_poses = np.stack([self.data.oMf[int(f)].homogeneous for f in self._shape_frame_ids])
-        return link_poses @ self._shape_offsets
+        oMf = self.data.oMf
+        link_poses = np.array([oMf[f].homogeneous for f in self._shape_links])
+        return link_poses[self._shape_link_index] @ self._shape_offsets
