@@ -1,0 +1,194 @@
+"""The pushing manifold: error, IK onto it, and the Project step (King et al. §III-C, §V).
+
+Property tests over seeded random targets and actions: the laws are "IK lands on the manifold
+at the asked pose", "Project keeps the tool on the manifold and moves it by action·dt", "the
+nullspace term never changes the task motion", "same seed, same steps"."""
+
+import math
+
+import numpy as np
+import pytest
+
+from rearrangement_planner import manifold as mf
+
+TABLE = 0.0
+DT = 0.02
+
+
+@pytest.fixture(scope="module")
+def q_push(panda):
+    return mf.default_push_configuration(panda, TABLE)
+
+
+def random_targets(rng, count):
+    """Planar tool poses over the table area, pointing roughly away from the base."""
+    for _ in range(count):
+        x, y = rng.uniform(0.35, 0.7), rng.uniform(-0.35, 0.35)
+        yield x, y, math.atan2(y, x) + rng.uniform(-0.4, 0.4)
+
+
+def tilt(err):
+    return float(np.hypot(err[1], err[2]))
+
+
+# -- the manifold and IK ---------------------------------------------------------------------
+
+
+def test_default_push_configuration_is_on_manifold_clear_of_table_and_limits(panda, q_push):
+    assert np.abs(mf.manifold_error(panda, q_push, TABLE)).max() < 1e-6
+    assert np.allclose(mf.tool_planar_pose(panda, q_push), mf.DEFAULT_PUSH_TARGET, atol=1e-5)
+    assert mf.lowest_point(panda, q_push)[0] >= TABLE
+    margin = np.minimum(q_push - panda.lower, panda.upper - q_push)
+    assert margin.min() > 0.1  # the nullspace settling moved it off the joint limits
+    assert not q_push.flags.writeable
+    assert mf.default_push_configuration(panda, TABLE) is q_push  # cached
+
+
+def test_manifold_error_rate_is_the_tool_twist(panda, q_push):
+    """d/dt (height error, tilt_x, tilt_y) = (v_z, w_x, w_y) of J qdot, by finite differences."""
+    rng = np.random.default_rng(7)
+    jac = panda.frame_jacobian(q_push, panda.tool_frame_id)
+    eps = 1e-6
+    for _ in range(5):
+        qdot = rng.normal(size=7)
+        rate = (mf.manifold_error(panda, q_push + eps * qdot, TABLE)
+                - mf.manifold_error(panda, q_push, TABLE)) / eps
+        assert np.allclose(rate, (jac @ qdot)[2:5], atol=1e-4)
+
+
+def test_manifold_error_measures_height_and_tilt(panda, q_push):
+    q = q_push.copy()
+    q[5] += 0.1  # joint 6 tilts the hand
+    err = mf.manifold_error(panda, q, TABLE)
+    assert 0.05 < tilt(err) < 0.15
+    assert not mf.on_manifold(panda, q, TABLE, tol=1e-3)
+    assert mf.on_manifold(panda, q_push, TABLE, tol=1e-6)
+    assert mf.manifold_error(panda, q_push, TABLE + 0.01)[0] == pytest.approx(-0.01, abs=1e-6)
+
+
+def test_ik_reaches_random_targets_on_the_manifold(panda):
+    rng = np.random.default_rng(1)
+    for x, y, yaw in random_targets(rng, 12):
+        q = mf.ik_on_manifold(panda, x, y, yaw, TABLE, panda.home, rng)
+        assert q is not None, f"IK failed at ({x:.3f}, {y:.3f}, {yaw:.3f})"
+        assert panda.within_limits(q)
+        pose = panda.tool_pose(q)
+        assert np.allclose(pose[:3, 3], [x, y, TABLE + panda.config.push_posture.height],
+                           atol=1e-4)
+        assert np.allclose(pose[:3, :3], mf.target_rotation(panda, yaw), atol=1e-4)
+        assert np.abs(mf.manifold_error(panda, q, TABLE)).max() < 1e-4
+        planar = mf.tool_planar_pose(panda, q)
+        assert np.allclose(planar[:2], [x, y], atol=1e-4)
+        assert abs(math.remainder(planar[2] - yaw, 2 * math.pi)) < 1e-4
+
+
+def test_ik_respects_table_height_and_clearance(panda):
+    q = mf.ik_on_manifold(panda, 0.55, 0.1, 0.2, 0.05, panda.home, np.random.default_rng(2),
+                          min_clearance=0.0)
+    assert q is not None
+    assert panda.tool_pose(q)[2, 3] == pytest.approx(0.05 + panda.config.push_posture.height,
+                                                     abs=1e-5)
+    assert mf.lowest_point(panda, q)[0] >= 0.05
+
+
+def test_ik_returns_none_out_of_reach(panda):
+    assert mf.ik_on_manifold(panda, 1.5, 0.0, 0.0, TABLE, panda.home,
+                             np.random.default_rng(0), restarts=5) is None
+
+
+def test_lowest_point_matches_capsule_end_points(panda, q_push):
+    poses = panda.shape_poses(q_push)
+    expected = []
+    for i, (shape, pose) in enumerate(zip(panda.contact_shapes, poses, strict=True)):
+        if shape.link == panda.config.base_frame:
+            continue
+        radius, length = shape.dims
+        ends = [pose[:3, 3] + sign * 0.5 * length * pose[:3, 2] for sign in (-1, 1)]
+        expected.append((min(e[2] for e in ends) - radius, i))
+    assert mf.lowest_point(panda, q_push) == pytest.approx(min(expected))
+
+
+# -- Project ---------------------------------------------------------------------------------
+
+
+def run_steps(panda, q, action, steps, **kwargs):
+    for _ in range(steps):
+        q = mf.project_step(panda, q, action, DT, TABLE, **kwargs)
+    return q
+
+
+def test_project_step_moves_tool_by_action_on_manifold(panda, q_push):
+    rng = np.random.default_rng(3)
+    steps = 25
+    for _ in range(8):
+        action = rng.uniform([-0.1, -0.1, -0.4], [0.1, 0.1, 0.4])
+        q = q_push
+        start = mf.tool_planar_pose(panda, q)
+        for _ in range(steps):
+            q = mf.project_step(panda, q, action, DT, TABLE, 0.5, rng)
+            assert panda.within_limits(q)
+            err = mf.manifold_error(panda, q, TABLE)
+            assert abs(err[0]) < 1e-3 and tilt(err) < 1e-3
+        moved = mf.tool_planar_pose(panda, q) - start
+        expected = action * DT * steps
+        assert np.allclose(moved[:2], expected[:2], atol=0.03 * np.linalg.norm(expected[:2]))
+        assert moved[2] == pytest.approx(expected[2], abs=0.03 * abs(expected[2]) + 1e-3)
+
+
+def test_project_step_is_deterministic_under_a_seed(panda, q_push):
+    action = np.array([0.05, -0.03, 0.2])
+    a = run_steps(panda, q_push, action, 20, rng=np.random.default_rng(11))
+    b = run_steps(panda, q_push, action, 20, rng=np.random.default_rng(11))
+    c = run_steps(panda, q_push, action, 20, rng=np.random.default_rng(12))
+    assert np.array_equal(a, b)
+    assert not np.allclose(a, c)
+
+
+def test_nullspace_term_does_not_change_task_motion(panda, q_push):
+    action = np.array([0.04, 0.02, -0.1])
+    jac = panda.frame_jacobian(q_push, panda.tool_frame_id)
+    plain = mf.project_step(panda, q_push, action, DT, TABLE, nullspace_gain=0.0)
+    rng = np.random.default_rng(5)
+    for _ in range(5):
+        extra = mf.project_step(panda, q_push, action, DT, TABLE, nullspace_gain=1.0, rng=rng,
+                                nullspace_noise=0.5)
+        assert np.abs(extra - plain).max() > 1e-4  # the term does move the arm...
+        # ...but only along the self-motion: the tool twist is the same to first order.
+        assert np.allclose(jac @ (extra - q_push), jac @ (plain - q_push), atol=1e-12)
+
+
+def test_solve_task_nullspace_projection_is_exact():
+    rng = np.random.default_rng(6)
+    for rows, cols in ((6, 7), (6, 6), (6, 5), (3, 7)):
+        jac = rng.normal(size=(rows, cols))
+        xdot, h = rng.normal(size=rows), rng.normal(size=cols)
+        diff = mf.solve_task(jac, xdot, h) - mf.solve_task(jac, xdot, np.zeros(cols))
+        assert np.allclose(jac @ diff, 0.0, atol=1e-10)
+        if rows < cols:  # full row rank: the task is met exactly (away from singularities)
+            assert np.allclose(jac @ mf.solve_task(jac, xdot, h), xdot, atol=1e-8)
+
+
+def test_project_step_returns_to_the_manifold(panda, q_push):
+    q = q_push + np.array([0.0, 0.03, 0.0, -0.03, 0.0, 0.05, 0.0])
+    assert not mf.on_manifold(panda, q, TABLE, tol=1e-3)
+    q = run_steps(panda, q, np.zeros(3), 10)
+    assert mf.on_manifold(panda, q, TABLE, tol=1e-5)
+
+
+def test_project_step_respects_joint_and_velocity_limits(panda, q_push):
+    # A fast yaw turns the wrist into its limits; a huge action saturates joint velocities.
+    q = q_push
+    for action, scale in (([0.0, 0.0, 1.0], 1.0), ([2.0, -2.0, 0.0], 0.3)):
+        for _ in range(150):
+            q_next = mf.project_step(panda, q, np.array(action), DT, TABLE, velocity_scale=scale)
+            assert panda.within_limits(q_next)
+            assert np.all(np.abs(q_next - q) <= scale * panda.velocity_limits * DT * (1 + 1e-9))
+            q = q_next
+    assert np.any(np.isclose(q, panda.lower) | np.isclose(q, panda.upper))
+
+
+def test_project_step_rejects_bad_input(panda, q_push):
+    with pytest.raises(ValueError, match="expected 3"):
+        mf.project_step(panda, q_push, np.zeros(2), DT, TABLE)
+    with pytest.raises(ValueError, match="dt must be positive"):
+        mf.project_step(panda, q_push, np.zeros(3), 0.0, TABLE)
