@@ -9,3 +9,11 @@ from rearrangement_planner.robot import RobotModel
 @pytest.fixture(scope="session")
 def panda() -> RobotModel:
     return RobotModel.load("panda")
+
+
+@pytest.fixture(scope="session")
+def default_scene(panda: RobotModel):
+    """config/scenes/default.yaml (DESIGN §3 demo scene), sharing the session's Panda model."""
+    from rearrangement_planner.scene import load_scene
+
+    return load_scene("default", robot=panda)
