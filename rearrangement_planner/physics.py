@@ -1,0 +1,268 @@
+"""One quasistatic physics step: how the objects move when the arm moves (DESIGN §5).
+
+King et al. §III-A: "objects only move when pushed by the manipulator. Objects stop immediately
+when forces cease to be imparted on the object." The arm is position controlled: its motion
+q -> q' is kinematic and never changed by the objects. Objects live in SE(2) on the table and
+do not touch each other (the paper does not model object-object contact; an overlap makes the
+state invalid).
+
+A step q -> q' is cut into substeps so that no point of any contact shape moves more than
+`PhysicsOptions.max_substep` (the result then hardly depends on how a caller chops a motion).
+Each substep:
+
+1. joint limits at q', arm vs table and obstacles at q' (no penetration allowed);
+2. contacts: every arm contact shape vs every object at q' (python-fcl after a NumPy broad
+   phase, `collision.CollisionWorld`); each penetrating contact gives a point p, a normal n (arm
+   into object) and a depth;
+3. a contact whose normal is mostly vertical presses on the object from above: invalid;
+4. the pusher displacement at p is the link's own motion between q and q' (the rigid transform
+   of the link, which is J(p) dq to first order), projected on the table plane; it is scaled so
+   that its normal component equals the penetration to undo ("the part of the substep spent in
+   contact"), which also pushes out a small residual from earlier steps;
+5. per object, the contacts in the object frame go to `pushing.object_twist`: one contact uses
+   the motion-cone closed form, several the complementarity problem (no solution = jamming);
+6. the object twist is applied on SE(2); then the moved objects are checked: residual arm-object
+   penetration below `penetration_tolerance`, no object-object or object-obstacle overlap, centre
+   on the table.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from enum import Enum
+
+import numpy as np
+
+from . import pushing
+from .collision import CollisionWorld
+from .robot import RobotModel
+from .scene import Scene
+from .state import State
+
+
+class Invalid(str, Enum):
+    """Why a step was rejected (the state after it would leave the valid set)."""
+
+    JOINT_LIMIT = "joint_limit"
+    ARM_TABLE = "arm_table_penetration"
+    ARM_OBSTACLE = "arm_obstacle_penetration"
+    OBJECT_OVERLAP = "object_object_overlap"
+    OBJECT_OBSTACLE = "object_obstacle_overlap"
+    OFF_TABLE = "object_off_table"
+    CONTACT_FROM_ABOVE = "contact_from_above"
+    JAMMING = "jamming"
+    RESIDUAL_PENETRATION = "residual_penetration"
+
+
+@dataclass(frozen=True)
+class PhysicsOptions:
+    max_substep: float = 0.004
+    """Largest displacement (m) of any point of any contact shape within one substep."""
+    penetration_tolerance: float = 0.003
+    """Largest arm-object penetration (m) allowed after a step."""
+    vertical_normal_limit: float = 0.7
+    """|n_z| of a contact normal above which the arm presses on an object from above (45 deg)."""
+    overlap_tolerance: float = 1e-4
+    """Object-object and object-obstacle penetration (m) still counted as touching."""
+
+
+@dataclass(frozen=True)
+class StepResult:
+    """The outcome of `Physics.step`. On failure `state` is the unchanged input state."""
+
+    state: State
+    valid: bool
+    reason: Invalid | None = None
+    detail: str = ""
+    pushing_links: frozenset[str] = field(default_factory=frozenset)
+    moved_objects: frozenset[int] = field(default_factory=frozenset)
+    substeps: int = 0
+
+
+class Physics:
+    """The quasistatic world of one scene: `step(state, q_next)` is a pure function of its
+    arguments (the instance only caches geometry and per-object constants)."""
+
+    def __init__(self, scene: Scene, options: PhysicsOptions | None = None,
+                 robot: RobotModel | None = None):
+        self.scene = scene
+        self.options = options or PhysicsOptions()
+        self.robot = robot or scene.robot
+        self.world = CollisionWorld(scene, self.robot)
+        # c = m_max / f_max per object (a length; DESIGN §5), and the pusher friction mu_c.
+        self.c = np.array([pushing.limit_surface_c(o.shape, o.size) for o in scene.objects])
+        self.mu = np.array([o.pusher_friction for o in scene.objects])
+        self._shape_links = [s.link for s in self.robot.contact_shapes]
+        self._shape_radii = np.asarray(self.robot.shape_bounding_radii)
+        self._names = [o.name for o in scene.objects]
+
+    # -- public ------------------------------------------------------------------------------
+
+    def step(self, state: State, q_next: np.ndarray) -> StepResult:
+        """Move the arm from state.q to q_next, pushing what it meets."""
+        q_next = np.asarray(q_next, dtype=float)
+        if not self.robot.within_limits(q_next, tol=1e-9):
+            # The joint box is convex: q_next inside means every substep is inside too.
+            return StepResult(state, False, Invalid.JOINT_LIMIT, self._limit_detail(q_next))
+        poses_a = self.robot.shape_poses(state.q)
+        poses_b = self.robot.shape_poses(q_next)
+        n = self._substep_count(poses_a, poses_b)
+        objects = state.objects
+        pushing_links: set[str] = set()
+        moved: set[int] = set()
+        q_a = state.q
+        for i in range(1, n + 1):
+            q_b = q_next if i == n else state.q + (q_next - state.q) * (i / n)
+            if i < n:
+                poses_b = self.robot.shape_poses(q_b)
+            elif n > 1:
+                poses_b = self.robot.shape_poses(q_next)
+            outcome = self._substep(q_a, poses_a, q_b, poses_b, objects, pushing_links, moved)
+            if isinstance(outcome, tuple):
+                reason, detail = outcome
+                return StepResult(state, False, reason, detail, frozenset(pushing_links),
+                                  frozenset(moved), i)
+            objects = outcome
+            q_a, poses_a = q_b, poses_b
+        return StepResult(State(q_next, objects), True, None, "", frozenset(pushing_links),
+                          frozenset(moved), n)
+
+    def check_state(self, state: State) -> tuple[Invalid, str] | None:
+        """Validity of a resting state (DESIGN §5), or None when valid."""
+        robot, opts = self.robot, self.options
+        if not robot.within_limits(state.q, tol=1e-9):
+            return Invalid.JOINT_LIMIT, self._limit_detail(state.q)
+        poses = robot.shape_poses(state.q)
+        static = self._static_collision(poses)
+        if static is not None:
+            return static
+        depth = self.world.arm_object_penetration(poses, state.objects)
+        if depth > opts.penetration_tolerance:
+            return (Invalid.RESIDUAL_PENETRATION,
+                    f"arm penetrates an object by {depth * 1000:.1f} mm")
+        return self._object_checks(state.objects, range(len(self._names)))
+
+    # -- internals ---------------------------------------------------------------------------
+
+    def _substep_count(self, poses_a: np.ndarray, poses_b: np.ndarray) -> int:
+        """Substeps so that no shape point moves more than max_substep: a shape point moves at
+        most |dc| + r_bound * angle(R_a^T R_b)."""
+        dc = np.linalg.norm(poses_b[:, :3, 3] - poses_a[:, :3, 3], axis=1)
+        rel = np.einsum("nji,njk->nik", poses_a[:, :3, :3], poses_b[:, :3, :3])
+        cos = np.clip((np.trace(rel, axis1=1, axis2=2) - 1.0) / 2.0, -1.0, 1.0)
+        sweep = dc + self._shape_radii * np.arccos(cos)
+        return max(1, math.ceil(float(sweep.max()) / self.options.max_substep - 1e-9))
+
+    def _static_collision(self, poses: np.ndarray) -> tuple[Invalid, str] | None:
+        hit = self.world.arm_static_collision(poses)
+        if hit is None:
+            return None
+        shape, what = hit
+        link = self._shape_links[shape]
+        if what == "table":
+            return Invalid.ARM_TABLE, f"{link} penetrates the table"
+        return Invalid.ARM_OBSTACLE, f"{link} penetrates obstacle '{what}'"
+
+    def _limit_detail(self, q: np.ndarray) -> str:
+        robot = self.robot
+        for name, value, lo, hi in zip(robot.joint_names, q, robot.lower, robot.upper):
+            if not lo - 1e-9 <= value <= hi + 1e-9:
+                return f"{name} = {value:.4f} outside [{lo:.4f}, {hi:.4f}]"
+        return "joint limit"
+
+    def _substep(self, q_a, poses_a, q_b, poses_b, objects, pushing_links, moved):
+        opts = self.options
+        static = self._static_collision(poses_b)
+        if static is not None:
+            return static
+        contacts = self.world.arm_object_contacts(poses_b, objects)
+        if not contacts:
+            return objects
+        by_object: dict[int, list] = {}
+        for contact in contacts:
+            n = contact.normal
+            if abs(n[2]) > opts.vertical_normal_limit:
+                return (Invalid.CONTACT_FROM_ABOVE,
+                        f"{self._shape_links[contact.shape]} presses on "
+                        f"'{self._names[contact.obj]}' from above (normal z = {n[2]:+.2f})")
+            by_object.setdefault(contact.obj, []).append(contact)
+        new_objects = objects.copy()
+        changed: list[int] = []
+        for obj, obj_contacts in by_object.items():
+            result = self._push_object(obj, objects[obj], obj_contacts, poses_a, poses_b)
+            if isinstance(result, tuple):
+                return result
+            if result is not None:
+                new_objects[obj] = result
+                changed.append(obj)
+                moved.add(obj)
+                pushing_links.update(self._shape_links[c.shape] for c in obj_contacts)
+        if changed:
+            after = self.world.arm_object_contacts(poses_b, new_objects, objects=changed)
+            depth = max((c.depth for c in after), default=0.0)
+            still = [c.depth for c in contacts if c.obj not in changed]
+            depth = max([depth, *still])
+        else:
+            depth = max(c.depth for c in contacts)
+        if depth > opts.penetration_tolerance:
+            return (Invalid.RESIDUAL_PENETRATION,
+                    f"arm still penetrates an object by {depth * 1000:.1f} mm after the push")
+        if changed:
+            problem = self._object_checks(new_objects, changed)
+            if problem is not None:
+                return problem
+        return new_objects
+
+    def _push_object(self, obj, pose, contacts, poses_a, poses_b):
+        """Twist of one object from its contacts; None if it does not move."""
+        points, normals, disps = [], [], []
+        for contact in contacts:
+            p = contact.point
+            # The material point of the link now at p was at T_a T_b^-1 p before the substep.
+            t_a, t_b = poses_a[contact.shape], poses_b[contact.shape]
+            p_before = t_a[:3, :3] @ (t_b[:3, :3].T @ (p - t_b[:3, 3])) + t_a[:3, 3]
+            d = (p - p_before)[:2]
+            n_xy = contact.normal[:2]
+            n_norm = float(np.hypot(*n_xy))
+            n_xy = n_xy / n_norm
+            d_n = float(d @ n_xy)
+            if d_n > 1e-12:
+                # Normal push needed to undo the penetration (planar), at most the step's own
+                # normal motion plus the tolerated residual.
+                wanted = min(contact.depth / n_norm,
+                             d_n + self.options.penetration_tolerance)
+                d = d * (max(wanted, 0.0) / d_n)
+            points.append(p[:2])
+            normals.append(n_xy)
+            disps.append(d)
+        cos, sin = math.cos(pose[2]), math.sin(pose[2])
+        rot = np.array([[cos, -sin], [sin, cos]])  # object -> world; row @ rot = world -> object
+        result = pushing.object_twist(
+            self.c[obj],
+            (np.asarray(points) - pose[:2]) @ rot,
+            np.asarray(normals) @ rot,
+            np.asarray(disps) @ rot,
+            self.mu[obj])
+        if result.mode == "jammed":
+            links = sorted({self._shape_links[c.shape] for c in contacts})
+            return (Invalid.JAMMING,
+                    f"'{self._names[obj]}' is jammed between {', '.join(links)}")
+        if not np.any(result.twist):
+            return None
+        return pushing.apply_twist(pose, result.twist)
+
+    def _object_checks(self, objects: np.ndarray, which) -> tuple[Invalid, str] | None:
+        opts = self.options
+        which = set(which)
+        for i, j in self.world.object_overlaps(objects, tol=opts.overlap_tolerance):
+            if i in which or j in which:
+                return (Invalid.OBJECT_OVERLAP,
+                        f"'{self._names[i]}' and '{self._names[j]}' overlap")
+        for i, name in self.world.object_obstacle_overlaps(objects, tol=opts.overlap_tolerance):
+            if i in which:
+                return Invalid.OBJECT_OBSTACLE, f"'{self._names[i]}' overlaps obstacle '{name}'"
+        for i in self.world.objects_off_table(objects):
+            if i in which:
+                return Invalid.OFF_TABLE, f"'{self._names[i]}' left the table"
+        return None

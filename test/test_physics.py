@@ -1,0 +1,282 @@
+"""The quasistatic physics step on the Panda (DESIGN §5): whole-arm pushing, invariants after
+every valid step, independence of how a motion is chopped, and every invalid reason."""
+
+import math
+
+import numpy as np
+import pytest
+import yaml
+
+from rearrangement_planner.manifold import default_push_configuration
+from rearrangement_planner.physics import Invalid, Physics, PhysicsOptions
+from rearrangement_planner.robot import RobotConfig, RobotModel
+from rearrangement_planner.scene import load_scene, parse_scene
+from rearrangement_planner.state import State
+
+TABLE = {"center": [0.55, 0.0], "size": [0.8, 1.2], "height": 0.0}
+# Arm folded low: the forearm (panda_link5) slopes down to 0.07 m and the wrist sits at object
+# height, so a rotation of joint 1 sweeps forearm and wrist across the table.
+LOW_ARM = [-0.7677, 1.7127, 1.0578, -1.7876, 1.2966, 0.8244, -0.8218]
+
+
+def polar(radius, angle, yaw=0.0):
+    return [radius * math.cos(angle), radius * math.sin(angle), yaw]
+
+
+def cylinder(name, pose, radius=0.03):
+    return {"name": name, "shape": "cylinder", "radius": radius, "height": 0.12, "pose": pose}
+
+
+def box(name, pose, size=(0.06, 0.06, 0.12)):
+    return {"name": name, "shape": "box", "size": list(size), "pose": pose}
+
+
+def make_scene(objects, q, obstacles=(), robot=None, table=TABLE):
+    data = {"start_configuration": list(q), "table": table, "objects": objects,
+            "goal": {"object": objects[0]["name"], "position": [0.5, 0.0]}}
+    if obstacles:
+        data["obstacles"] = list(obstacles)
+    if robot is None:
+        data["robot"] = "panda"
+    return parse_scene(data, robot=robot)
+
+
+def sweep(physics, state, joint, delta, steps):
+    """Rotate one joint by `delta` per call; stop at the first invalid step."""
+    results = []
+    for _ in range(steps):
+        q = state.q.copy()
+        q[joint] += delta
+        result = physics.step(state, q)
+        results.append(result)
+        if not result.valid:
+            break
+        state = result.state
+    return state, results
+
+
+@pytest.fixture(scope="module")
+def push_q(panda):
+    return np.array(default_push_configuration(panda, 0.0))
+
+
+@pytest.fixture(scope="module")
+def whole_arm_scene(panda):
+    return make_scene([cylinder("a", polar(0.43, 0.45)), cylinder("b", polar(0.56, 0.78))],
+                      LOW_ARM, robot=panda)
+
+
+def test_whole_arm_sweep_moves_two_objects_at_once_with_forearm_and_wrist(whole_arm_scene):
+    physics = Physics(whole_arm_scene)
+    state, results = sweep(physics, whole_arm_scene.initial_state(), 0, 0.005, 150)
+    assert all(r.valid for r in results), results[-1].detail
+    simultaneous = [r for r in results if len(r.moved_objects) == 2]
+    assert simultaneous, "no step moved both objects"
+    assert "panda_link5" in set().union(*(r.pushing_links for r in simultaneous))
+    links = set().union(*(r.pushing_links for r in results))
+    assert "panda_link5" in links and links - {"panda_hand"}, links
+    moved = np.linalg.norm(state.objects[:, :2] - whole_arm_scene.object_poses[:, :2], axis=1)
+    assert np.all(moved > 0.05), moved
+
+
+def test_after_every_valid_step_no_penetration_and_no_overlap(whole_arm_scene):
+    """Property over random sweeps: the invariants of DESIGN §5 hold after each valid step."""
+    physics = Physics(whole_arm_scene)
+    rng = np.random.default_rng(7)
+    world, tol = physics.world, physics.options.penetration_tolerance
+    checked = 0
+    for _ in range(4):
+        state = whole_arm_scene.initial_state()
+        direction = rng.normal(size=7) * np.array([1, 0.2, 0.2, 0.2, 0.2, 0.2, 0.2])
+        direction *= 0.006 / np.abs(direction).max()
+        for _ in range(80):
+            result = physics.step(state, state.q + direction)
+            if not result.valid:
+                break
+            state = result.state
+            poses = physics.robot.shape_poses(state.q)
+            assert world.arm_object_penetration(poses, state.objects) <= tol + 1e-9
+            assert world.object_overlaps(state.objects, tol=physics.options.overlap_tolerance) == []
+            assert world.objects_off_table(state.objects) == []
+            checked += 1
+    assert checked > 100
+
+
+def test_the_hand_pushing_the_target_moves_it_along(panda, push_q):
+    """Tool on the pushing plane at (0.5, 0); a box ahead in +y; sweeping joint 1 pushes it +y."""
+    tool = panda.tool_pose(push_q)[:3, 3]
+    scene = make_scene([box("target", [tool[0] - 0.03, tool[1] + 0.16, 0.0])], push_q, robot=panda)
+    physics = Physics(scene)
+    state, results = sweep(physics, scene.initial_state(), 0, 0.004, 100)
+    assert all(r.valid for r in results), results[-1].detail
+    delta = state.objects[0] - scene.object_poses[0]
+    assert delta[1] > 0.05
+    assert any(r.moved_objects for r in results)
+
+
+@pytest.mark.parametrize("calls", [10, 100])
+def test_chopping_a_motion_gives_the_same_result(whole_arm_scene, calls):
+    """One call, 10 calls or 100 calls along the same joint-space line: same object poses within
+    0.5 mm and 0.01 rad (substeps bound the shape motion, so the chopping hardly matters)."""
+    physics = Physics(whole_arm_scene)
+    start = whole_arm_scene.initial_state()
+    goal_q = start.q.copy()
+    goal_q[0] += 0.6
+    whole = physics.step(start, goal_q)
+    assert whole.valid and whole.moved_objects
+    state = start
+    for i in range(1, calls + 1):
+        result = physics.step(state, start.q + (goal_q - start.q) * (i / calls))
+        assert result.valid, result.detail
+        state = result.state
+    np.testing.assert_allclose(state.objects[:, :2], whole.state.objects[:, :2], atol=5e-4)
+    np.testing.assert_allclose(state.objects[:, 2], whole.state.objects[:, 2], atol=0.01)
+
+
+def test_step_is_deterministic(whole_arm_scene):
+    physics = Physics(whole_arm_scene)
+    start = whole_arm_scene.initial_state()
+    q = start.q.copy()
+    q[0] += 0.5
+    a, b = physics.step(start, q), physics.step(start, q)
+    assert np.array_equal(a.state.objects, b.state.objects)
+
+
+def test_pusher_displacement_is_the_link_motion(panda):
+    """The rigid link transform used for the pusher displacement equals J(p) dq to first order."""
+    q = np.array(LOW_ARM)
+    dq = np.random.default_rng(3).normal(size=7) * 1e-5
+    poses_a, poses_b = panda.shape_poses(q), panda.shape_poses(q + dq)
+    s = [i for i, sh in enumerate(panda.contact_shapes) if sh.link == "panda_link5"][0]
+    p = poses_b[s, :3, 3] + 0.02 * poses_b[s, :3, 0]
+    t_a, t_b = poses_a[s], poses_b[s]
+    p_before = t_a[:3, :3] @ (t_b[:3, :3].T @ (p - t_b[:3, 3])) + t_a[:3, 3]
+    np.testing.assert_allclose(p - p_before, panda.shape_jacobian(q, s, p)[:3] @ dq, atol=1e-9)
+
+
+# -- every invalid reason, each from a constructed case --------------------------------------
+
+
+def test_invalid_joint_limit(whole_arm_scene):
+    physics = Physics(whole_arm_scene)
+    start = whole_arm_scene.initial_state()
+    q = start.q.copy()
+    q[3] = 0.1
+    result = physics.step(start, q)
+    assert result.reason is Invalid.JOINT_LIMIT and "panda_joint4" in result.detail
+    assert result.state is start
+
+
+def test_invalid_arm_table_penetration(panda, push_q):
+    scene = make_scene([box("far", [0.6, -0.45, 0.0])], push_q, robot=panda)
+    _, results = sweep(Physics(scene), scene.initial_state(), 1, 0.01, 40)  # shoulder down
+    assert results[-1].reason is Invalid.ARM_TABLE and "table" in results[-1].detail
+
+
+def test_invalid_arm_obstacle_penetration(panda, push_q):
+    tool = panda.tool_pose(push_q)[:3, 3]
+    post = {"name": "post", "shape": "box", "size": [0.05, 0.05, 0.3],
+            "pose": [tool[0], tool[1] + 0.15, 0.0]}
+    scene = make_scene([box("far", [0.6, -0.45, 0.0])], push_q, obstacles=[post], robot=panda)
+    _, results = sweep(Physics(scene), scene.initial_state(), 0, 0.005, 100)
+    assert results[-1].reason is Invalid.ARM_OBSTACLE and "'post'" in results[-1].detail
+
+
+def _pushed_into(panda, push_q, second=(), obstacles=(), table=TABLE, gap=0.005):
+    """The hand pushes a box ('target') in +y; `second`/`obstacles`/`table` get the target's
+    +y face position and place something just beyond it."""
+    tool = panda.tool_pose(push_q)[:3, 3]
+    target = [tool[0] - 0.03, tool[1] + 0.16, 0.0]
+    face = target[1] + 0.03 + gap
+    scene = make_scene([box("target", target), *second(face)], push_q,
+                       obstacles=obstacles(face) if obstacles else (), robot=panda,
+                       table=table(face) if callable(table) else table)
+    _, results = sweep(Physics(scene), scene.initial_state(), 0, 0.004, 100)
+    return results[-1]
+
+
+def test_invalid_object_object_overlap(panda, push_q):
+    last = _pushed_into(panda, push_q, lambda face: [box("other", [0.47, face + 0.03, 0.0])])
+    assert last.reason is Invalid.OBJECT_OVERLAP
+    assert "'target'" in last.detail and "'other'" in last.detail
+
+
+def test_invalid_object_obstacle_overlap(panda, push_q):
+    def wall(face):
+        return [{"name": "wall", "shape": "box", "size": [0.3, 0.04, 0.3],
+                 "pose": [0.47, face + 0.02, 0.0]}]
+
+    last = _pushed_into(panda, push_q, lambda face: [], obstacles=wall)
+    assert last.reason is Invalid.OBJECT_OBSTACLE and "'wall'" in last.detail
+
+
+def test_invalid_object_off_table(panda, push_q):
+    def narrow(face):
+        edge = face - 0.02   # the target's centre is 0.015 m from the edge
+        return {"center": [0.55, (edge - 0.6) / 2], "size": [0.8, edge + 0.6], "height": 0.0}
+
+    last = _pushed_into(panda, push_q, lambda face: [], table=narrow)
+    assert last.reason is Invalid.OFF_TABLE and "'target'" in last.detail
+
+
+def test_invalid_contact_from_above(panda, push_q):
+    """A flat object under the wrist: the links meet its top face, not its sides."""
+    poses = panda.shape_poses(push_q)
+    wrist = [i for i, s in enumerate(panda.contact_shapes) if s.link == "panda_link7"][0]
+    centre = poses[wrist, :3, 3]
+    flat = box("flat", [centre[0], centre[1] + 0.1, 0.0], size=(0.06, 0.06, 0.03))
+    scene = make_scene([flat], push_q, robot=panda)
+    _, results = sweep(Physics(scene), scene.initial_state(), 0, 0.004, 100)
+    assert results[-1].reason is Invalid.CONTACT_FROM_ABOVE and "from above" in results[-1].detail
+
+
+def _pinch_robot(panda):
+    """The Panda with two test pushers at object height: a fixed post on the base link and a
+    post on link 1 that joint 1 swings towards it, squeezing whatever stands between them."""
+    data = yaml.safe_load(panda.config.source.read_text())
+    data["contact_shapes"] = [
+        {"link": "panda_link0", "type": "capsule", "radius": 0.02,
+         "points": [[0.5, 0.05, 0.03], [0.5, 0.05, 0.10]]},
+        {"link": "panda_link1", "type": "capsule", "radius": 0.02,
+         "points": [[0.5, -0.05, -0.30], [0.5, -0.05, -0.23]]},
+    ]
+    return RobotModel(RobotConfig.from_dict(data, base_dir=panda.config.source.parent))
+
+
+def test_invalid_jamming_between_two_links(panda):
+    robot = _pinch_robot(panda)
+    q = np.zeros(7)
+    q[3], q[5] = -1.5, 1.5
+    scene = make_scene([box("squeezed", [0.5, 0.0, 0.0], size=(0.06, 0.058, 0.12))], q,
+                       robot=robot)
+    _, results = sweep(Physics(scene), scene.initial_state(), 0, 0.002, 20)
+    assert results[-1].reason is Invalid.JAMMING
+    assert "'squeezed'" in results[-1].detail and "jammed" in results[-1].detail
+
+
+def test_invalid_residual_penetration():
+    """With a zero tolerance and a receding pusher left inside the object, the penetration
+    that no push can undo is reported."""
+    scene = load_scene("config/scenes/default.yaml")
+    physics = Physics(scene, PhysicsOptions(penetration_tolerance=0.0))
+    robot = scene.robot
+    q = np.array(default_push_configuration(robot, 0.0))
+    tool = robot.tool_pose(q)[:3, 3]
+    objects = scene.object_poses.copy()
+    objects[0] = [tool[0] + 0.01, tool[1], 0.0]  # the finger tips inside the target
+    objects[1:] = [[0.3, -0.45, 0.0], [0.3, 0.45, 0.0]]
+    state = State(q, objects)
+    q2 = q.copy()
+    q2[0] += 1e-4
+    result = physics.step(state, q2)
+    assert result.reason is Invalid.RESIDUAL_PENETRATION and "mm" in result.detail
+
+
+def test_check_state_reports_a_resting_state(whole_arm_scene):
+    physics = Physics(whole_arm_scene)
+    assert physics.check_state(whole_arm_scene.initial_state()) is None
+    bad = whole_arm_scene.initial_state().with_objects(
+        np.array([[0.43, 0.2, 0.0], [0.44, 0.2, 0.0]]))
+    problem = physics.check_state(bad)
+    assert problem is not None and problem[0] in (Invalid.OBJECT_OVERLAP,
+                                                  Invalid.RESIDUAL_PENETRATION)
