@@ -23,7 +23,7 @@ $(STAMP): requirements.txt constraints.txt setup.py setup.cfg package.xml
 	touch $(STAMP)
 
 demo: $(STAMP)
-	$(VENV)/bin/rearrangement-plan config/scenes/default.yaml --seed 0
+	$(PY) -m rearrangement_planner.demo config/scenes/default.yaml
 
 test: $(STAMP)
 	$(PY) -m pytest -q test
