@@ -209,6 +209,12 @@ class CollisionWorld:
         self.shape_links: tuple[str, ...] = tuple(s.link for s in shapes)
         self._arm = [_ArmShape.build(s) for s in shapes]
         self._shape_radius = np.array([s.bounding_radius for s in shapes], dtype=float)
+        # Tighter broad phase: a capsule is its axis segment (half-length along the shape's z
+        # axis) swept by its radius; other shapes are their bounding sphere.
+        self._seg_half = np.array([0.5 * s.dims[1] if s.kind == "capsule" else 0.0
+                                   for s in shapes], dtype=float)
+        self._seg_radius = np.array([s.dims[0] if s.kind == "capsule" else s.bounding_radius
+                                     for s in shapes], dtype=float)
 
         # Movable objects: vertical prisms on the table top; the z of their centre is fixed.
         objects = scene.objects
@@ -342,20 +348,28 @@ class CollisionWorld:
 
     # -- arm vs static world ------------------------------------------------------------------
 
-    def _static_candidates(self, shape_poses: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Broad phase against the table (height and footprint test) and the obstacles
-        (bounding spheres): (S,) and (S, K) boolean masks of pairs that may penetrate."""
+    def _shape_boxes(self, shape_poses: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Axis-aligned bounding boxes (lo, hi), each (S, 3), of the arm's contact shapes:
+        exact for capsules (segment end points -/+ radius), bounding sphere otherwise."""
         centres = shape_poses[:, :3, 3]
-        r = self._shape_radius
-        z = centres[:, 2]
-        near_table = ((z - r < self._table_top) & (z + r > self._table_top - TABLE_THICKNESS)
-                      & (np.abs(centres[:, :2] - self._table_center)
-                         < self._table_half + r[:, None]).all(axis=1))
+        extent = np.abs(shape_poses[:, :3, 2]) * self._seg_half[:, None] \
+            + self._seg_radius[:, None]
+        return centres - extent, centres + extent
+
+    def _static_candidates(self, shape_poses: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Broad phase against the table slab and the obstacles (axis-aligned boxes):
+        (S,) and (S, K) boolean masks of pairs that may penetrate."""
+        lo, hi = self._shape_boxes(shape_poses)
+        table_lo = self._table_center - self._table_half
+        table_hi = self._table_center + self._table_half
+        near_table = ((lo[:, 2] < self._table_top)
+                      & (hi[:, 2] > self._table_top - TABLE_THICKNESS)
+                      & (lo[:, :2] < table_hi).all(axis=1) & (hi[:, :2] > table_lo).all(axis=1))
         if not self._obst_fcl:
-            return near_table, np.zeros((len(r), 0), dtype=bool)
-        diff = centres[:, None, :] - self._obst_centre
-        limit = r[:, None] + self._obst_radius
-        return near_table, (diff * diff).sum(axis=2) < limit * limit
+            return near_table, np.zeros((len(lo), 0), dtype=bool)
+        c, r = self._obst_centre, self._obst_radius[:, None]
+        near = ((lo[:, None, :] < c + r) & (hi[:, None, :] > c - r)).all(axis=2)
+        return near_table, near
 
     def _static_hit(self, shape_poses: np.ndarray, tol: float) -> tuple[int, str, float] | None:
         near_table, near_obstacle = self._static_candidates(shape_poses)
@@ -399,7 +413,20 @@ class CollisionWorld:
         dy = centres[:, 1:2] - xy[:, 1]
         dz = centres[:, 2:3] - z
         limit = self._shape_radius[:, None] + (radius + margin)
-        shape_idx, col = (dx * dx + dy * dy + dz * dz < limit * limit).nonzero()
+        near = dx * dx + dy * dy + dz * dz < limit * limit
+        if near.any():
+            # Second, tighter pass on the survivors: the shape's box against the object's
+            # footprint-circle box and height range.
+            lo, hi = self._shape_boxes(shape_poses)
+            if objects is None:
+                foot, half_h = self._obj_footprint, self._obj_half[:, 2]
+            else:
+                foot, half_h = self._obj_footprint[sel], self._obj_half[sel, 2]
+            reach = foot + margin
+            near &= ((lo[:, 0:1] < xy[:, 0] + reach) & (hi[:, 0:1] > xy[:, 0] - reach)
+                     & (lo[:, 1:2] < xy[:, 1] + reach) & (hi[:, 1:2] > xy[:, 1] - reach)
+                     & (lo[:, 2:3] < z + half_h + margin) & (hi[:, 2:3] > z - half_h - margin))
+        shape_idx, col = near.nonzero()
         return shape_idx, (col if objects is None else sel[col])
 
     def arm_object_contacts(self, shape_poses: np.ndarray, object_poses: np.ndarray,

@@ -41,6 +41,9 @@ from .scene import Scene
 from .state import State
 
 
+_INV_SQRT2 = 1.0 / math.sqrt(2.0)
+
+
 class Invalid(str, Enum):
     """Why a step was rejected (the state after it would leave the valid set)."""
 
@@ -146,12 +149,13 @@ class Physics:
     # -- internals ---------------------------------------------------------------------------
 
     def _substep_count(self, poses_a: np.ndarray, poses_b: np.ndarray) -> int:
-        """Substeps so that no shape point moves more than max_substep: a shape point moves at
-        most |dc| + r_bound * angle(R_a^T R_b)."""
-        dc = np.linalg.norm(poses_b[:, :3, 3] - poses_a[:, :3, 3], axis=1)
-        rel = np.einsum("nji,njk->nik", poses_a[:, :3, :3], poses_b[:, :3, :3])
-        cos = np.clip((np.trace(rel, axis1=1, axis2=2) - 1.0) / 2.0, -1.0, 1.0)
-        sweep = dc + self._shape_radii * np.arccos(cos)
+        """Substeps so that no shape point moves more than max_substep. A point at distance
+        rho from the shape origin moves at most |dc| + rho |R_b - R_a|_F / sqrt(2) (the chord
+        of a rotation by theta is 2 rho sin(theta/2), and |R_b - R_a|_F = 2 sqrt(2) sin(theta/2))."""
+        diff = poses_b[:, :3, :] - poses_a[:, :3, :]
+        dc = np.sqrt(np.einsum("ni,ni->n", diff[:, :, 3], diff[:, :, 3]))
+        drot = np.sqrt(np.einsum("nij,nij->n", diff[:, :, :3], diff[:, :, :3]))
+        sweep = dc + self._shape_radii * drot * _INV_SQRT2
         return max(1, math.ceil(float(sweep.max()) / self.options.max_substep - 1e-9))
 
     def _static_collision(self, poses: np.ndarray) -> tuple[Invalid, str] | None:

@@ -242,6 +242,7 @@ class RobotModel:
                 f"the joint limits")
         self._cached_q: np.ndarray | None = None
         self._jacobians_ready = False
+        self._cached_shape_poses: np.ndarray | None = None
 
     # -- construction -----------------------------------------------------------------------
 
@@ -307,6 +308,7 @@ class RobotModel:
             pin.framesForwardKinematics(self.model, self.data, self._q_full)
             self._cached_q = q.copy()
             self._jacobians_ready = False
+            self._cached_shape_poses = None
         if jacobians and not self._jacobians_ready:
             pin.computeJointJacobians(self.model, self.data, self._q_full)
             self._jacobians_ready = True
@@ -341,8 +343,13 @@ class RobotModel:
         return self.frame_jacobian(q, int(self._shape_frame_ids[shape_index]), point)
 
     def shape_poses(self, q: np.ndarray) -> np.ndarray:
-        """(S, 4, 4) world poses of the contact shapes, in config order."""
+        """(S, 4, 4) world poses of the contact shapes, in config order (read-only; the
+        last result is reused while q does not change)."""
         self._update(q)
-        oMf = self.data.oMf
-        link_poses = np.array([oMf[f].homogeneous for f in self._shape_links])
-        return link_poses[self._shape_link_index] @ self._shape_offsets
+        if self._cached_shape_poses is None:
+            oMf = self.data.oMf
+            link_poses = np.array([oMf[f].homogeneous for f in self._shape_links])
+            poses = link_poses[self._shape_link_index] @ self._shape_offsets
+            poses.setflags(write=False)
+            self._cached_shape_poses = poses
+        return self._cached_shape_poses

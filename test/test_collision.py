@@ -464,7 +464,7 @@ def test_far_pairs_never_reach_the_narrow_phase(world: CollisionWorld,
     assert world.object_obstacle_overlaps(poses) == []
     assert narrow_phase_calls == {"fcl": 0, "prism": 0}
     # next to the box only: the box is the only object that reaches fcl
-    centre, _ = box_face_point(0.0, R_CAP + 0.02, TABLE_TOP + 0.06)
+    centre, _ = box_face_point(0.0, R_CAP + 0.005, TABLE_TOP + 0.06)
     near_box = place(CAPSULE, centre, rot_z_to([0, 1, 0]))
     assert world.arm_object_contacts(near_box, poses) == []
     assert narrow_phase_calls["fcl"] == 1
@@ -482,6 +482,7 @@ def test_broad_phase_finds_every_narrow_phase_contact(world: CollisionWorld,
         expected = [(c.shape, c.obj) for c in world.arm_object_contacts(shapes, poses, 0.01)]
         with monkeypatch.context() as patched:
             patched.setattr(world, "_shape_radius", np.full(4, 1e3))
+            patched.setattr(world, "_seg_radius", np.full(4, 1e3))
             everything = [(c.shape, c.obj) for c in world.arm_object_contacts(shapes, poses, 0.01)]
         assert expected == everything
 
