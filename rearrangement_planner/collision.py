@@ -215,6 +215,8 @@ class CollisionWorld:
                                    for s in shapes], dtype=float)
         self._seg_radius = np.array([s.dims[0] if s.kind == "capsule" else s.bounding_radius
                                      for s in shapes], dtype=float)
+        self._boxes_for: np.ndarray | None = None
+        self._boxes: tuple[np.ndarray, np.ndarray] = (np.zeros((0, 3)), np.zeros((0, 3)))
 
         # Movable objects: vertical prisms on the table top; the z of their centre is fixed.
         objects = scene.objects
@@ -350,11 +352,16 @@ class CollisionWorld:
 
     def _shape_boxes(self, shape_poses: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Axis-aligned bounding boxes (lo, hi), each (S, 3), of the arm's contact shapes:
-        exact for capsules (segment end points -/+ radius), bounding sphere otherwise."""
+        exact for capsules (segment end points -/+ radius), bounding sphere otherwise. The last
+        result is reused for the same read-only pose array (RobotModel.shape_poses caches it),
+        since one physics substep asks several queries at one arm configuration."""
+        if shape_poses is self._boxes_for and not shape_poses.flags.writeable:
+            return self._boxes
         centres = shape_poses[:, :3, 3]
         extent = np.abs(shape_poses[:, :3, 2]) * self._seg_half[:, None] \
             + self._seg_radius[:, None]
-        return centres - extent, centres + extent
+        self._boxes_for, self._boxes = shape_poses, (centres - extent, centres + extent)
+        return self._boxes
 
     def _static_candidates(self, shape_poses: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Broad phase against the table slab and the obstacles (axis-aligned boxes):
@@ -399,35 +406,26 @@ class CollisionWorld:
     def _object_candidates(self, shape_poses: np.ndarray, poses: np.ndarray, margin: float,
                            objects: Iterable[int] | np.ndarray | None
                            ) -> tuple[np.ndarray, np.ndarray]:
-        """Bounding-sphere broad phase: (shape, object) index arrays of the pairs whose
-        spheres come within `margin`, sorted by shape then object."""
+        """Broad phase: (shape, object) index arrays, sorted by shape then object, of the pairs
+        whose axis-aligned boxes come within `margin`: the shape's box (exact for a capsule)
+        against the object's footprint-circle box and height range. Vectorised over all pairs."""
         if objects is None:
-            xy, z, radius = poses, self._obj_z, self._obj_radius
+            sel = None
+            xy, z, foot, half_h = poses, self._obj_z, self._obj_footprint, self._obj_half[:, 2]
         else:
             # any iterable of indices (list, set, array); sorted so contacts come out in order
             sel = np.unique(np.fromiter(objects, dtype=np.intp)
                             if not isinstance(objects, np.ndarray) else objects.astype(np.intp))
-            xy, z, radius = poses[sel], self._obj_z[sel], self._obj_radius[sel]
-        centres = shape_poses[:, :3, 3]
-        dx = centres[:, 0:1] - xy[:, 0]
-        dy = centres[:, 1:2] - xy[:, 1]
-        dz = centres[:, 2:3] - z
-        limit = self._shape_radius[:, None] + (radius + margin)
-        near = dx * dx + dy * dy + dz * dz < limit * limit
-        if near.any():
-            # Second, tighter pass on the survivors: the shape's box against the object's
-            # footprint-circle box and height range.
-            lo, hi = self._shape_boxes(shape_poses)
-            if objects is None:
-                foot, half_h = self._obj_footprint, self._obj_half[:, 2]
-            else:
-                foot, half_h = self._obj_footprint[sel], self._obj_half[sel, 2]
-            reach = foot + margin
-            near &= ((lo[:, 0:1] < xy[:, 0] + reach) & (hi[:, 0:1] > xy[:, 0] - reach)
-                     & (lo[:, 1:2] < xy[:, 1] + reach) & (hi[:, 1:2] > xy[:, 1] - reach)
-                     & (lo[:, 2:3] < z + half_h + margin) & (hi[:, 2:3] > z - half_h - margin))
+            xy, z = poses[sel], self._obj_z[sel]
+            foot, half_h = self._obj_footprint[sel], self._obj_half[sel, 2]
+        lo, hi = self._shape_boxes(shape_poses)
+        reach = foot + margin
+        x, y = xy[:, 0], xy[:, 1]
+        near = ((lo[:, 0:1] < x + reach) & (hi[:, 0:1] > x - reach)
+                & (lo[:, 1:2] < y + reach) & (hi[:, 1:2] > y - reach)
+                & (lo[:, 2:3] < z + (half_h + margin)) & (hi[:, 2:3] > z - (half_h + margin)))
         shape_idx, col = near.nonzero()
-        return shape_idx, (col if objects is None else sel[col])
+        return shape_idx, (col if sel is None else sel[col])
 
     def arm_object_contacts(self, shape_poses: np.ndarray, object_poses: np.ndarray,
                             margin: float = 0.0,

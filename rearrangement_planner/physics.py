@@ -37,7 +37,7 @@ import numpy as np
 from . import pushing
 from .collision import CollisionWorld
 from .robot import RobotModel
-from .scene import Scene
+from .scene import MovableObject, Scene
 from .state import State
 
 
@@ -83,6 +83,14 @@ class StepResult:
     substeps: int = 0
 
 
+def object_limit_surface_c(obj: MovableObject) -> float:
+    """c = m_max / f_max (m) of a scene object's footprint: 2R/3 for a cylinder of radius R,
+    the integrated mean distance for a box (DESIGN §5; `pushing.limit_surface_c`)."""
+    if obj.shape == "cylinder":
+        return pushing.limit_surface_c("cylinder", obj.radius)
+    return pushing.limit_surface_c("box", obj.size)
+
+
 class Physics:
     """The quasistatic world of one scene: `step(state, q_next)` is a pure function of its
     arguments (the instance only caches geometry and per-object constants)."""
@@ -94,8 +102,8 @@ class Physics:
         self.robot = robot or scene.robot
         self.world = CollisionWorld(scene, self.robot)
         # c = m_max / f_max per object (a length; DESIGN §5), and the pusher friction mu_c.
-        self.c = np.array([pushing.limit_surface_c(o.shape, o.size) for o in scene.objects])
-        self.mu = np.array([o.pusher_friction for o in scene.objects])
+        self.c = [object_limit_surface_c(o) for o in scene.objects]
+        self.mu = [float(o.pusher_friction) for o in scene.objects]
         self._shape_links = [s.link for s in self.robot.contact_shapes]
         self._shape_radii = np.asarray(self.robot.shape_bounding_radii)
         self._names = [o.name for o in scene.objects]
@@ -220,39 +228,40 @@ class Physics:
 
     def _push_object(self, obj, pose, contacts, poses_a, poses_b):
         """Twist of one object from its contacts; None if it does not move."""
-        points, normals, disps = [], [], []
-        for contact in contacts:
+        cos, sin = math.cos(pose[2]), math.sin(pose[2])
+        k = len(contacts)
+        points, normals, disps = np.empty((k, 2)), np.empty((k, 2)), np.empty((k, 2))
+        for row, contact in enumerate(contacts):
             p = contact.point
             # The material point of the link now at p was at T_a T_b^-1 p before the substep.
             t_a, t_b = poses_a[contact.shape], poses_b[contact.shape]
             p_before = t_a[:3, :3] @ (t_b[:3, :3].T @ (p - t_b[:3, 3])) + t_a[:3, 3]
-            d = (p - p_before)[:2]
-            n_xy = contact.normal[:2]
-            n_norm = float(np.hypot(*n_xy))
-            n_xy = n_xy / n_norm
-            d_n = float(d @ n_xy)
+            dx, dy = p[0] - p_before[0], p[1] - p_before[1]
+            nx, ny = contact.normal[0], contact.normal[1]
+            n_norm = math.hypot(nx, ny)
+            nx, ny = nx / n_norm, ny / n_norm
+            d_n = dx * nx + dy * ny
             if d_n > 1e-12:
-                # Normal push needed to undo the penetration (planar), at most the step's own
+                # Normal push needed to undo the penetration (planar), at most the substep's own
                 # normal motion plus the tolerated residual.
-                wanted = min(contact.depth / n_norm,
-                             d_n + self.options.penetration_tolerance)
-                d = d * (max(wanted, 0.0) / d_n)
-            points.append(p[:2])
-            normals.append(n_xy)
-            disps.append(d)
-        cos, sin = math.cos(pose[2]), math.sin(pose[2])
-        rot = np.array([[cos, -sin], [sin, cos]])  # object -> world; row @ rot = world -> object
-        result = pushing.object_twist(
-            self.c[obj],
-            (np.asarray(points) - pose[:2]) @ rot,
-            np.asarray(normals) @ rot,
-            np.asarray(disps) @ rot,
-            self.mu[obj])
+                wanted = min(contact.depth / n_norm, d_n + self.options.penetration_tolerance)
+                scale = max(wanted, 0.0) / d_n
+                dx, dy = dx * scale, dy * scale
+            # World -> object frame: R(yaw)^T v.
+            px, py = p[0] - pose[0], p[1] - pose[1]
+            points[row] = (cos * px + sin * py, -sin * px + cos * py)
+            normals[row] = (cos * nx + sin * ny, -sin * nx + cos * ny)
+            disps[row] = (cos * dx + sin * dy, -sin * dx + cos * dy)
+        if k == 1:
+            result = pushing.single_contact_twist(self.c[obj], points[0], normals[0], disps[0],
+                                                  self.mu[obj])
+        else:
+            result = pushing.object_twist(self.c[obj], points, normals, disps, self.mu[obj])
         if result.mode == "jammed":
             links = sorted({self._shape_links[c.shape] for c in contacts})
             return (Invalid.JAMMING,
                     f"'{self._names[obj]}' is jammed between {', '.join(links)}")
-        if not np.any(result.twist):
+        if not result.twist.any():
             return None
         return pushing.apply_twist(pose, result.twist)
 

@@ -133,6 +133,19 @@ def test_chopping_a_motion_gives_the_same_result(whole_arm_scene, calls):
     np.testing.assert_allclose(state.objects[:, 2], whole.state.objects[:, 2], atol=0.01)
 
 
+def test_limit_surface_c_uses_each_objects_footprint(panda):
+    scene = make_scene([cylinder("can", [0.5, 0.3, 0.0], radius=0.04),
+                        box("block", [0.5, -0.3, 0.0], size=(0.06, 0.08, 0.1))],
+                       LOW_ARM, robot=panda)
+    physics = Physics(scene)
+    assert physics.c[0] == pytest.approx(2 * 0.04 / 3, rel=1e-12)
+    # 6 x 8 cm rectangle: mean distance from the centre, by numerical integration.
+    xs = (np.arange(600) + 0.5) / 600 * 0.06 - 0.03
+    ys = (np.arange(800) + 0.5) / 800 * 0.08 - 0.04
+    rbar = np.hypot(*np.meshgrid(xs, ys)).mean()
+    assert physics.c[1] == pytest.approx(rbar, rel=1e-5)
+
+
 def test_step_is_deterministic(whole_arm_scene):
     physics = Physics(whole_arm_scene)
     start = whole_arm_scene.initial_state()
