@@ -295,7 +295,7 @@ class RobotModel:
 
     def within_limits(self, q: np.ndarray, tol: float = 0.0) -> bool:
         q = np.asarray(q, dtype=float)
-        return bool(np.all(q >= self.lower - tol) and np.all(q <= self.upper + tol))
+        return bool(((q >= self.lower - tol) & (q <= self.upper + tol)).all())
 
     # -- kinematics -------------------------------------------------------------------------
 

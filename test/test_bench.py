@@ -1,0 +1,25 @@
+"""`rearrangement-bench physics`: the throughput record is complete and measured in contact."""
+
+import json
+
+from rearrangement_planner.bench import main
+
+
+def test_physics_benchmark_writes_a_complete_record(tmp_path, capsys):
+    out = tmp_path / "physics.json"
+    assert main(["physics", "--seconds", "0.3", "--json", str(out)]) == 0
+    record = json.loads(out.read_text())
+    assert json.loads(capsys.readouterr().out) == record
+    one, seven = record["results"]
+    assert (one["objects"], seven["objects"]) == (1, 7)
+    for result in (one, seven):
+        assert result["steps"] > 0 and result["steps_per_second"] > 0
+        assert 0.0 < result["contact_query_time_share"] < 1.0
+        # the sweep really pushes, and not with the hand alone
+        assert result["steps_pushing_share"] > 0.5
+        assert "panda_link5" in result["pushing_links"]
+
+
+def test_bench_without_a_command_is_a_usage_error(capsys):
+    assert main([]) == 2
+    assert "physics" in capsys.readouterr().err
