@@ -462,22 +462,8 @@ class CollisionWorld:
     def arm_object_penetration(self, shape_poses: np.ndarray, object_poses: np.ndarray) -> float:
         """The largest penetration depth (m) over all arm-shape/object pairs; 0 if none
         (DESIGN §5: residual arm-object penetration must stay below a small tolerance)."""
-        shape_poses = np.asarray(shape_poses, dtype=float)
-        poses = self._object_poses(object_poses)
-        shape_idx, obj_idx = self._object_candidates(shape_poses, poses, 0.0, None)
-        deepest = 0.0
-        placed = [False] * len(self._obj_fcl)
-        last_shape = -1
-        for s, i in zip(shape_idx.tolist(), obj_idx.tolist(), strict=True):
-            if s != last_shape:
-                self._place_shape(s, shape_poses)
-                last_shape = s
-            if not placed[i]:
-                self._place_object(i, poses[i])
-                placed[i] = True
-            deepest = max(deepest, self._arm_depth(s, shape_poses, self._obj_fcl[i],
-                                                   self._obj_polytope[i]))
-        return deepest
+        contacts = self.arm_object_contacts(shape_poses, object_poses)
+        return max((c.depth for c in contacts), default=0.0)
 
     # -- objects vs objects, obstacles, table -------------------------------------------------
 
