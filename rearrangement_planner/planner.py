@@ -1,0 +1,322 @@
+"""PC-RRT: the physics-constrained kinodynamic RRT of King et al. (Algorithm 1, §III).
+
+The tree grows over full states x = (q, o^1 ... o^M). Each iteration samples x_rand
+(SampleConfiguration, §III-B), finds the nearest node by the weighted metric (§III-D), samples
+k actions (k = 3 in §V), propagates each with ConstrainedProp (Algorithm 2) and keeps the one
+that ends closest to x_rand. The plan is found when a state has the goal object's centre inside
+the goal region.
+
+Sampling (`PlannerOptions.sampler`):
+- 'uniform': the paper's rejection sampler: arm configuration uniform in the joint limits,
+  every object uniform on the table, rejected while objects overlap (§III-B).
+- 'tool': the same for the objects, but the arm is represented by its tool position, sampled
+  uniformly over the table (the metric then compares tool positions instead of joint vectors,
+  which on the pushing manifold says more about where the arm can push next).
+Goal bias (`goal_bias`): with this probability the goal object is sampled inside the goal
+region. The metric weighs the goal object higher (`goal_weight`), as §III-D suggests.
+
+Reproducible: all randomness comes from one numpy Generator seeded by the request.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from enum import Enum
+
+import numpy as np
+
+from .physics import Physics
+from .propagation import Action, constrained_prop
+from .scene import Scene
+from .state import State
+
+log = logging.getLogger(__name__)
+
+
+class Outcome(str, Enum):
+    """Planning outcome codes (DESIGN §4, modelled on Nav2)."""
+
+    SUCCEEDED = "SUCCEEDED"
+    START_INVALID = "START_INVALID"
+    GOAL_INVALID = "GOAL_INVALID"
+    TIMEOUT = "TIMEOUT"
+    CANCELLED = "CANCELLED"
+    INVALID_INPUT = "INVALID_INPUT"
+    INTERNAL = "INTERNAL"
+
+
+@dataclass(frozen=True)
+class PlannerOptions:
+    time_limit: float = 30.0
+    """Wall-clock budget, s. Running out is a failure (TIMEOUT), never an approximate plan."""
+    max_iterations: int = 1_000_000
+    """Iteration budget (also a TIMEOUT when exhausted)."""
+    k_actions: int = 3
+    """Actions sampled and propagated per iteration (k of Algorithm 1)."""
+    dt: float = 0.1
+    """Propagation step Δt of Algorithm 2, s."""
+    max_speed: float = 0.10
+    """Bound on each planar tool velocity component, m/s."""
+    max_yaw_rate: float = 0.5
+    """Bound on the tool yaw rate, rad/s."""
+    min_duration: float = 0.5
+    """Shortest action duration, s."""
+    max_duration: float = 2.0
+    """Longest action duration, s."""
+    nullspace_speed: float = 0.3
+    """Bound on each component of the per-action nullspace joint velocity, rad/s."""
+    sampler: str = "tool"
+    """'uniform' (the paper's sampler over joint configurations) or 'tool' (see module doc)."""
+    goal_bias: float = 0.2
+    """Probability of sampling the goal object inside the goal region."""
+    arm_weight: float = 0.5
+    """w_q of the metric: per rad of joint distance ('uniform') or per m of tool distance."""
+    object_weight: float = 1.0
+    """w_i of the metric for the non-goal objects, per m."""
+    goal_weight: float = 5.0
+    """w_i of the metric for the goal object, per m."""
+    progress_period: float = 0.5
+    """Seconds between progress callbacks."""
+
+    def __post_init__(self) -> None:
+        if self.sampler not in ("uniform", "tool"):
+            raise ValueError(f"sampler must be 'uniform' or 'tool', not {self.sampler!r}")
+        if not 0.0 <= self.goal_bias <= 1.0:
+            raise ValueError(f"goal_bias must be in [0, 1], not {self.goal_bias}")
+        if not 0 < self.min_duration <= self.max_duration:
+            raise ValueError("need 0 < min_duration <= max_duration")
+        if self.k_actions < 1 or self.dt <= 0 or self.time_limit <= 0:
+            raise ValueError("k_actions >= 1, dt > 0 and time_limit > 0 are required")
+
+
+@dataclass(frozen=True)
+class Progress:
+    iterations: int
+    tree_size: int
+    best_goal_distance: float
+    elapsed: float
+
+
+@dataclass(frozen=True)
+class PlanResult:
+    outcome: Outcome
+    message: str
+    seed: int
+    states: tuple[State, ...] = ()
+    """Every propagation step of the plan, the start first (empty unless SUCCEEDED)."""
+    iterations: int = 0
+    tree_size: int = 0
+    propagation_steps: int = 0
+    plan_time: float = 0.0
+    best_goal_distance: float = math.inf
+    pushing_links: frozenset[str] = field(default_factory=frozenset)
+
+    @property
+    def solved(self) -> bool:
+        return self.outcome is Outcome.SUCCEEDED
+
+    @property
+    def arm_path(self) -> np.ndarray:
+        return np.array([s.q for s in self.states])
+
+
+class _Tree:
+    """Nodes stored in growing arrays so that Nearest is one vectorised expression."""
+
+    def __init__(self, root: State, root_arm: np.ndarray, capacity: int = 1024):
+        self.n = 0
+        self.q = np.empty((capacity, root.q.size))
+        self.arm = np.empty((capacity, root_arm.size))
+        self.objects = np.empty((capacity, *root.objects.shape))
+        self.parent: list[int] = []
+        self.segments: list[tuple[State, ...]] = []
+        self.add(root, root_arm, -1, ())
+
+    def add(self, state: State, arm: np.ndarray, parent: int, segment: tuple[State, ...]) -> int:
+        if self.n == len(self.arm):
+            self.q = np.concatenate([self.q, np.empty_like(self.q)])
+            self.arm = np.concatenate([self.arm, np.empty_like(self.arm)])
+            self.objects = np.concatenate([self.objects, np.empty_like(self.objects)])
+        self.q[self.n] = state.q
+        self.arm[self.n] = arm
+        self.objects[self.n] = state.objects
+        self.parent.append(parent)
+        self.segments.append(segment)
+        self.n += 1
+        return self.n - 1
+
+    def path_to(self, node: int, root: State) -> list[State]:
+        pieces = []
+        while node > 0:
+            pieces.append(self.segments[node])
+            node = self.parent[node]
+        states = [root]
+        for piece in reversed(pieces):
+            states.extend(piece)
+        return states
+
+
+class PCRRT:
+    """PC-RRT on one scene (models + options, STYLE 1)."""
+
+    name = "pc-rrt"
+
+    def __init__(self, scene: Scene, options: PlannerOptions | None = None,
+                 physics: Physics | None = None):
+        self.scene = scene
+        self.options = options or PlannerOptions()
+        self.physics = physics or Physics(scene)
+        self.robot = self.physics.robot
+        m = len(scene.objects)
+        weights = np.full(m, self.options.object_weight)
+        weights[scene.goal_index] = self.options.goal_weight
+        self._weights = weights
+        self._goal_xy = np.asarray(scene.goal.position, dtype=float)
+        self._tool_frame = self.robot.tool_frame_id
+
+    # -- the algorithm -------------------------------------------------------------------------
+
+    def plan(self, start: State | None = None, seed: int = 0,
+             cancel: threading.Event | None = None,
+             progress: Callable[[Progress], None] | None = None) -> PlanResult:
+        """Algorithm 1. `cancel` is checked every iteration and every propagation step."""
+        t0 = time.monotonic()
+        opts = self.options
+        start = start or self.scene.initial_state()
+        problem = self.physics.check_state(start)
+        if problem is not None:
+            return PlanResult(Outcome.START_INVALID, f"start state invalid: {problem[1]}", seed)
+        rng = np.random.default_rng(seed)
+        tree = _Tree(start, self._arm_feature(start.q))
+        best = self._goal_distance(start)
+        if best <= self.scene.goal.radius:
+            return PlanResult(Outcome.SUCCEEDED, "start already in the goal region", seed,
+                              (start,), plan_time=time.monotonic() - t0, best_goal_distance=best)
+        iterations = steps = 0
+        last_report = t0
+        cancelled = cancel.is_set if cancel is not None else (lambda: False)
+        stop = self._stop_check(cancelled)
+        while True:
+            now = time.monotonic()
+            if cancelled():
+                return self._failure(Outcome.CANCELLED, "cancelled", seed, tree, iterations,
+                                     steps, t0, best)
+            if now - t0 > opts.time_limit or iterations >= opts.max_iterations:
+                return self._failure(Outcome.TIMEOUT, f"no plan within {opts.time_limit:g} s / "
+                                     f"{iterations} iterations", seed, tree, iterations, steps,
+                                     t0, best)
+            if progress is not None and now - last_report >= opts.progress_period:
+                progress(Progress(iterations, tree.n, best, now - t0))
+                last_report = now
+            iterations += 1
+            sample_arm, sample_objects = self._sample(rng)
+            near = self._nearest(tree, sample_arm, sample_objects)
+            x_near = State(tree.q[near], tree.objects[near])
+            chosen, chosen_cost = None, math.inf
+            for _ in range(opts.k_actions):
+                result = constrained_prop(self.physics, x_near, self._sample_action(rng),
+                                          opts.dt, stop)
+                steps += len(result.states)
+                if not result.states:
+                    continue
+                end = result.states[-1]
+                cost = self._distance(self._arm_feature(end.q), end.objects,
+                                      sample_arm, sample_objects)
+                if result.stopped == "goal":
+                    cost = -math.inf
+                if cost < chosen_cost:
+                    chosen, chosen_cost = result, cost
+                if result.stopped == "cancel":
+                    break
+            if chosen is None:
+                continue
+            end = chosen.states[-1]
+            node = tree.add(end, self._arm_feature(end.q), near, chosen.states)
+            best = min(best, self._goal_distance(end))
+            if chosen.stopped == "goal":
+                states = tree.path_to(node, start)
+                return PlanResult(Outcome.SUCCEEDED, f"goal reached after {iterations} "
+                                  f"iterations", seed, tuple(states), iterations, tree.n, steps,
+                                  time.monotonic() - t0, self._goal_distance(end))
+
+    # -- pieces ---------------------------------------------------------------------------------
+
+    def _stop_check(self, cancelled: Callable[[], bool]) -> Callable[[State], str | None]:
+        radius = self.scene.goal.radius
+        g = self.scene.goal_index
+
+        def stop(state: State) -> str | None:
+            if float(np.hypot(*(state.objects[g, :2] - self._goal_xy))) <= radius:
+                return "goal"
+            if cancelled():
+                return "cancel"
+            return None
+
+        return stop
+
+    def _goal_distance(self, state: State) -> float:
+        return float(np.hypot(*(state.objects[self.scene.goal_index, :2] - self._goal_xy)))
+
+    def _arm_feature(self, q: np.ndarray) -> np.ndarray:
+        """What the metric compares of the arm: q ('uniform') or the tool's (x, y) ('tool')."""
+        if self.options.sampler == "uniform":
+            return np.asarray(q, dtype=float)
+        return self.robot.frame_pose(q, self._tool_frame)[:2, 3]
+
+    def _sample(self, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+        """SampleConfiguration (§III-B): rejection sampling of object poses without overlap."""
+        scene, opts = self.scene, self.options
+        lo, hi = scene.table.lower, scene.table.upper
+        m = len(scene.objects)
+        world = self.physics.world
+        for _ in range(100):
+            objects = np.column_stack([rng.uniform(lo[0], hi[0], m), rng.uniform(lo[1], hi[1], m),
+                                       rng.uniform(-math.pi, math.pi, m)])
+            if rng.random() < opts.goal_bias:
+                r = scene.goal.radius * math.sqrt(rng.random())
+                a = rng.uniform(-math.pi, math.pi)
+                objects[scene.goal_index, :2] = self._goal_xy + r * np.array([math.cos(a),
+                                                                              math.sin(a)])
+            if not world.object_overlaps(objects):
+                break
+        if opts.sampler == "uniform":
+            arm = rng.uniform(self.robot.lower, self.robot.upper)
+        else:
+            arm = np.array([rng.uniform(lo[0], hi[0]), rng.uniform(lo[1], hi[1])])
+        return arm, objects
+
+    def _distance(self, arm: np.ndarray, objects: np.ndarray, sample_arm: np.ndarray,
+                  sample_objects: np.ndarray) -> float:
+        """Dist(x, x') of §III-D on positions: w_q |arm - arm'| + sum_i w_i |o_i - o'_i|."""
+        d_obj = np.hypot(*(objects[:, :2] - sample_objects[:, :2]).T)
+        return float(self.options.arm_weight * np.linalg.norm(arm - sample_arm)
+                     + self._weights @ d_obj)
+
+    def _nearest(self, tree: _Tree, sample_arm: np.ndarray, sample_objects: np.ndarray) -> int:
+        n = tree.n
+        d_arm = np.linalg.norm(tree.arm[:n] - sample_arm, axis=1)
+        diff = tree.objects[:n, :, :2] - sample_objects[:, :2]
+        d_obj = np.sqrt((diff * diff).sum(axis=2)) @ self._weights
+        return int(np.argmin(self.options.arm_weight * d_arm + d_obj))
+
+    def _sample_action(self, rng: np.random.Generator) -> Action:
+        """SampleAction: uniform in the bounds (§V: 'Actions are uniformly sampled from a
+        bounded range'); the duration is a whole number of steps."""
+        opts = self.options
+        velocity = np.array([rng.uniform(-opts.max_speed, opts.max_speed),
+                             rng.uniform(-opts.max_speed, opts.max_speed),
+                             rng.uniform(-opts.max_yaw_rate, opts.max_yaw_rate)])
+        duration = rng.uniform(opts.min_duration, opts.max_duration)
+        duration = max(1, round(duration / opts.dt)) * opts.dt
+        nullspace = rng.uniform(-opts.nullspace_speed, opts.nullspace_speed, self.robot.nq)
+        return Action(velocity, duration, nullspace)
+
+    def _failure(self, outcome: Outcome, message: str, seed: int, tree: _Tree, iterations: int,
+                 steps: int, t0: float, best: float) -> PlanResult:
+        return PlanResult(outcome, message, seed, (), iterations, tree.n, steps,
+                          time.monotonic() - t0, best)

@@ -1,0 +1,88 @@
+"""ConstrainedProp (King et al. Algorithm 2): apply a sampled action step by step, projecting
+every step back onto the pushing manifold and through the quasistatic physics.
+
+An action (§V of King et al.) is a planar end-effector velocity (v_x, v_y, yaw rate) in the
+base frame, held for a duration; we add one nullspace joint velocity per action, the paper's
+h(q) "samples the nullspace", drawn once per action so that the arm's self-motion is smooth
+(a fresh sample every step would make it a random walk). Each step:
+
+    q_new <- Project(q + dt a)      (manifold.project_step: q + dt (J+ a + h))
+    x_new <- PhysicsPropagate(x, q_new - q)
+    stop at the first invalid x_new and keep the valid prefix.
+
+Everything a replay needs is the sequence of arm configurations: the physics is a pure
+function, so stepping it along the stored configurations reproduces the object poses exactly.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from .manifold import project_step
+from .physics import Invalid, Physics
+from .state import State
+
+
+@dataclass(frozen=True)
+class Action:
+    """A planar tool velocity held for `duration` s, with a nullspace joint velocity."""
+
+    velocity: np.ndarray    # (3,) v_x m/s, v_y m/s, yaw rate rad/s, base frame
+    duration: float         # s
+    nullspace: np.ndarray   # (nq,) rad/s, projected into the task nullspace by Project
+
+
+@dataclass(frozen=True)
+class Propagation:
+    """The valid prefix of one action: `states[i]` after step i+1 (the start is not included)."""
+
+    states: tuple[State, ...]
+    duration: float                 # s actually applied (a multiple of dt)
+    stopped: Invalid | str | None   # why it stopped early: an Invalid reason, 'goal', 'cancel'
+    pushing_links: frozenset[str]
+
+
+def constrained_prop(physics: Physics, state: State, action: Action, dt: float,
+                     stop: Callable[[State], str | None] | None = None) -> Propagation:
+    """Algorithm 2 of King et al.: step the action through Project and the physics.
+
+    `stop(state)`, called after every valid step, may end the action early with a reason
+    (e.g. 'goal' when the goal is reached, 'cancel'); that state is kept."""
+    robot, table_height = physics.robot, physics.scene.table.height
+    states: list[State] = []
+    links: set[str] = set()
+    x = state
+    steps = int(round(action.duration / dt))
+    stopped: Invalid | str | None = None
+    for _ in range(steps):
+        q_new = project_step(robot, x.q, action.velocity, dt, table_height,
+                             nullspace_velocity=action.nullspace)
+        result = physics.step(x, q_new)
+        if not result.valid:
+            stopped = result.reason
+            break
+        x = result.state
+        states.append(x)
+        links |= result.pushing_links
+        if stop is not None:
+            stopped = stop(x)
+            if stopped is not None:
+                break
+    return Propagation(tuple(states), len(states) * dt, stopped, frozenset(links))
+
+
+def replay(physics: Physics, start: State, arm_path: np.ndarray) -> tuple[list[State], str]:
+    """Re-simulate the objects along a sequence of arm configurations (the first equal to
+    start.q). Returns the states (one per configuration) and '' or the first invalid reason."""
+    states = [start]
+    x = start
+    for q in np.asarray(arm_path)[1:]:
+        result = physics.step(x, q)
+        if not result.valid:
+            return states, f"{result.reason.value}: {result.detail}"
+        x = result.state
+        states.append(x)
+    return states, ""
