@@ -30,6 +30,7 @@ from enum import Enum
 
 import numpy as np
 
+from .approach import approach_path
 from .physics import Physics
 from .propagation import Action, constrained_prop
 from .scene import Scene
@@ -192,11 +193,16 @@ class PCRRT:
         if problem is not None:
             return PlanResult(Outcome.START_INVALID, f"start state invalid: {problem[1]}", seed)
         rng = np.random.default_rng(seed)
-        tree = _Tree(start, self._arm_feature(start.q))
         best = self._goal_distance(start)
         if best <= self.scene.goal.radius:
             return PlanResult(Outcome.SUCCEEDED, "start already in the goal region", seed,
                               (start,), plan_time=time.monotonic() - t0, best_goal_distance=best)
+        approach, why = approach_path(self.physics, start, rng)
+        if approach is None:
+            return PlanResult(Outcome.START_INVALID, why, seed, plan_time=time.monotonic() - t0,
+                              best_goal_distance=best)
+        root = approach[-1]
+        tree = _Tree(root, self._arm_feature(root.q))
         iterations = steps = 0
         last_report = t0
         cancelled = cancel.is_set if cancel is not None else (lambda: False)
@@ -239,7 +245,7 @@ class PCRRT:
             node = tree.add(end, self._arm_feature(end.q), near, chosen.states)
             best = min(best, self._goal_distance(end))
             if chosen.stopped == "goal":
-                states = tree.path_to(node, start)
+                states = approach[:-1] + tree.path_to(node, root)
                 return PlanResult(Outcome.SUCCEEDED, f"goal reached after {iterations} "
                                   f"iterations", seed, tuple(states), iterations, tree.n, steps,
                                   time.monotonic() - t0, self._goal_distance(end))
