@@ -1,0 +1,105 @@
+"""PC-RRT (Algorithm 1): solves the easy scene, is reproducible under a seed, its path replays
+through the physics, and it stops honestly (timeout = failure, cancel within 0.2 s)."""
+
+import threading
+import time
+
+import numpy as np
+import pytest
+
+from rearrangement_planner.physics import Physics
+from rearrangement_planner.planner import PCRRT, Outcome, PlannerOptions
+from rearrangement_planner.propagation import replay
+from rearrangement_planner.resources import scenes_dir
+from rearrangement_planner.scene import load_scene
+
+
+@pytest.fixture(scope="module")
+def easy(panda):
+    return load_scene(scenes_dir() / "easy_push.yaml", robot=panda)
+
+
+@pytest.fixture(scope="module")
+def easy_plan(easy):
+    return PCRRT(easy, PlannerOptions(time_limit=60.0)).plan(seed=0)
+
+
+def test_easy_scene_is_solved_and_ends_in_the_goal(easy, easy_plan):
+    assert easy_plan.solved, easy_plan.message
+    final = easy_plan.states[-1].objects[easy.goal_index, :2]
+    assert easy.goal.reached(final)
+    assert easy_plan.iterations > 0 and easy_plan.tree_size > 1
+
+
+def test_same_seed_same_plan(easy, easy_plan):
+    again = PCRRT(easy, PlannerOptions(time_limit=60.0)).plan(seed=0)
+    assert again.solved and len(again.states) == len(easy_plan.states)
+    assert np.array_equal(again.arm_path, easy_plan.arm_path)
+    assert all(np.array_equal(a.objects, b.objects)
+               for a, b in zip(again.states, easy_plan.states))
+
+
+def test_every_edge_replays_to_the_same_states(easy, easy_plan):
+    """The stored arm path alone reproduces every state through the physics (every tree edge
+    on the path is valid when replayed)."""
+    states, problem = replay(Physics(easy), easy_plan.states[0], easy_plan.arm_path)
+    assert problem == ""
+    assert len(states) == len(easy_plan.states)
+    for planned, replayed in zip(easy_plan.states, states):
+        np.testing.assert_allclose(replayed.objects, planned.objects, atol=1e-12)
+
+
+def test_path_starts_at_the_scene_start_and_reaches_the_plane(easy, easy_plan):
+    np.testing.assert_array_equal(easy_plan.states[0].q, easy.start_configuration)
+    np.testing.assert_array_equal(easy_plan.states[0].objects, easy.object_poses)
+
+
+def test_timeout_is_a_failure_without_a_path(easy):
+    result = PCRRT(easy, PlannerOptions(time_limit=0.3)).plan(seed=1)
+    assert result.outcome is Outcome.TIMEOUT and not result.solved
+    assert result.states == ()
+    assert result.plan_time < 2.0
+
+
+def test_cancel_stops_within_0_2_s(panda):
+    clutter = load_scene(scenes_dir() / "clutter.yaml", robot=panda)  # not solved in 1 s
+    cancel = threading.Event()
+    result_box = {}
+    planner = PCRRT(clutter, PlannerOptions(time_limit=60.0, goal_bias=0.0))
+
+    def run():
+        result_box["result"] = planner.plan(seed=3, cancel=cancel)
+        result_box["done"] = time.monotonic()
+
+    thread = threading.Thread(target=run)
+    thread.start()
+    time.sleep(1.0)
+    assert "result" not in result_box
+    sent = time.monotonic()
+    cancel.set()
+    thread.join(5.0)
+    assert result_box["result"].outcome is Outcome.CANCELLED
+    assert result_box["done"] - sent < 0.2
+
+
+def test_progress_is_reported(easy):
+    reports = []
+    PCRRT(easy, PlannerOptions(time_limit=1.0, progress_period=0.1)).plan(
+        seed=2, progress=reports.append)
+    assert len(reports) >= 3
+    assert all(b.elapsed > a.elapsed for a, b in zip(reports, reports[1:]))
+    assert reports[-1].tree_size >= 1 and reports[-1].best_goal_distance > 0
+
+
+def test_start_in_collision_is_start_invalid(easy):
+    start = easy.initial_state()
+    bad = start.with_q(np.array([0.0, 1.7, 0.0, -0.5, 0.0, 0.5, 0.0]))  # arm in the table
+    result = PCRRT(easy, PlannerOptions(time_limit=5.0)).plan(bad, seed=0)
+    assert result.outcome is Outcome.START_INVALID and "table" in result.message
+
+
+def test_options_reject_nonsense():
+    with pytest.raises(ValueError, match="sampler"):
+        PlannerOptions(sampler="magic")
+    with pytest.raises(ValueError, match="goal_bias"):
+        PlannerOptions(goal_bias=1.5)
