@@ -23,7 +23,9 @@ $(STAMP): requirements.txt constraints.txt setup.py setup.cfg package.xml
 	touch $(STAMP)
 
 demo: $(STAMP)
-	$(PY) -m rearrangement_planner.demo config/scenes/default.yaml
+	mkdir -p out
+	$(VENV)/bin/rearrangement-plan config/scenes/default.yaml --seed 0 --time-limit 60 --json out/default.json --plot out/default.png
+	@echo "plan: out/default.json   top view: out/default.png"
 
 test: $(STAMP)
 	$(PY) -m pytest -q test

@@ -1,0 +1,75 @@
+"""`rearrangement-plan` (DESIGN §8): exit codes 0/1/2, every JSON field, the PNG."""
+
+import json
+
+import pytest
+
+from rearrangement_planner.cli import main
+from rearrangement_planner.resources import scenes_dir
+
+FIELDS = {"solved", "planner", "seed", "plan_time_s", "iterations", "tree_size",
+          "propagation_steps", "path_length_rad", "ee_path_length_m", "object_displacement_m",
+          "goal_distance_m", "final_object_poses", "trajectory"}
+
+
+def test_solved_scene_exits_0_with_every_field_and_a_plot(tmp_path):
+    out, png = tmp_path / "plan.json", tmp_path / "plan.png"
+    code = main([str(scenes_dir() / "easy_push.yaml"), "--seed", "0", "--time-limit", "60",
+                 "--json", str(out), "--plot", str(png), "--quiet"])
+    assert code == 0
+    record = json.loads(out.read_text())
+    assert FIELDS <= set(record)
+    assert record["solved"] is True and record["planner"] == "pc-rrt" and record["seed"] == 0
+    assert record["goal_distance_m"] <= 0.08
+    assert set(record["final_object_poses"]) == {"target"}
+    assert record["path_length_rad"] > 0 and record["ee_path_length_m"] > 0
+    assert record["object_displacement_m"] > 0.1
+    trajectory = record["trajectory"]
+    assert trajectory["joint_names"] == [f"panda_joint{i}" for i in range(1, 8)]
+    times = [p["time_from_start"] for p in trajectory["points"]]
+    assert times[0] == 0.0 and all(b > a for a, b in zip(times, times[1:]))
+    assert all(v == 0.0 for v in trajectory["points"][-1]["velocities"])
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 10_000
+
+
+def test_unsolved_scene_exits_1_and_still_reports(tmp_path):
+    out = tmp_path / "plan.json"
+    code = main([str(scenes_dir() / "clutter.yaml"), "--time-limit", "0.5", "--json", str(out),
+                 "--quiet"])
+    assert code == 1
+    record = json.loads(out.read_text())
+    assert record["solved"] is False and record["outcome"] == "TIMEOUT"
+    assert record["trajectory"] is None and FIELDS <= set(record)
+
+
+@pytest.mark.parametrize("content, expected", [
+    ("robot: panda\ntable: {center: [0.5, 0], size: [0.8, -1.0], height: 0}\n"
+     "objects: []\ngoal: {object: x, position: [0.5, 0]}\n", "table.size"),
+    ("robot: [unclosed\n", "YAML"),
+])
+def test_bad_scene_exits_2_naming_the_problem(tmp_path, capsys, content, expected):
+    bad = tmp_path / "bad.yaml"
+    bad.write_text(content)
+    assert main([str(bad), "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert expected in err and len(err.strip().splitlines()) == 1
+
+
+def test_missing_scene_file_exits_2(tmp_path, capsys):
+    assert main([str(tmp_path / "nope.yaml"), "--quiet"]) == 2
+    assert "nope.yaml" in capsys.readouterr().err
+
+
+def test_bad_option_exits_2(capsys):
+    assert main([str(scenes_dir() / "easy_push.yaml"), "--time-limit", "-1", "--quiet"]) == 2
+    assert "--time-limit" in capsys.readouterr().err
+
+
+def test_help_explains_every_option(capsys):
+    with pytest.raises(SystemExit) as exit_info:
+        main(["--help"])
+    assert exit_info.value.code == 0
+    text = capsys.readouterr().out
+    for option in ("--planner", "--time-limit", "--seed", "--shortcut", "--json", "--record",
+                   "--plot"):
+        assert option in text
