@@ -103,3 +103,17 @@ def test_options_reject_nonsense():
         PlannerOptions(sampler="magic")
     with pytest.raises(ValueError, match="goal_bias"):
         PlannerOptions(goal_bias=1.5)
+
+
+def test_timed_trajectory_replays_to_the_planned_final_poses(easy, easy_plan):
+    """The controller-ready trajectory's joint motion, stepped through the physics from the
+    start state, reproduces the planned final object poses."""
+    from rearrangement_planner.trajectory import TimingOptions, time_parameterize
+
+    trajectory = time_parameterize(easy.robot, easy_plan.arm_path, TimingOptions())
+    assert np.all(np.diff(trajectory.times) > 0)
+    assert np.all(trajectory.velocities[-1] == 0)
+    assert np.all(np.abs(trajectory.velocities) <= easy.robot.velocity_limits + 1e-9)
+    states, problem = replay(Physics(easy), easy_plan.states[0], trajectory.positions)
+    assert problem == ""
+    np.testing.assert_allclose(states[-1].objects, easy_plan.states[-1].objects, atol=1e-6)
