@@ -21,8 +21,6 @@ import sys
 import time
 from pathlib import Path
 
-import numpy as np
-
 from .physics import Physics
 from .resources import scenes_dir
 from .scene import Scene, load_scene, parse_scene

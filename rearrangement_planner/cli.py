@@ -22,8 +22,6 @@ from .trajectory import TimingOptions, Trajectory, time_parameterize
 
 PLANNERS = ("pc-rrt",)
 
-log = logging.getLogger("rearrangement_planner.cli")
-
 
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
@@ -72,7 +70,7 @@ def trajectory_dict(trajectory: Trajectory) -> dict:
         "joint_names": list(trajectory.joint_names),
         "points": [{"positions": p.tolist(), "velocities": v.tolist(), "time_from_start": t}
                    for t, p, v in zip(trajectory.times.tolist(), trajectory.positions,
-                                      trajectory.velocities)],
+                                      trajectory.velocities, strict=True)],
     }
 
 
@@ -143,7 +141,7 @@ def main(argv: list[str] | None = None) -> int:
         else:
             args.json.write_text(text + "\n")
     if args.plot is not None:
-        from .plot import plot_top_view   # matplotlib only when asked for
+        from .plot import plot_top_view  # matplotlib only when asked for
 
         robot = scene.robot
         states = result.states or (scene.initial_state(),)

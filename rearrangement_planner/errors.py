@@ -1,4 +1,5 @@
-"""One exception root for the core, with messages that say what was wrong and what would be right."""
+"""One exception root for the core, with messages that say what was wrong and what would
+be right."""
 
 
 class RearrangementError(Exception):

@@ -40,7 +40,6 @@ from .robot import RobotModel
 from .scene import MovableObject, Scene
 from .state import State
 
-
 _INV_SQRT2 = 1.0 / math.sqrt(2.0)
 
 
@@ -159,7 +158,8 @@ class Physics:
     def _substep_count(self, poses_a: np.ndarray, poses_b: np.ndarray) -> int:
         """Substeps so that no shape point moves more than max_substep. A point at distance
         rho from the shape origin moves at most |dc| + rho |R_b - R_a|_F / sqrt(2) (the chord
-        of a rotation by theta is 2 rho sin(theta/2), and |R_b - R_a|_F = 2 sqrt(2) sin(theta/2))."""
+        of a rotation by theta is 2 rho sin(theta/2), and
+        |R_b - R_a|_F = 2 sqrt(2) sin(theta/2))."""
         diff = poses_b[:, :3, :] - poses_a[:, :3, :]
         dc = np.sqrt(np.einsum("ni,ni->n", diff[:, :, 3], diff[:, :, 3]))
         drot = np.sqrt(np.einsum("nij,nij->n", diff[:, :, :3], diff[:, :, :3]))
@@ -178,7 +178,7 @@ class Physics:
 
     def _limit_detail(self, q: np.ndarray) -> str:
         robot = self.robot
-        for name, value, lo, hi in zip(robot.joint_names, q, robot.lower, robot.upper):
+        for name, value, lo, hi in zip(robot.joint_names, q, robot.lower, robot.upper, strict=True):
             if not lo - 1e-9 <= value <= hi + 1e-9:
                 return f"{name} = {value:.4f} outside [{lo:.4f}, {hi:.4f}]"
         return "joint limit"

@@ -20,12 +20,11 @@ Reproducible: all randomness comes from one numpy Generator seeded by the reques
 
 from __future__ import annotations
 
-import logging
 import math
 import threading
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from enum import Enum
 
 import numpy as np
@@ -35,8 +34,6 @@ from .physics import Physics
 from .propagation import Action, constrained_prop
 from .scene import Scene
 from .state import State
-
-log = logging.getLogger(__name__)
 
 
 class Outcome(str, Enum):
@@ -115,7 +112,6 @@ class PlanResult:
     propagation_steps: int = 0
     plan_time: float = 0.0
     best_goal_distance: float = math.inf
-    pushing_links: frozenset[str] = field(default_factory=frozenset)
 
     @property
     def solved(self) -> bool:

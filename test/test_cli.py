@@ -1,6 +1,7 @@
 """`rearrangement-plan` (DESIGN §8): exit codes 0/1/2, every JSON field, the PNG."""
 
 import json
+from itertools import pairwise
 
 import pytest
 
@@ -27,7 +28,7 @@ def test_solved_scene_exits_0_with_every_field_and_a_plot(tmp_path):
     trajectory = record["trajectory"]
     assert trajectory["joint_names"] == [f"panda_joint{i}" for i in range(1, 8)]
     times = [p["time_from_start"] for p in trajectory["points"]]
-    assert times[0] == 0.0 and all(b > a for a, b in zip(times, times[1:]))
+    assert times[0] == 0.0 and all(b > a for a, b in pairwise(times))
     assert all(v == 0.0 for v in trajectory["points"][-1]["velocities"])
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 10_000
 

@@ -3,6 +3,7 @@ through the physics, and it stops honestly (timeout = failure, cancel within 0.2
 
 import threading
 import time
+from itertools import pairwise
 
 import numpy as np
 import pytest
@@ -36,7 +37,7 @@ def test_same_seed_same_plan(easy, easy_plan):
     assert again.solved and len(again.states) == len(easy_plan.states)
     assert np.array_equal(again.arm_path, easy_plan.arm_path)
     assert all(np.array_equal(a.objects, b.objects)
-               for a, b in zip(again.states, easy_plan.states))
+               for a, b in zip(again.states, easy_plan.states, strict=True))
 
 
 def test_every_edge_replays_to_the_same_states(easy, easy_plan):
@@ -45,7 +46,7 @@ def test_every_edge_replays_to_the_same_states(easy, easy_plan):
     states, problem = replay(Physics(easy), easy_plan.states[0], easy_plan.arm_path)
     assert problem == ""
     assert len(states) == len(easy_plan.states)
-    for planned, replayed in zip(easy_plan.states, states):
+    for planned, replayed in zip(easy_plan.states, states, strict=True):
         np.testing.assert_allclose(replayed.objects, planned.objects, atol=1e-12)
 
 
@@ -87,7 +88,7 @@ def test_progress_is_reported(easy):
     PCRRT(easy, PlannerOptions(time_limit=1.0, progress_period=0.1)).plan(
         seed=2, progress=reports.append)
     assert len(reports) >= 3
-    assert all(b.elapsed > a.elapsed for a, b in zip(reports, reports[1:]))
+    assert all(b.elapsed > a.elapsed for a, b in pairwise(reports))
     assert reports[-1].tree_size >= 1 and reports[-1].best_goal_distance > 0
 
 

@@ -38,7 +38,7 @@ def trans(x, y, z):
 def dh_chain(q):
     """Frames of links 1..7, flange and finger tips from the modified DH table."""
     frames, t = [], np.eye(4)
-    for (a, d, alpha), theta in zip(PANDA_DH, q):
+    for (a, d, alpha), theta in zip(PANDA_DH, q, strict=True):
         t = t @ rot_x(alpha) @ trans(a, 0, 0) @ rot_z(theta) @ trans(0, 0, d)
         frames.append(t)
     flange = t @ trans(0, 0, 0.107)
@@ -126,7 +126,7 @@ def test_contact_shapes_move_rigidly_with_their_links(panda):
     qs = random_configurations(panda, 6, seed=4)
     for q in qs:
         poses = panda.shape_poses(q)
-        for shape, pose in zip(panda.contact_shapes, poses):
+        for shape, pose in zip(panda.contact_shapes, poses, strict=True):
             link = panda.frame_pose(q, shape.link)
             np.testing.assert_allclose(np.linalg.inv(link) @ pose, shape.offset, atol=1e-9)
 
@@ -137,7 +137,7 @@ def test_moving_the_last_joint_moves_only_distal_shapes(panda):
     q2 = q.copy()
     q2[6] += 0.5
     after = panda.shape_poses(q2)
-    for shape, a, b in zip(panda.contact_shapes, before, after):
+    for shape, a, b in zip(panda.contact_shapes, before, after, strict=True):
         moved = not np.allclose(a, b, atol=1e-12)
         distal = shape.link in ("panda_link7", "panda_hand")
         assert moved == distal, shape.link
@@ -149,11 +149,11 @@ def test_capsules_cover_the_segments_between_joint_axes(panda):
         frames, flange, tcp = dh_chain(q)
         origins = [np.zeros(3)] + [f[:3, 3] for f in frames] + [flange[:3, 3], tcp[:3, 3]]
         poses = panda.shape_poses(q)
-        for a, b in zip(origins[1:-1], origins[2:]):
+        for a, b in zip(origins[1:-1], origins[2:], strict=True):
             for s in np.linspace(0.0, 1.0, 9):
                 point = a + s * (b - a)
-                assert min(capsule_distance(point, shape, pose)
-                           for shape, pose in zip(panda.contact_shapes, poses)) <= 1e-9, point
+                shapes = zip(panda.contact_shapes, poses, strict=True)
+                assert min(capsule_distance(point, s, p) for s, p in shapes) <= 1e-9, point
 
 
 def capsule_distance(point, shape, pose):
@@ -191,7 +191,8 @@ def test_unknown_robot_name_lists_the_shipped_ones():
 def test_unknown_joint_names_the_joint_and_the_alternatives(panda):
     data = _config_dict(panda)
     data["joints"] = data["joints"][:6] + ["panda_joint9"]
-    with pytest.raises(RobotModelError, match=r"joint 'panda_joint9' not in the URDF.*panda_joint1"):
+    with pytest.raises(RobotModelError,
+                       match=r"joint 'panda_joint9' not in the URDF.*panda_joint1"):
         RobotModel(RobotConfig.from_dict(data, base_dir=panda.config.source.parent))
 
 
