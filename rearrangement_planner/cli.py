@@ -16,11 +16,9 @@ from pathlib import Path
 import numpy as np
 
 from .errors import RearrangementError
-from .planner import PCRRT, PlannerOptions, PlanResult, Progress
-from .scene import Scene, load_scene
-from .trajectory import TimingOptions, Trajectory, time_parameterize
-
-PLANNERS = ("pc-rrt",)
+from .pipeline import PLANNERS, PlanOutput, plan_scene
+from .planner import PlannerOptions, Progress
+from .scene import load_scene
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -31,70 +29,34 @@ def build_parser() -> argparse.ArgumentParser:
                     "goal region. Exit code 0 = solved, 1 = not solved, 2 = bad input.")
     parser.add_argument("scene", type=Path, help="scene YAML file (DESIGN §3 format)")
     parser.add_argument("--planner", choices=PLANNERS, default="pc-rrt",
-                        help="planning algorithm (default: pc-rrt, the physics-constrained "
-                             "kinodynamic RRT of King et al.)")
+                        help="planning algorithm: pc-rrt (default; the physics-constrained "
+                             "kinodynamic RRT of King et al.: any link may push any object), "
+                             "static-rrt (the same, but only the goal object may move; the "
+                             "others are obstacles) or darrt (primitives: transit, RRT-Connect "
+                             "transit, straight-line push with the object held in the hand)")
     parser.add_argument("--time-limit", type=float, default=60.0, metavar="S",
                         help="planning budget in seconds; running out is a failure (default 60)")
     parser.add_argument("--seed", type=int, default=0, metavar="N",
                         help="random seed: the same scene, options and seed give the same plan "
                              "(default 0)")
     parser.add_argument("--shortcut", type=float, default=0.0, metavar="S",
-                        help="seconds of path shortcutting after a plan is found (default 0: "
-                             "none; shortcutting is not built yet and must be 0)")
+                        help="seconds of path shortcutting (King et al. §IV) after a plan is "
+                             "found (default 0: none). The JSON then also holds the path "
+                             "lengths before shortcutting")
+    parser.add_argument("--shortcut-attempts", type=int, default=None, metavar="N",
+                        help="stop shortcutting after N attempts even if time is left; a "
+                             "bound that ends first makes the shortcut path reproducible "
+                             "(default: time only)")
     parser.add_argument("--json", type=Path, metavar="OUT",
                         help="write the result as JSON to OUT ('-' for standard output)")
     parser.add_argument("--record", type=Path, metavar="OUT.mcap",
-                        help="record the plan to an MCAP file (arrives with the recording work)")
+                        help="record the inputs, trajectory, predicted object poses, markers "
+                             "and a metadata record to a rosbag2-compatible MCAP file")
     parser.add_argument("--plot", type=Path, metavar="OUT.png",
                         help="write a top view PNG: table, objects at start and end, their "
                              "paths, the end-effector path and the goal region")
     parser.add_argument("--quiet", action="store_true", help="no progress line on stderr")
     return parser
-
-
-def path_metrics(scene: Scene, result: PlanResult) -> dict:
-    """Arm path length (joint space, rad; tool, m) and total object displacement (m)."""
-    robot = scene.robot
-    arm = result.arm_path
-    tool = np.array([robot.tool_pose(q)[:3, 3] for q in arm])
-    objects = np.array([s.objects[:, :2] for s in result.states])
-    return {
-        "path_length_rad": float(np.linalg.norm(np.diff(arm, axis=0), axis=1).sum()),
-        "ee_path_length_m": float(np.linalg.norm(np.diff(tool, axis=0), axis=1).sum()),
-        "object_displacement_m": float(np.linalg.norm(np.diff(objects, axis=0), axis=2).sum()),
-    }
-
-
-def trajectory_dict(trajectory: Trajectory) -> dict:
-    return {
-        "joint_names": list(trajectory.joint_names),
-        "points": [{"positions": p.tolist(), "velocities": v.tolist(), "time_from_start": t}
-                   for t, p, v in zip(trajectory.times.tolist(), trajectory.positions,
-                                      trajectory.velocities, strict=True)],
-    }
-
-
-def result_dict(scene: Scene, planner: str, result: PlanResult,
-                trajectory: Trajectory | None) -> dict:
-    final = result.states[-1].objects if result.states else scene.object_poses
-    record = {
-        "solved": result.solved,
-        "outcome": result.outcome.value,
-        "message": result.message,
-        "planner": planner,
-        "seed": result.seed,
-        "plan_time_s": result.plan_time,
-        "iterations": result.iterations,
-        "tree_size": result.tree_size,
-        "propagation_steps": result.propagation_steps,
-        "path_length_rad": None, "ee_path_length_m": None, "object_displacement_m": None,
-        "goal_distance_m": float(scene.goal.distance(final[scene.goal_index, :2])),
-        "final_object_poses": {o.name: final[i].tolist() for i, o in enumerate(scene.objects)},
-        "trajectory": trajectory_dict(trajectory) if trajectory is not None else None,
-    }
-    if result.solved:
-        record.update(path_metrics(scene, result))
-    return record
 
 
 def _progress_printer(quiet: bool):
@@ -116,24 +78,24 @@ def main(argv: list[str] | None = None) -> int:
     try:
         if not args.time_limit > 0:
             raise RearrangementError(f"--time-limit must be positive, got {args.time_limit}")
-        if args.shortcut != 0:
-            raise RearrangementError("--shortcut: shortcutting is not built yet; use 0")
-        if args.record is not None:
-            raise RearrangementError("--record: MCAP recording is not built yet")
+        if not args.shortcut >= 0:
+            raise RearrangementError(f"--shortcut must be >= 0 s, got {args.shortcut}")
+        if args.shortcut_attempts is not None and args.shortcut_attempts < 1:
+            raise RearrangementError(f"--shortcut-attempts must be >= 1, got "
+                                     f"{args.shortcut_attempts}")
         scene = load_scene(args.scene)
     except RearrangementError as exc:
         print(f"rearrangement-plan: {exc}", file=sys.stderr)
         return 2
-    planner = PCRRT(scene, PlannerOptions(time_limit=args.time_limit))
     started = time.monotonic()
-    result = planner.plan(seed=args.seed, progress=_progress_printer(args.quiet))
+    output = plan_scene(scene, args.planner, PlannerOptions(time_limit=args.time_limit),
+                        seed=args.seed, progress=_progress_printer(args.quiet),
+                        shortcut_time=args.shortcut, shortcut_attempts=args.shortcut_attempts)
+    result = output.result
     if not args.quiet:
         print(f"\r{result.outcome.value}: {result.message} "
               f"({time.monotonic() - started:.1f} s)", file=sys.stderr)
-    trajectory = None
-    if result.solved:
-        trajectory = time_parameterize(scene.robot, result.arm_path, TimingOptions())
-    record = result_dict(scene, args.planner, result, trajectory)
+    record = output.to_dict()
     text = json.dumps(record, indent=2)
     if args.json is not None:
         if str(args.json) == "-":
@@ -141,20 +103,50 @@ def main(argv: list[str] | None = None) -> int:
         else:
             args.json.write_text(text + "\n")
     if args.plot is not None:
-        from .plot import plot_top_view  # matplotlib only when asked for
-
-        robot = scene.robot
-        states = result.states or (scene.initial_state(),)
-        ee = np.array([robot.tool_pose(s.q)[:2, 3] for s in states]) if result.states \
-            else np.zeros((0, 2))
-        plot_top_view(scene, np.array([s.objects for s in states]), ee, args.plot,
-                      title=f"{scene.source}: {result.outcome.value.lower()}, seed {args.seed}",
-                      start_states_only=not result.solved)
+        _plot(output, args.plot, args.seed)
+    if args.record is not None:
+        _record(output, args)
     if not args.quiet:
         summary = {k: record[k] for k in ("solved", "plan_time_s", "iterations",
                                           "goal_distance_m")}
         print(json.dumps(summary), file=sys.stderr)
     return 0 if result.solved else 1
+
+
+def _plot(output: PlanOutput, path: Path, seed: int) -> None:
+    from .plot import plot_top_view  # matplotlib only when asked for
+
+    scene, result = output.scene, output.result
+    robot = scene.robot
+    states = result.states or (scene.initial_state(),)
+    ee = np.array([robot.tool_pose(s.q)[:2, 3] for s in states]) if result.states \
+        else np.zeros((0, 2))
+    plot_top_view(scene, np.array([s.objects for s in states]), ee, path,
+                  title=f"{scene.source}: {output.planner}, {result.outcome.value.lower()}, "
+                        f"seed {seed}",
+                  start_states_only=not result.solved)
+
+
+def _record(output: PlanOutput, args: argparse.Namespace) -> None:
+    """Write the MCAP (the same recorder as the ROS node). A recording failure is reported on
+    stderr and changes nothing else: the exit code still says whether the scene was solved, and
+    the JSON and plot are already written."""
+    from msg_adapters.plan_record import record_plan  # ROS message types only when asked for
+
+    from .recording import RecordingError
+
+    parameters = {"planner": output.planner, "time_limit": args.time_limit, "seed": args.seed,
+                  "shortcut": args.shortcut, "shortcut_attempts": args.shortcut_attempts,
+                  "scene": str(args.scene)}
+    try:
+        path = record_plan(args.record, output, plan_id=f"cli-{args.seed}",
+                           parameters=parameters,
+                           planning_frame=output.scene.robot.config.base_frame)
+    except RecordingError as exc:
+        print(f"rearrangement-plan: recording failed: {exc}", file=sys.stderr)
+        return
+    if not args.quiet:
+        print(f"recorded {path}", file=sys.stderr)
 
 
 if __name__ == "__main__":

@@ -18,3 +18,13 @@ class SceneError(RearrangementError):
         self.field = field
         self.problem = problem
         super().__init__(f"{field}: {problem}" if field else problem)
+
+
+class InputError(RearrangementError):
+    """A planning input (joint state, object poses, goal, parameter) is unusable. `field` names
+    the offending field (e.g. ``joint_states.position[panda_joint3]``), `problem` says why."""
+
+    def __init__(self, field: str, problem: str):
+        self.field = field
+        self.problem = problem
+        super().__init__(f"{field}: {problem}" if field else problem)

@@ -67,6 +67,10 @@ class PhysicsOptions:
     """|n_z| of a contact normal above which the arm presses on an object from above (45 deg)."""
     overlap_tolerance: float = 1e-4
     """Object-object and object-obstacle penetration (m) still counted as touching."""
+    static_objects: frozenset[str] = frozenset()
+    """Names of movable objects treated as static obstacles: any arm contact with one is
+    invalid (`Invalid.ARM_OBSTACLE`). The Static RRT baseline makes every object but the goal
+    object static (§V-A of King et al.)."""
 
 
 @dataclass(frozen=True)
@@ -106,6 +110,12 @@ class Physics:
         self._shape_links = [s.link for s in self.robot.contact_shapes]
         self._shape_radii = np.asarray(self.robot.shape_bounding_radii)
         self._names = [o.name for o in scene.objects]
+        unknown = set(self.options.static_objects) - set(self._names)
+        if unknown:
+            raise ValueError(f"static_objects names unknown objects {sorted(unknown)}; the "
+                             f"scene has {self._names}")
+        self._static = frozenset(i for i, n in enumerate(self._names)
+                                 if n in self.options.static_objects)
 
     # -- public ------------------------------------------------------------------------------
 
@@ -198,6 +208,10 @@ class Physics:
                 return (Invalid.CONTACT_FROM_ABOVE,
                         f"{self._shape_links[contact.shape]} presses on "
                         f"'{self._names[contact.obj]}' from above (normal z = {n[2]:+.2f})")
+            if contact.obj in self._static:
+                return (Invalid.ARM_OBSTACLE,
+                        f"{self._shape_links[contact.shape]} touches '{self._names[contact.obj]}'"
+                        f", a static object for this planner")
             by_object.setdefault(contact.obj, []).append(contact)
         new_objects = objects.copy()
         changed: list[int] = []
