@@ -1,0 +1,286 @@
+"""Symmetric conversions between the node's messages (DESIGN §4) and the core's types.
+
+Each `x_to_msg` / `msg_to_x` pair round-trips: `msg_to_x(x_to_msg(x))` gives back `x` (angles
+wrapped to (-pi, pi], times to the nanosecond). The `msg_to_x` direction reads untrusted input
+and rejects anything unusable with one `InputError` whose `field` names the offending entry
+(``joint_states.position[panda_joint3]``, ``object_poses.poses[2].orientation``) and whose
+`problem` says what is wrong and what would be right. The `x_to_msg` direction takes the core's
+own values; a wrongly shaped one is a programming error and raises `ValueError`.
+
+Frames and units: poses are in the planning frame (the robot base frame, DESIGN §3); metres,
+radians, seconds. An object's planar pose (x, y, yaw) is the pose of its centre; the yaw is a
+rotation about the frame's z axis.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from fractions import Fraction
+
+import numpy as np
+from builtin_interfaces.msg import Duration, Time
+from geometry_msgs.msg import Point, Pose, PoseArray, PoseStamped, Quaternion
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Header
+from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
+
+from rearrangement_planner.errors import InputError
+from rearrangement_planner.trajectory import Trajectory
+
+_NANOSECONDS = 1_000_000_000
+_MIN_QUATERNION_NORM = 1e-6
+
+
+# --------------------------------------------------------------------------------------------
+# Small pieces
+# --------------------------------------------------------------------------------------------
+
+
+def _header(frame_id: str, stamp: Time | None) -> Header:
+    return Header(stamp=stamp if stamp is not None else Time(), frame_id=frame_id)
+
+
+def _finite(*values: float) -> bool:
+    return all(math.isfinite(v) for v in values)
+
+
+def _wrap(angle: float) -> float:
+    """`angle` (rad) wrapped to (-pi, pi]."""
+    angle = math.remainder(angle, 2.0 * math.pi)  # exact, in [-pi, pi]
+    return math.pi if angle <= -math.pi else angle
+
+
+def yaw_to_quaternion(yaw: float) -> Quaternion:
+    """The unit quaternion of a rotation by `yaw` (rad) about z: (0, 0, sin(yaw/2), cos(yaw/2))."""
+    return Quaternion(x=0.0, y=0.0, z=math.sin(0.5 * yaw), w=math.cos(0.5 * yaw))
+
+
+def _check_frame(frame_id: str, planning_frame: str, field: str, what: str) -> None:
+    if frame_id == planning_frame:
+        return
+    got = "is empty" if not frame_id else f"is '{frame_id}'"
+    raise InputError(field, f"{got}; {what} must be given in the planning frame "
+                            f"'{planning_frame}' (transform them first)")
+
+
+def _duration(t: float) -> Duration:
+    """`t` (s, >= 0) as a Duration rounded to the nearest nanosecond, with nanosec < 1e9.
+
+    Exact: the float is converted to a Fraction (exactly its binary value) before rounding, so
+    no product t * 1e9 rounds first; 1.9999999999 s becomes (2 s, 0 ns), never (1 s, 1e9 ns).
+    """
+    sec, nanosec = divmod(round(Fraction(t) * _NANOSECONDS), _NANOSECONDS)
+    return Duration(sec=sec, nanosec=nanosec)
+
+
+def _seconds(d: Duration) -> float:
+    return d.sec + d.nanosec * 1e-9
+
+
+# --------------------------------------------------------------------------------------------
+# Joint states
+# --------------------------------------------------------------------------------------------
+
+
+def joint_state_to_configuration(msg: JointState, joint_names: Sequence[str]) -> np.ndarray:
+    """The configuration q (n,) (rad) of the planning joints `joint_names`, taken from `msg` by
+    name; other joints in `msg` are ignored (DESIGN §4)."""
+    names = list(msg.name)
+    positions = list(msg.position)
+    if len(positions) != len(names):
+        raise InputError("joint_states.position",
+                         f"has {len(positions)} values for {len(names)} names in "
+                         f"joint_states.name; give one position per name, in the same order")
+    index: dict[str, int] = {}
+    for i, name in enumerate(names):
+        if name in index and name in joint_names:
+            raise InputError("joint_states.name",
+                             f"joint '{name}' appears twice (entries {index[name]} and {i}); "
+                             f"give each joint once")
+        index.setdefault(name, i)
+    missing = [name for name in joint_names if name not in index]
+    if missing:
+        raise InputError("joint_states.name",
+                         f"planning joint{'s' if len(missing) > 1 else ''} "
+                         f"{', '.join(repr(n) for n in missing)} missing; the planning joints "
+                         f"are {', '.join(joint_names)} (got {', '.join(names) or 'none'})")
+    q = np.array([positions[index[name]] for name in joint_names], dtype=float)
+    for name, value in zip(joint_names, q, strict=True):
+        if not math.isfinite(value):
+            raise InputError(f"joint_states.position[{name}]",
+                             f"is {value}; joint positions must be finite numbers (rad or m)")
+    return q
+
+
+def configuration_to_joint_state(q: Sequence[float] | np.ndarray, joint_names: Sequence[str],
+                                 stamp: Time | None = None) -> JointState:
+    """A JointState with the positions `q` (rad) of `joint_names` (no velocities or efforts);
+    stamp zero unless given."""
+    q = np.asarray(q, dtype=float)
+    if q.shape != (len(joint_names),):
+        raise ValueError(f"q has shape {q.shape}, expected ({len(joint_names)},): one position "
+                         f"per joint name")
+    return JointState(header=_header("", stamp), name=list(joint_names),
+                      position=[float(v) for v in q])
+
+
+# --------------------------------------------------------------------------------------------
+# Object poses
+# --------------------------------------------------------------------------------------------
+
+
+def pose_array_to_objects(msg: PoseArray, object_ids: Sequence[str], planning_frame: str,
+                          max_tilt: float = 0.05) -> np.ndarray:
+    """The planar object poses (M, 3) (x, y, yaw) in the planning frame (m, rad, yaw in
+    (-pi, pi]); the i-th pose of `msg` belongs to `object_ids[i]` (DESIGN §4). The poses' z is
+    ignored (objects stand on the table); an object tilted more than `max_tilt` (rad) from
+    upright is rejected, because the planner models only upright prisms (DESIGN §3).
+    """
+    _check_frame(msg.header.frame_id, planning_frame, "object_poses.header.frame_id",
+                 "object poses")
+    if len(msg.poses) != len(object_ids):
+        raise InputError("object_poses.poses",
+                         f"has {len(msg.poses)} poses for {len(object_ids)} objects "
+                         f"({', '.join(object_ids)}); give one pose per object id, in the order "
+                         f"of the parameter object_ids")
+    objects = np.empty((len(object_ids), 3))
+    for i, (pose, object_id) in enumerate(zip(msg.poses, object_ids, strict=True)):
+        field = f"object_poses.poses[{i}]"
+        p, o = pose.position, pose.orientation
+        if not _finite(p.x, p.y, p.z):
+            raise InputError(f"{field}.position",
+                             f"of object '{object_id}' is ({p.x}, {p.y}, {p.z}); positions must "
+                             f"be finite numbers (m)")
+        if not _finite(o.x, o.y, o.z, o.w):
+            raise InputError(f"{field}.orientation",
+                             f"of object '{object_id}' is ({o.x}, {o.y}, {o.z}, {o.w}); "
+                             f"quaternions must be finite numbers")
+        norm = math.sqrt(o.x * o.x + o.y * o.y + o.z * o.z + o.w * o.w)
+        if norm <= _MIN_QUATERNION_NORM:
+            raise InputError(f"{field}.orientation",
+                             f"of object '{object_id}' is a zero quaternion (norm {norm:.3g}); "
+                             f"give a unit quaternion (x=y=z=0, w=1 for no rotation)")
+        x, y, z, w = o.x / norm, o.y / norm, o.z / norm, o.w / norm
+        # Swing-twist split q = swing * twist (twist about z, swing about a horizontal axis):
+        # |(x, y)| = sin(theta/2), |(z, w)| = cos(theta/2), theta = the angle between the
+        # object's z axis and the frame's z axis.
+        tilt = 2.0 * math.atan2(math.hypot(x, y), math.hypot(z, w))
+        if tilt > max_tilt:
+            raise InputError(f"{field}.orientation",
+                             f"of object '{object_id}' is tilted by {tilt:.3f} rad (more than "
+                             f"{max_tilt:g} rad); objects must stand upright on the table")
+        # Yaw = heading of the object's x axis projected on the table: atan2(R10, R00) of the
+        # rotation matrix of a unit quaternion (the z of a ZYX Euler decomposition, as tf2).
+        yaw = math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
+        objects[i] = (p.x, p.y, _wrap(yaw))
+    return objects
+
+
+def objects_to_pose_array(objects: np.ndarray, planning_frame: str,
+                          z: Sequence[float] | None = None,
+                          stamp: Time | None = None) -> PoseArray:
+    """A PoseArray of the planar poses `objects` (M, 3) (x, y, yaw) in `planning_frame`; `z`
+    gives each pose's height (m), default 0."""
+    objects = np.asarray(objects, dtype=float)
+    if objects.size == 0:
+        objects = objects.reshape(0, 3)
+    if objects.ndim != 2 or objects.shape[1] != 3:
+        raise ValueError(f"objects has shape {objects.shape}, expected (M, 3): x, y, yaw")
+    heights = np.zeros(len(objects)) if z is None else np.asarray(z, dtype=float)
+    if heights.shape != (len(objects),):
+        raise ValueError(f"z has shape {heights.shape}, expected ({len(objects)},): one height "
+                         f"per object")
+    poses = [Pose(position=Point(x=float(x), y=float(y), z=float(h)),
+                  orientation=yaw_to_quaternion(float(yaw)))
+             for (x, y, yaw), h in zip(objects, heights, strict=True)]
+    return PoseArray(header=_header(planning_frame, stamp), poses=poses)
+
+
+# --------------------------------------------------------------------------------------------
+# Goal
+# --------------------------------------------------------------------------------------------
+
+
+def pose_stamped_to_goal(msg: PoseStamped, planning_frame: str) -> np.ndarray:
+    """The goal point (2,) (x, y) (m) in the planning frame. The pose's z and orientation are
+    ignored: the goal is a point on the table (DESIGN §3)."""
+    _check_frame(msg.header.frame_id, planning_frame, "goal.header.frame_id", "goal poses")
+    p = msg.pose.position
+    if not _finite(p.x, p.y, p.z):
+        raise InputError("goal.pose.position",
+                         f"is ({p.x}, {p.y}, {p.z}); the goal point must be finite numbers (m)")
+    return np.array([p.x, p.y], dtype=float)
+
+
+def goal_to_pose_stamped(xy: Sequence[float] | np.ndarray, planning_frame: str, z: float = 0.0,
+                         stamp: Time | None = None) -> PoseStamped:
+    """A PoseStamped at the goal point `xy` (m) and height `z` (m), identity orientation."""
+    xy = np.asarray(xy, dtype=float)
+    if xy.shape != (2,):
+        raise ValueError(f"xy has shape {xy.shape}, expected (2,): x, y")
+    return PoseStamped(header=_header(planning_frame, stamp),
+                       pose=Pose(position=Point(x=float(xy[0]), y=float(xy[1]), z=float(z)),
+                                 orientation=Quaternion(w=1.0)))
+
+
+# --------------------------------------------------------------------------------------------
+# Trajectory
+# --------------------------------------------------------------------------------------------
+
+
+def trajectory_to_msg(trajectory: Trajectory) -> JointTrajectory:
+    """The controller command of DESIGN §4: header.stamp zero ("start now"), empty frame_id,
+    positions and velocities on every point, time_from_start rounded to the nanosecond."""
+    points = []
+    for t, q, v in zip(trajectory.times, trajectory.positions, trajectory.velocities,
+                       strict=True):
+        points.append(JointTrajectoryPoint(positions=[float(a) for a in q],
+                                           velocities=[float(a) for a in v],
+                                           time_from_start=_duration(float(t))))
+    for i in range(1, len(points)):
+        if _seconds(points[i].time_from_start) <= _seconds(points[i - 1].time_from_start):
+            raise ValueError(f"points {i - 1} and {i} are less than 1 ns apart "
+                             f"({trajectory.times[i - 1]!r} s, {trajectory.times[i]!r} s); "
+                             f"time_from_start could not strictly increase")
+    return JointTrajectory(header=_header("", None), joint_names=list(trajectory.joint_names),
+                           points=points)
+
+
+def msg_to_trajectory(msg: JointTrajectory) -> Trajectory:
+    """The Trajectory of `msg`; every point needs positions and velocities for all joints, and
+    time_from_start must start at 0 and strictly increase."""
+    names = tuple(msg.joint_names)
+    if len(set(names)) != len(names):
+        raise InputError("trajectory.joint_names",
+                         f"lists a joint twice ({', '.join(names)}); name each joint once")
+    if not msg.points:
+        raise InputError("trajectory.points", "is empty; give at least one point")
+    times = np.empty(len(msg.points))
+    positions = np.empty((len(msg.points), len(names)))
+    velocities = np.empty((len(msg.points), len(names)))
+    for i, point in enumerate(msg.points):
+        field = f"trajectory.points[{i}]"
+        for values, out, what in ((point.positions, positions, "positions"),
+                                  (point.velocities, velocities, "velocities")):
+            if len(values) != len(names):
+                raise InputError(f"{field}.{what}",
+                                 f"has {len(values)} values for {len(names)} joints; give one "
+                                 f"per name in joint_names on every point")
+            if not _finite(*values):
+                raise InputError(f"{field}.{what}", "must be finite numbers")
+            out[i] = values
+        d = point.time_from_start
+        if not 0 <= d.nanosec < _NANOSECONDS or d.sec < 0:
+            raise InputError(f"{field}.time_from_start",
+                             f"is ({d.sec} s, {d.nanosec} ns); need sec >= 0 and "
+                             f"0 <= nanosec < 1e9")
+        times[i] = _seconds(d)
+        if i == 0 and times[i] != 0.0:
+            raise InputError(f"{field}.time_from_start",
+                             f"is {times[i]!r} s; the first point must be at 0 s")
+        if i > 0 and times[i] <= times[i - 1]:
+            raise InputError(f"{field}.time_from_start",
+                             f"is {times[i]!r} s, not after point {i - 1} ({times[i - 1]!r} s); "
+                             f"times must strictly increase")
+    return Trajectory(names, times, positions, velocities)

@@ -1,0 +1,176 @@
+"""The MCAP recording of one plan (DESIGN §7): its inputs, trajectory, predicted object poses
+and markers as the ROS messages the node exchanges, plus a metadata record.
+
+    record_plan("plans/p1.mcap", output, plan_id="p1", parameters={...}, planning_frame="world")
+
+Topics (log time = `start_time_ns`, default now, unless stated):
+  /joint_states                          sensor_msgs/msg/JointState        the start arm state
+  /planner_node/object_poses             geometry_msgs/msg/PoseArray       the start object poses
+  /planner_node/goal                     geometry_msgs/msg/PoseStamped     the goal point
+  /planner_node/markers                  visualization_msgs/msg/MarkerArray  scene (+ plan paths)
+and when solved
+  /planner_node/trajectory               trajectory_msgs/msg/JointTrajectory
+  /planner_node/predicted_object_poses   geometry_msgs/msg/PoseArray, one per trajectory point,
+                                         logged and stamped at start + time_from_start.
+Metadata record "rearrangement_plan": plan_id, planner, seed, outcome, message, parameters
+(JSON), scene (YAML of the scene file format), statistics (JSON result of DESIGN §8 without
+the trajectory).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import time
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+from builtin_interfaces.msg import Duration, Time
+from geometry_msgs.msg import PoseArray, PoseStamped
+from sensor_msgs.msg import JointState
+
+from rearrangement_planner.errors import RearrangementError
+from rearrangement_planner.pipeline import PlanOutput
+from rearrangement_planner.recording import McapRecorder, RecordingError
+from rearrangement_planner.scene import Scene
+
+from .conversions import (
+    configuration_to_joint_state,
+    goal_to_pose_stamped,
+    objects_to_pose_array,
+    trajectory_to_msg,
+)
+from .markers import plan_markers
+
+NODE_NAMESPACE = "/planner_node"
+METADATA_NAME = "rearrangement_plan"
+TOPICS = {
+    "joint_state": "/joint_states",
+    "object_poses": f"{NODE_NAMESPACE}/object_poses",
+    "goal": f"{NODE_NAMESPACE}/goal",
+    "trajectory": f"{NODE_NAMESPACE}/trajectory",
+    "predicted_object_poses": f"{NODE_NAMESPACE}/predicted_object_poses",
+    "markers": f"{NODE_NAMESPACE}/markers",
+}
+
+
+def record_plan(path: str | os.PathLike[str], output: PlanOutput, *, plan_id: str,
+                parameters: Mapping[str, Any], planning_frame: str,
+                joint_state: JointState | None = None, object_poses: PoseArray | None = None,
+                goal: PoseStamped | None = None, start_time_ns: int | None = None) -> Path:
+    """Record `output` to the MCAP file `path` and return its path.
+
+    The inputs default to the plan's start state (its first state, or the scene's initial
+    state for a plan without states) and the scene's goal, stamped at `start_time_ns`.
+    Raises RecordingError if anything cannot be recorded; the plan itself is untouched.
+    """
+    start = time.time_ns() if start_time_ns is None else int(start_time_ns)
+    try:
+        messages = _messages(output, planning_frame, start, joint_state, object_poses, goal)
+        metadata = plan_metadata(output, plan_id, parameters)
+    except RecordingError:
+        raise
+    except (RearrangementError, ValueError, TypeError) as exc:
+        raise RecordingError(f"cannot record to {path}: building the messages failed: "
+                             f"{exc}") from exc
+    with McapRecorder(path) as recorder:
+        for topic, type_name, message, log_time, qos in messages:
+            recorder.write(topic, type_name, message, log_time, qos)
+        recorder.metadata(METADATA_NAME, metadata)
+    return recorder.path
+
+
+def _messages(output: PlanOutput, frame: str, start: int, joint_state: JointState | None,
+              object_poses: PoseArray | None, goal: PoseStamped | None) -> list[tuple]:
+    """(topic, type, message, log time (ns), qos) of every message to record."""
+    scene = output.scene
+    stamp = _time(start)
+    start_state = output.result.states[0] if output.result.states else scene.initial_state()
+    if joint_state is None:
+        joint_state = configuration_to_joint_state(start_state.q, scene.robot.joint_names,
+                                                   stamp)
+    if object_poses is None:
+        object_poses = objects_to_pose_array(start_state.objects, frame, _centre_heights(scene),
+                                             stamp)
+    if goal is None:
+        goal = goal_to_pose_stamped(scene.goal.position, frame, scene.table.height, stamp)
+    messages: list[tuple] = [
+        (TOPICS["joint_state"], "sensor_msgs/msg/JointState", joint_state, start, "sensor"),
+        (TOPICS["object_poses"], "geometry_msgs/msg/PoseArray", object_poses, start,
+         "reliable"),
+        (TOPICS["goal"], "geometry_msgs/msg/PoseStamped", goal, start, "reliable"),
+    ]
+    object_paths = ee_path = None
+    trajectory = output.trajectory
+    if trajectory is not None:
+        trajectory_msg = trajectory_to_msg(trajectory)
+        messages.append((TOPICS["trajectory"], "trajectory_msgs/msg/JointTrajectory",
+                         trajectory_msg, start, "transient_local"))
+        heights = _centre_heights(scene)
+        for point, state in zip(trajectory_msg.points, output.trajectory_states, strict=True):
+            t = start + _nanoseconds(point.time_from_start)
+            messages.append((TOPICS["predicted_object_poses"], "geometry_msgs/msg/PoseArray",
+                             objects_to_pose_array(state.objects, frame, heights, _time(t)),
+                             t, "reliable"))
+        object_paths = np.array([state.objects for state in output.trajectory_states])
+        ee_path = np.array([scene.robot.tool_pose(q)[:3, 3] for q in trajectory.positions])
+    messages.append((TOPICS["markers"], "visualization_msgs/msg/MarkerArray",
+                     plan_markers(scene, object_paths, ee_path, frame, stamp), start,
+                     "reliable"))
+    return messages
+
+
+def plan_metadata(output: PlanOutput, plan_id: str, parameters: Mapping[str, Any]
+                  ) -> dict[str, str]:
+    """The "rearrangement_plan" metadata record: every value a string, the structured ones as
+    JSON (parameters, statistics) or YAML (scene)."""
+    result = output.result
+    statistics = output.to_dict()
+    statistics.pop("trajectory", None)
+    return {
+        "plan_id": str(plan_id),
+        "planner": output.planner,
+        "seed": str(result.seed),
+        "outcome": result.outcome.value,
+        "message": result.message,
+        "parameters": _json(parameters),
+        "scene": yaml.safe_dump(_jsonable(output.scene.to_dict()), sort_keys=False),
+        "statistics": _json(statistics),
+    }
+
+
+def _json(value: Any) -> str:
+    return json.dumps(_jsonable(value), sort_keys=True, allow_nan=False)
+
+
+def _jsonable(value: Any) -> Any:
+    """`value` with numpy values as Python ones, paths as strings and non-finite floats as the
+    strings "inf", "-inf", "nan" (strict JSON has no such numbers)."""
+    if isinstance(value, Mapping):
+        return {str(k): _jsonable(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple, np.ndarray)):
+        return [_jsonable(v) for v in value]
+    if isinstance(value, np.generic):
+        value = value.item()
+    if isinstance(value, float) and not math.isfinite(value):
+        return str(value)
+    if isinstance(value, os.PathLike):
+        return os.fspath(value)
+    return value
+
+
+def _centre_heights(scene: Scene) -> np.ndarray:
+    """z (m) of every object's centre: the prisms stand on the table top."""
+    return np.array([scene.table.height + 0.5 * o.height for o in scene.objects])
+
+
+def _time(ns: int) -> Time:
+    return Time(sec=ns // 1_000_000_000, nanosec=ns % 1_000_000_000)
+
+
+def _nanoseconds(d: Duration) -> int:
+    return d.sec * 1_000_000_000 + d.nanosec
