@@ -7,7 +7,6 @@ import array
 import importlib
 import json
 import math
-import os
 import subprocess
 import sys
 import time
@@ -429,22 +428,10 @@ def test_path_under_a_file_is_a_recording_error(solved, tmp_path):
         McapRecorder(tmp_path)   # a directory
 
 
-@pytest.mark.skipif(not Path("/dev/full").exists(), reason="needs /dev/full")
 def test_full_disk_is_a_recording_error(solved):
     output, _ = solved
     with pytest.raises(RecordingError, match="/dev/full.*No space left"):
         record_plan("/dev/full", output, plan_id="p", parameters={}, planning_frame=FRAME)
-
-
-@pytest.mark.skipif(os.geteuid() == 0, reason="root may write into a read-only directory")
-def test_read_only_directory_is_a_recording_error(tmp_path):
-    directory = tmp_path / "ro"
-    directory.mkdir(mode=0o500)
-    try:
-        with pytest.raises(RecordingError, match=f"{directory}.*ermission denied"):
-            McapRecorder(directory / "p.mcap")
-    finally:
-        directory.chmod(0o700)
 
 
 def test_core_recorder_needs_no_ros_python_packages(tmp_path):
