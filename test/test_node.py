@@ -1,0 +1,485 @@
+"""planner_node over DDS (DESIGN §4): real rclpy nodes, inputs published like a robot would.
+
+One PlannerNode on the `easy_push` scene runs in a MultiThreadedExecutor thread; a separate
+client node publishes the joint state and object poses at 20 Hz, subscribes to the outputs and
+calls the services. Isolated from other runs: localhost discovery and a domain id from the pid.
+"""
+
+from __future__ import annotations
+
+import copy
+import dataclasses
+import os
+import re
+import threading
+import time
+from pathlib import Path
+
+os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
+DOMAIN_ID = 10 + os.getpid() % 150
+
+import numpy as np  # noqa: E402
+import pytest  # noqa: E402
+import rclpy  # noqa: E402
+import yaml  # noqa: E402
+from diagnostic_msgs.msg import DiagnosticArray  # noqa: E402
+from geometry_msgs.msg import PoseArray, PoseStamped, Quaternion  # noqa: E402
+from rclpy.context import Context  # noqa: E402
+from rclpy.executors import MultiThreadedExecutor, SingleThreadedExecutor  # noqa: E402
+from rclpy.node import Node  # noqa: E402
+from rclpy.parameter import Parameter  # noqa: E402
+from rclpy.parameter_client import AsyncParameterClient  # noqa: E402
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy  # noqa: E402
+from sensor_msgs.msg import JointState  # noqa: E402
+from std_srvs.srv import Trigger  # noqa: E402
+from trajectory_msgs.msg import JointTrajectory  # noqa: E402
+from visualization_msgs.msg import MarkerArray  # noqa: E402
+
+from msg_adapters import (  # noqa: E402
+    configuration_to_joint_state,
+    diagnostics_to_status,
+    goal_to_pose_stamped,
+    msg_to_trajectory,
+    objects_to_pose_array,
+)
+from rearrangement_planner import node as node_module  # noqa: E402
+from rearrangement_planner.node import DEFAULTS, EXECUTOR_THREADS, PARAMETERS, PlannerNode  # noqa: E402
+from rearrangement_planner.physics import Physics  # noqa: E402
+from rearrangement_planner.planner import PlannerOptions  # noqa: E402
+from rearrangement_planner.propagation import replay  # noqa: E402
+from rearrangement_planner.resources import config_dir  # noqa: E402
+from rearrangement_planner.scene import load_scene  # noqa: E402
+from rearrangement_planner.state import State  # noqa: E402
+
+FRAME = "panda_link0"
+NS = "/planner_node"
+SUMMARY = re.compile(r"^plan (\S+): ([A-Z_]+) in ([\d.]+) s, (\d+) iterations, mcap (.+)$")
+
+
+class Client:
+    """The test's side: a node publishing inputs at 20 Hz and recording every output."""
+
+    def __init__(self, context: Context, scene):
+        self.node = Node("planner_test_client", context=context)
+        self.scene = scene
+        names = scene.robot.joint_names
+        self.good_joint_state = configuration_to_joint_state(scene.start_configuration, names)
+        self.good_objects = objects_to_pose_array(scene.object_poses, FRAME)
+        self.joint_state: JointState | None = self.good_joint_state
+        self.objects: PoseArray | None = self.good_objects
+        n = self.node
+        self.joint_pub = n.create_publisher(JointState, "/joint_states", 10)
+        self.objects_pub = n.create_publisher(PoseArray, f"{NS}/object_poses", 10)
+        self.goal_pub = n.create_publisher(PoseStamped, f"{NS}/goal", 10)
+        self.lock = threading.Lock()
+        self.statuses: list[tuple[float, object]] = []
+        self.commands: list[JointTrajectory] = []
+        n.create_subscription(DiagnosticArray, f"{NS}/status", self._on_status, 50)
+        n.create_subscription(JointTrajectory, "/joint_trajectory", self._on_command, 10)
+        self.clients = {name: n.create_client(Trigger, f"{NS}/{name}")
+                        for name in ("plan", "cancel", "execute")}
+        self.parameters = AsyncParameterClient(n, "planner_node")
+        n.create_timer(0.05, self._publish_inputs)
+
+    def _publish_inputs(self) -> None:
+        if self.joint_state is not None:
+            self.joint_pub.publish(self.joint_state)
+        if self.objects is not None:
+            self.objects_pub.publish(self.objects)
+
+    def _on_status(self, msg: DiagnosticArray) -> None:
+        with self.lock:
+            self.statuses.append((time.monotonic(), diagnostics_to_status(msg)))
+
+    def _on_command(self, msg: JointTrajectory) -> None:
+        with self.lock:
+            self.commands.append(msg)
+
+    # -- calls ----------------------------------------------------------------------------------
+
+    def call_async(self, service: str):
+        client = self.clients[service]
+        assert client.wait_for_service(timeout_sec=10.0), f"{NS}/{service} not available"
+        return client.call_async(Trigger.Request())
+
+    def call(self, service: str, timeout: float = 30.0) -> Trigger.Response:
+        future = self.call_async(service)
+        assert wait_until(future.done, timeout), f"{NS}/{service} did not answer in {timeout} s"
+        return future.result()
+
+    def set(self, **values) -> None:
+        """Set planner_node parameters; every set must succeed."""
+        assert self.parameters.wait_for_services(timeout_sec=10.0)
+        params = [Parameter(k, Parameter.Type.STRING_ARRAY, v) if isinstance(v, list)
+                  else Parameter(k, value=v) for k, v in values.items()]
+        future = self.parameters.set_parameters(params)
+        assert wait_until(future.done, 10.0)
+        results = future.result().results
+        assert all(r.successful for r in results), [r.reason for r in results]
+
+    def try_set(self, name: str, value) -> tuple[bool, str]:
+        future = self.parameters.set_parameters([Parameter(name, value=value)])
+        assert wait_until(future.done, 10.0)
+        result = future.result().results[0]
+        return result.successful, result.reason
+
+    def publish_goal(self, msg: PoseStamped) -> None:
+        assert wait_until(lambda: self.goal_pub.get_subscription_count() > 0, 10.0)
+        self.goal_pub.publish(msg)
+
+    def statuses_since(self, t0: float) -> list:
+        with self.lock:
+            return [(t, s) for t, s in self.statuses if t >= t0]
+
+    def wait_status(self, t0: float, predicate, timeout: float = 10.0):
+        """The first status received after t0 that satisfies `predicate`."""
+        found: list = []
+
+        def check() -> bool:
+            found[:] = [s for _, s in self.statuses_since(t0) if predicate(s)]
+            return bool(found)
+
+        assert wait_until(check, timeout), \
+            f"no such status; got {[s.message for _, s in self.statuses_since(t0)][-5:]}"
+        return found[0]
+
+    def wait_inputs_flowing(self) -> None:
+        """Let the 20 Hz input publishers reach the planner (state_timeout is generous)."""
+        assert wait_until(lambda: self.joint_pub.get_subscription_count() > 0
+                          and self.objects_pub.get_subscription_count() > 0, 10.0)
+        time.sleep(0.25)
+
+
+def wait_until(predicate, timeout: float, period: float = 0.01) -> bool:
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if predicate():
+            return True
+        time.sleep(period)
+    return bool(predicate())
+
+
+def parse_summary(message: str) -> tuple[str, str, float, int, str]:
+    match = SUMMARY.match(message.split("; ")[0])
+    assert match, f"summary does not match the contract: {message!r}"
+    plan_id, outcome, t, n, mcap = match.groups()
+    return plan_id, outcome, float(t), int(n), mcap
+
+
+@pytest.fixture(scope="module")
+def ros(tmp_path_factory):
+    context = Context()
+    rclpy.init(context=context, domain_id=DOMAIN_ID)
+    record_dir = tmp_path_factory.mktemp("plans")
+    planner = PlannerNode(context=context, parameter_overrides=[
+        Parameter("scene", value="easy_push"), Parameter("record_dir", value=str(record_dir)),
+        Parameter("time_limit", value=20.0), Parameter("state_timeout", value=5.0)])
+    executor = MultiThreadedExecutor(num_threads=EXECUTOR_THREADS, context=context)
+    executor.add_node(planner)
+    scene = load_scene("easy_push")
+    client = Client(context, scene)
+    client_executor = SingleThreadedExecutor(context=context)
+    client_executor.add_node(client.node)
+    threads = [threading.Thread(target=e.spin, daemon=True) for e in (executor, client_executor)]
+    for thread in threads:
+        thread.start()
+    client.wait_inputs_flowing()
+    yield {"context": context, "planner": planner, "client": client, "scene": scene,
+           "record_dir": record_dir, "executor": executor}
+    planner.stop()
+    executor.shutdown()
+    client_executor.shutdown()
+    planner.destroy_node()
+    client.node.destroy_node()
+    rclpy.shutdown(context=context)
+    for thread in threads:
+        thread.join(timeout=5.0)
+
+
+def check_controller_contract(msg: JointTrajectory, joint_names) -> None:
+    """What joint_trajectory_controller checks before it accepts a trajectory."""
+    assert list(msg.joint_names) == list(joint_names)
+    assert msg.header.stamp.sec == 0 and msg.header.stamp.nanosec == 0
+    assert len(msg.points) >= 2
+    times = [p.time_from_start.sec + p.time_from_start.nanosec * 1e-9 for p in msg.points]
+    assert times[0] == 0.0 and all(b > a for a, b in zip(times, times[1:], strict=False))
+    for point in msg.points:
+        assert len(point.positions) == 7 and len(point.velocities) == 7
+        assert np.all(np.isfinite(point.positions)) and np.all(np.isfinite(point.velocities))
+    assert np.allclose(msg.points[-1].velocities, 0.0)
+
+
+# --------------------------------------------------------------------------------------------
+
+
+def test_parameters_declared_once_with_descriptions_and_yaml_defaults(ros):
+    planner = ros["planner"]
+    names = [p.name for p in PARAMETERS]
+    assert len(names) == len(set(names))
+    for required in ("scene", "robot_description", "object_ids", "goal_object", "goal_radius",
+                     "planning_frame", "seed", "time_limit", "planner", "shortcut_time",
+                     "max_tool_speed", "record_dir", "record", "auto_execute", "plan_on_goal",
+                     "state_timeout", "max_iterations", "k_actions", "dt", "max_speed",
+                     "max_yaw_rate", "min_duration", "max_duration", "nullspace_speed",
+                     "sampler", "goal_bias", "arm_weight", "object_weight", "goal_weight",
+                     "progress_period"):
+        assert planner.has_parameter(required), required
+    for descriptor, spec in zip(planner.describe_parameters(names), PARAMETERS, strict=True):
+        assert descriptor.description, spec.name
+        numeric = isinstance(spec.default, (int, float)) and not isinstance(spec.default, bool)
+        assert bool(descriptor.floating_point_range or descriptor.integer_range) == numeric
+        assert descriptor.read_only == (spec.name in ("scene", "robot_description"))
+    for field in dataclasses.fields(PlannerOptions):       # every planner option, same default
+        assert field.name in DEFAULTS, f"PlannerOptions.{field.name} is no node parameter"
+        if field.name != "progress_period":                # the node reports at 4 Hz
+            assert DEFAULTS[field.name] == field.default, field.name
+    data = yaml.safe_load((config_dir() / "planner.yaml").read_text())
+    file_defaults = data["planner_node"]["ros__parameters"]
+    assert file_defaults == {k: list(v) if isinstance(v, tuple) else v
+                             for k, v in DEFAULTS.items()}
+    client = ros["client"]
+    assert client.try_set("scene", "clutter")[0] is False          # read-only
+    assert client.try_set("k_actions", 0)[0] is False              # out of range
+    assert client.try_set("time_limit", "long")[0] is False        # wrong type
+
+
+def test_plan_succeeds_publishes_records_and_executes(ros):
+    client, scene = ros["client"], ros["scene"]
+    client.wait_inputs_flowing()
+    t0 = time.monotonic()
+    response = client.call("plan")
+    answered = time.monotonic() - t0
+    assert response.success, response.message
+    plan_id, outcome, plan_time, iterations, mcap = parse_summary(response.message)
+    assert outcome == "SUCCEEDED" and iterations > 0
+    assert Path(mcap).is_file() and Path(mcap).parent == ros["record_dir"]
+    assert Path(mcap).name == f"{plan_id}.mcap"
+    overhead = answered - plan_time
+    print(f"\n~/plan answered {answered:.3f} s after the request; planning {plan_time:.3f} s; "
+          f"overhead {overhead:.3f} s")
+    assert overhead < 3.0
+
+    # A late subscriber still gets the plan (transient local, depth 1).
+    received: list[JointTrajectory] = []
+    latched = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
+                         durability=DurabilityPolicy.TRANSIENT_LOCAL)
+    sub = client.node.create_subscription(JointTrajectory, f"{NS}/trajectory", received.append,
+                                          latched)
+    markers: list[MarkerArray] = []
+    markers_sub = client.node.create_subscription(MarkerArray, f"{NS}/markers", markers.append,
+                                                  latched)
+    try:
+        assert wait_until(lambda: received and markers, 10.0)
+    finally:
+        client.node.destroy_subscription(sub)
+        client.node.destroy_subscription(markers_sub)
+    msg = received[0]
+    check_controller_contract(msg, scene.robot.joint_names)
+    assert {m.ns for m in markers[0].markers} >= {"ee_path", "object_paths", "goal"}
+
+    # The trajectory, replayed through the physics from the published start, reaches the goal.
+    trajectory = msg_to_trajectory(msg)
+    start = State(scene.start_configuration, scene.object_poses)
+    assert np.allclose(trajectory.positions[0], start.q, atol=1e-9)
+    states, problem = replay(Physics(scene), start, trajectory.positions)
+    assert problem == ""
+    assert scene.goal.reached(states[-1].objects[scene.goal_index, :2])
+
+    final = client.wait_status(t0, lambda s: s.plan_id == plan_id and s.finished)
+    assert final.state == "succeeded" and final.outcome == "SUCCEEDED"
+
+    # ~/execute sends that plan to the controller topic.
+    with client.lock:
+        client.commands.clear()
+    executed = client.call("execute", timeout=10.0)
+    assert executed.success, executed.message
+    assert wait_until(lambda: client.commands, 5.0)
+    assert client.commands[0].points[-1].positions == msg.points[-1].positions
+
+
+def test_plan_on_goal_plans_when_a_goal_arrives(ros):
+    client, scene = ros["client"], ros["scene"]
+    client.wait_inputs_flowing()
+    client.set(plan_on_goal=True)
+    try:
+        t0 = time.monotonic()
+        client.publish_goal(goal_to_pose_stamped([2.0, 0.0], FRAME))      # off the table
+        invalid = client.wait_status(t0, lambda s: s.finished)
+        assert invalid.outcome == "GOAL_INVALID" and "goal.position" in invalid.message
+        t1 = time.monotonic()
+        client.publish_goal(goal_to_pose_stamped(scene.goal.position, FRAME))
+        solved = client.wait_status(t1, lambda s: s.finished, timeout=30.0)
+        assert solved.outcome == "SUCCEEDED", solved.message
+        assert solved.plan_id != invalid.plan_id
+    finally:
+        client.set(plan_on_goal=False)
+
+
+def test_busy_refusal_progress_and_cancel_within_200ms(ros):
+    client, scene = ros["client"], ros["scene"]
+    client.wait_inputs_flowing()
+    # A goal on the table far beyond a few seconds of planning: the plan keeps running.
+    client.set(goal_radius=0.01, time_limit=20.0)
+    client.publish_goal(goal_to_pose_stamped([0.93, 0.58], FRAME))
+    time.sleep(0.2)
+    try:
+        t0 = time.monotonic()
+        first = client.call_async("plan")
+        client.wait_status(t0, lambda s: s.state == "planning" and s.iterations > 0)
+        t_refuse = time.monotonic()
+        refused = client.call("plan", timeout=5.0)
+        assert time.monotonic() - t_refuse < 1.0
+        assert not refused.success and "busy" in refused.message
+        time.sleep(1.2)
+        planning = [(t, s) for t, s in client.statuses_since(t0) if s.state == "planning"]
+        span = planning[-1][0] - planning[0][0]
+        assert span > 0.8 and (len(planning) - 1) / span >= 2.0, (len(planning), span)
+        iterations = [s.iterations for _, s in planning]
+        assert iterations == sorted(iterations) and iterations[-1] > iterations[0]
+        assert not first.done()
+
+        t_cancel = time.monotonic()
+        cancelled = client.call("cancel", timeout=5.0)
+        cancel_latency = time.monotonic() - t_cancel
+        assert cancelled.success, cancelled.message
+        assert wait_until(first.done, 10.0)
+        answer = first.result()
+        assert not answer.success and parse_summary(answer.message)[1] == "CANCELLED"
+        print(f"\n~/cancel answered {cancel_latency * 1e3:.0f} ms after the request "
+              f"({cancelled.message})")
+        assert cancel_latency < 0.2
+        status = client.wait_status(t_cancel, lambda s: s.finished)
+        assert status.state == "cancelled"
+    finally:
+        client.set(goal_radius=0.0)
+        client.publish_goal(goal_to_pose_stamped(scene.goal.position, FRAME))
+        time.sleep(0.2)
+    assert client.call("cancel", timeout=5.0).success is False   # nothing running
+
+
+def _tilted(objects: PoseArray) -> PoseArray:
+    msg = copy.deepcopy(objects)
+    msg.poses[0].orientation = Quaternion(x=float(np.sin(0.15)), w=float(np.cos(0.15)))
+    return msg                                               # tilted 0.3 rad about x
+
+
+def test_bad_inputs_are_reported_and_the_node_keeps_serving(ros):
+    client, scene = ros["client"], ros["scene"]
+    good_q = list(client.good_joint_state.position)
+    names = list(client.good_joint_state.name)
+    nan_q = list(good_q)
+    nan_q[2] = float("nan")
+    bad_cases = [
+        ("joint_state", JointState(name=names[:6], position=good_q[:6]), "joint_states.name"),
+        ("joint_state", JointState(name=names, position=nan_q),
+         "joint_states.position[panda_joint3]"),
+        ("objects", PoseArray(header=client.good_objects.header, poses=[]),
+         "object_poses.poses"),
+        ("objects", objects_to_pose_array(scene.object_poses, "world"),
+         "object_poses.header.frame_id"),
+        ("objects", _tilted(client.good_objects), "object_poses.poses[0].orientation"),
+    ]
+    try:
+        for kind, msg, field in bad_cases:
+            t0 = time.monotonic()
+            setattr(client, kind if kind == "objects" else "joint_state", msg)
+            status = client.wait_status(t0, lambda s, f=field: f in s.message)
+            assert "rejected" in status.message
+            client.joint_state, client.objects = client.good_joint_state, client.good_objects
+        t0 = time.monotonic()
+        client.publish_goal(goal_to_pose_stamped(scene.goal.position, "world"))
+        client.wait_status(t0, lambda s: "goal.header.frame_id" in s.message)
+
+        # Objects off the table: the start state is invalid (the object is named).
+        off = scene.object_poses
+        off[0, 0] = 2.0
+        client.objects = objects_to_pose_array(off, FRAME)
+        time.sleep(0.3)
+        response = client.call("plan")
+        assert not response.success
+        assert parse_summary(response.message)[1] == "START_INVALID"
+        assert "objects[0].pose" in response.message
+        client.objects = client.good_objects
+
+        # An invalid parameter combination is named.
+        client.set(min_duration=3.0)
+        try:
+            response = client.call("plan")
+        finally:
+            client.set(min_duration=0.5)
+        assert parse_summary(response.message)[1] == "INVALID_INPUT"
+        assert "min_duration" in response.message
+
+        # Stale state: the publishers stop.
+        client.set(state_timeout=0.3)
+        client.joint_state = None
+        time.sleep(0.6)
+        response = client.call("plan")
+        assert not response.success and parse_summary(response.message)[1] == "NO_STATE"
+        assert "joint state" in response.message and "old" in response.message
+    finally:
+        client.joint_state, client.objects = client.good_joint_state, client.good_objects
+        client.set(state_timeout=5.0)
+    client.wait_inputs_flowing()
+    response = client.call("plan")
+    assert response.success, response.message
+
+
+def test_unwritable_record_dir_keeps_the_plan_and_reports(ros, tmp_path):
+    client = ros["client"]
+    blocker = tmp_path / "a_file"
+    blocker.write_text("not a folder")
+    client.set(record_dir=str(blocker / "plans"))   # mkdir fails even for root
+    try:
+        client.wait_inputs_flowing()
+        t0 = time.monotonic()
+        response = client.call("plan")
+    finally:
+        client.set(record_dir=str(ros["record_dir"]))
+    assert response.success, response.message
+    plan_id, outcome, _, _, mcap = parse_summary(response.message)
+    assert outcome == "SUCCEEDED" and mcap.startswith("not recorded:")
+    client.wait_status(t0, lambda s: "recording" in s.message and "failed" in s.message)
+    final = client.wait_status(t0, lambda s: s.plan_id == plan_id and s.finished)
+    assert final.state == "succeeded" and "not recorded" in final.message
+
+
+def test_unexpected_error_is_internal_and_the_node_keeps_serving(ros, monkeypatch):
+    client = ros["client"]
+
+    def broken(*args, **kwargs):
+        raise RuntimeError("simulated planner bug")
+
+    monkeypatch.setattr(node_module, "plan_scene", broken)
+    client.wait_inputs_flowing()
+    response = client.call("plan")
+    assert not response.success
+    assert parse_summary(response.message)[1] == "INTERNAL"
+    assert "simulated planner bug" in response.message
+    monkeypatch.undo()
+    assert ros["planner"]._worker.is_alive()
+
+
+def test_fresh_node_without_state_says_no_state(ros):
+    """A second planner (own namespace) that has received nothing yet."""
+    context, client = ros["context"], ros["client"]
+    fresh = PlannerNode(context=context, namespace="fresh", parameter_overrides=[
+        Parameter("scene", value="easy_push"), Parameter("record", value=False)])
+    ros["executor"].add_node(fresh)
+    try:
+        calls = {name: client.node.create_client(Trigger, f"/fresh{NS}/{name}")
+                 for name in ("plan", "execute")}
+        for c in calls.values():
+            assert c.wait_for_service(timeout_sec=10.0)
+        future = calls["plan"].call_async(Trigger.Request())
+        assert wait_until(future.done, 10.0)
+        response = future.result()
+        assert not response.success
+        assert parse_summary(response.message)[1] == "NO_STATE"
+        assert "no joint state" in response.message and "/fresh/joint_states" in response.message
+        future = calls["execute"].call_async(Trigger.Request())
+        assert wait_until(future.done, 10.0)
+        assert not future.result().success and "no successful plan" in future.result().message
+    finally:
+        ros["executor"].remove_node(fresh)
+        fresh.destroy_node()
