@@ -24,8 +24,7 @@ $(STAMP): requirements.txt constraints.txt setup.py setup.cfg package.xml
 
 demo: $(STAMP)
 	mkdir -p out
-	$(VENV)/bin/rearrangement-plan config/scenes/default.yaml --seed 0 --time-limit 60 --json out/default.json --plot out/default.png
-	@echo "plan: out/default.json   top view: out/default.png"
+	$(PY) -m rearrangement_planner.node_demo --scene default --seed 0 --time-limit 60 --record-dir out --plot out/default.png
 
 test: $(STAMP)
 	$(PY) -m pytest -q test

@@ -66,7 +66,7 @@ def main(argv: list[str] | None = None) -> int:
     context = Context()
     rclpy.init(context=context)
     executor = MultiThreadedExecutor(num_threads=EXECUTOR_THREADS, context=context)
-    planner = demo = None
+    planner = demo = spinner = None
     try:
         planner = PlannerNode(context=context, parameter_overrides=[
             Parameter("scene", value=args.scene), Parameter("seed", value=args.seed),
@@ -75,7 +75,8 @@ def main(argv: list[str] | None = None) -> int:
         demo = Node("planner_demo", context=context)
         executor.add_node(planner)
         executor.add_node(demo)
-        threading.Thread(target=executor.spin, daemon=True).start()
+        spinner = threading.Thread(target=executor.spin, daemon=True)
+        spinner.start()
         return _run(demo, planner, scene, args, plot_path)
     except RearrangementError as exc:
         print(f"node_demo: {exc}", file=sys.stderr)
@@ -84,6 +85,8 @@ def main(argv: list[str] | None = None) -> int:
         if planner is not None:
             planner.stop()
         executor.shutdown()
+        if spinner is not None:
+            spinner.join(timeout=5.0)
         for node in (planner, demo):
             if node is not None:
                 node.destroy_node()

@@ -31,7 +31,7 @@ import numpy as np
 
 from .approach import approach_path
 from .physics import Physics
-from .propagation import Action, constrained_prop
+from .propagation import Action, constrained_prop, push_policy_prop
 from .scene import Scene
 from .state import State
 
@@ -80,12 +80,24 @@ class PlannerOptions:
     """w_i of the metric for the goal object, per m."""
     progress_period: float = 0.5
     """Seconds between progress callbacks."""
+    push_bias: float = 0.0
+    """Probability that an iteration replaces one of its k random actions by a closed-loop
+    push (`propagation.push_policy_prop`) of one object towards its sampled position: the goal
+    object with probability `push_goal_share`, else a random other object. 0 = the paper's
+    PC-RRT."""
+    push_goal_share: float = 0.5
+    """Share of push-bias pushes aimed at the goal object."""
+    push_steps: int = 30
+    """Longest closed-loop push, in steps of dt."""
 
     def __post_init__(self) -> None:
         if self.sampler not in ("uniform", "tool"):
             raise ValueError(f"sampler must be 'uniform' or 'tool', not {self.sampler!r}")
-        if not 0.0 <= self.goal_bias <= 1.0:
-            raise ValueError(f"goal_bias must be in [0, 1], not {self.goal_bias}")
+        for name in ("goal_bias", "push_bias", "push_goal_share"):
+            if not 0.0 <= getattr(self, name) <= 1.0:
+                raise ValueError(f"{name} must be in [0, 1], not {getattr(self, name)}")
+        if self.push_steps < 1:
+            raise ValueError(f"push_steps must be >= 1, not {self.push_steps}")
         if not 0 < self.min_duration <= self.max_duration:
             raise ValueError("need 0 < min_duration <= max_duration")
         if self.k_actions < 1 or self.dt <= 0 or self.time_limit <= 0:
@@ -220,9 +232,13 @@ class PCRRT:
             near = self._nearest(tree, sample_arm, sample_objects)
             x_near = State(tree.q[near], tree.objects[near])
             chosen, chosen_cost = None, math.inf
-            for _ in range(opts.k_actions):
-                result = constrained_prop(self.physics, x_near, self._sample_action(rng),
-                                          opts.dt, stop)
+            policy = opts.push_bias > 0 and rng.random() < opts.push_bias
+            for k in range(opts.k_actions):
+                if policy and k == 0:
+                    result = self._policy_push(x_near, sample_objects, rng, stop)
+                else:
+                    result = constrained_prop(self.physics, x_near, self._sample_action(rng),
+                                              opts.dt, stop)
                 steps += len(result.states)
                 if not result.states:
                     continue
@@ -317,6 +333,23 @@ class PCRRT:
         duration = max(1, round(duration / opts.dt)) * opts.dt
         nullspace = rng.uniform(-opts.nullspace_speed, opts.nullspace_speed, self.robot.nq)
         return Action(velocity, duration, nullspace)
+
+    def _policy_push(self, x_near: State, sample_objects: np.ndarray, rng: np.random.Generator,
+                     stop: Callable[[State], str | None]):
+        """The push-bias action: push one object towards its position in the sample."""
+        opts = self.options
+        g = self.scene.goal_index
+        m = len(self.scene.objects)
+        movable = np.flatnonzero(self._weights > 0)
+        if m == 1 or rng.random() < opts.push_goal_share or movable.size <= 1:
+            obj = g
+        else:
+            others = movable[movable != g]
+            obj = int(others[rng.integers(others.size)])
+        nullspace = rng.uniform(-opts.nullspace_speed, opts.nullspace_speed, self.robot.nq)
+        return push_policy_prop(self.physics, x_near, obj, sample_objects[obj, :2],
+                                opts.push_steps, opts.dt, opts.max_speed, opts.max_yaw_rate,
+                                nullspace, stop)
 
     def _failure(self, outcome: Outcome, message: str, seed: int, tree: _Tree, iterations: int,
                  steps: int, t0: float, best: float) -> PlanResult:

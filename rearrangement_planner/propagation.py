@@ -17,13 +17,14 @@ function, so stepping it along the stored configurations reproduces the object p
 from __future__ import annotations
 
 from collections.abc import Callable
+import math
 from dataclasses import dataclass
 
 import numpy as np
 
-from .manifold import project_step
+from .manifold import project_step, tool_planar_pose
 from .physics import Invalid, Physics
-from .state import State
+from .state import State, wrap_angle
 
 
 @dataclass(frozen=True)
@@ -86,3 +87,63 @@ def replay(physics: Physics, start: State, arm_path: np.ndarray) -> tuple[list[S
         x = result.state
         states.append(x)
     return states, ""
+
+
+def push_policy_prop(physics: Physics, state: State, obj: int, target: np.ndarray,
+                     max_steps: int, dt: float, speed: float, yaw_rate: float,
+                     nullspace: np.ndarray,
+                     stop: Callable[[State], str | None] | None = None) -> Propagation:
+    """A feedback push towards `target` (x, y) for object `obj`, propagated exactly like an
+    action of Algorithm 2 (every step through Project and the physics; valid prefix kept).
+
+    The planner's "push bias" (`PlannerOptions.push_bias`): a closed-loop action in the spirit
+    of the pushing policy of Haustein et al. (002, §IV) but analytic: bring the tool behind the
+    object on the line through the object and the target (going around the object when the
+    tool is on the wrong side), face the fingers along the push, then push along the line with
+    a lateral correction. Whatever else the arm meets on the way is pushed by the physics."""
+    robot, table_height = physics.robot, physics.scene.table.height
+    radius = physics.scene.objects[obj].footprint_radius
+    states: list[State] = []
+    links: set[str] = set()
+    x = state
+    stopped: Invalid | str | None = None
+    for _ in range(max_steps):
+        tool = tool_planar_pose(robot, x.q)
+        centre = x.objects[obj, :2]
+        to_target = np.asarray(target, dtype=float) - centre
+        distance = float(np.hypot(*to_target))
+        if distance < 0.01:
+            break
+        u = to_target / distance
+        perp = np.array([-u[1], u[0]])
+        rel = tool[:2] - centre
+        along, across = float(rel @ u), float(rel @ perp)
+        behind = centre - u * (radius + 0.02)
+        if along > -radius and abs(across) < radius + 0.04:
+            # On the wrong side or beside the object: go round it, on the tool's side.
+            side = 1.0 if across >= 0 else -1.0
+            waypoint = centre + perp * side * (radius + 0.07) - u * (radius + 0.02)
+            v = waypoint - tool[:2]
+        elif float(np.hypot(*(tool[:2] - behind))) > 0.015 and along < -radius - 0.005:
+            v = behind - tool[:2]
+            v += -across * perp   # line up with the object first
+        else:
+            v = u * speed - 2.0 * across * perp
+        norm = float(np.hypot(*v))
+        v = v * (speed / norm) if norm > speed else v
+        yaw_error = float(wrap_angle(math.atan2(u[1], u[0]) - tool[2]))
+        w = float(np.clip(2.0 * yaw_error, -yaw_rate, yaw_rate))
+        q_new = project_step(robot, x.q, np.array([v[0], v[1], w]), dt, table_height,
+                             nullspace_velocity=nullspace)
+        result = physics.step(x, q_new)
+        if not result.valid:
+            stopped = result.reason
+            break
+        x = result.state
+        states.append(x)
+        links |= result.pushing_links
+        if stop is not None:
+            stopped = stop(x)
+            if stopped is not None:
+                break
+    return Propagation(tuple(states), len(states) * dt, stopped, frozenset(links))
