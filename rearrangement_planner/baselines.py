@@ -38,6 +38,7 @@ import numpy as np
 from .manifold import ik_on_manifold, project_step, tool_planar_pose
 from .physics import Physics
 from .planner import PCRRT, Outcome, PlannerOptions, PlanResult, Progress
+from .propagation import support_distance
 from .scene import Scene
 from .state import State
 
@@ -248,13 +249,7 @@ class DARRT:
         return q
 
     def _extent(self, obj: int, pose: np.ndarray, u: np.ndarray) -> float:
-        """Support distance of the object's footprint from its centre along unit vector u."""
-        o = self.scene.objects[obj]
-        if o.shape == "cylinder":
-            return float(o.radius)
-        c, s = math.cos(pose[2]), math.sin(pose[2])
-        ux, uy = c * u[0] + s * u[1], -s * u[0] + c * u[1]
-        return 0.5 * (abs(ux) * float(o.size[0]) + abs(uy) * float(o.size[1]))
+        return support_distance(self.scene.objects[obj], float(pose[2]), u)
 
     def _push(self, start: State, obj: int, direction: np.ndarray, length: float) -> list[State]:
         """The Push primitive: states while the tool carries the object `length` m along

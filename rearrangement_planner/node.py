@@ -160,8 +160,11 @@ PARAMETERS: tuple[ParameterSpec, ...] = (
     ParameterSpec("push_steps", 30, "Longest closed-loop push, in steps of dt.", 1, 10000),
     ParameterSpec("progress_period", 0.25, "Seconds between planner progress reports "
                   "(~/status shows them at 4 Hz).", 0.01, 0.5),
-    ParameterSpec("shortcut_time", 0.0, "Seconds of path shortcutting after a plan is found; "
-                  "0 = none.", 0.0, 600.0),
+    ParameterSpec("shortcut_time", 10.0, "Longest path shortcutting (King et al. §IV) after a "
+                  "plan is found, s; 0 = none.", 0.0, 600.0),
+    ParameterSpec("shortcut_attempts", 40, "Shortcut attempts (about 50 ms each); the attempt "
+                  "bound, when it ends shortcutting before shortcut_time, keeps plans "
+                  "reproducible. 0 = until shortcut_time.", 0, 100000),
     ParameterSpec("velocity_scale", 0.5, "Fraction of each joint's velocity limit the "
                   "trajectory may use.", 0.01, 1.0),
     ParameterSpec("max_tool_speed", 0.1, "Largest end-effector speed of the trajectory, m/s "
@@ -187,6 +190,7 @@ class PlanSettings:
     timing: TimingOptions
     seed: int
     shortcut_time: float
+    shortcut_attempts: int | None
 
 
 def plan_settings(params: dict[str, Any]) -> PlanSettings:
@@ -211,7 +215,8 @@ def plan_settings(params: dict[str, Any]) -> PlanSettings:
     except ValueError as exc:
         raise InputError("parameters", str(exc)) from None
     return PlanSettings(params["planner"], options, timing, int(params["seed"]),
-                        float(params["shortcut_time"]))
+                        float(params["shortcut_time"]),
+                        int(params["shortcut_attempts"]) or None)
 
 
 # --------------------------------------------------------------------------------------------
@@ -597,7 +602,8 @@ class PlannerNode(Node):
             scene = self._planning_scene(inputs, params)
             output = plan_scene(scene, settings.planner, settings.options, seed=settings.seed,
                                 cancel=job.cancel, progress=self._on_progress,
-                                shortcut_time=settings.shortcut_time, timing=settings.timing)
+                                shortcut_time=settings.shortcut_time, timing=settings.timing,
+                                shortcut_attempts=settings.shortcut_attempts)
             return output.result.outcome.value, output.result.message, scene, output, inputs
         except InputError as exc:
             outcome, message = Outcome.INVALID_INPUT.value, str(exc)

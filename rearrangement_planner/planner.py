@@ -348,8 +348,7 @@ class PCRRT:
             obj = int(others[rng.integers(others.size)])
         nullspace = rng.uniform(-opts.nullspace_speed, opts.nullspace_speed, self.robot.nq)
         return push_policy_prop(self.physics, x_near, obj, sample_objects[obj, :2],
-                                opts.push_steps, opts.dt, opts.max_speed, opts.max_yaw_rate,
-                                nullspace, stop)
+                                opts.push_steps, opts.dt, opts.max_speed, nullspace, stop)
 
     def _failure(self, outcome: Outcome, message: str, seed: int, tree: _Tree, iterations: int,
                  steps: int, t0: float, best: float) -> PlanResult:

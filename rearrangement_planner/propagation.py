@@ -16,15 +16,15 @@ function, so stepping it along the stored configurations reproduces the object p
 
 from __future__ import annotations
 
-from collections.abc import Callable
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 
 from .manifold import project_step, tool_planar_pose
 from .physics import Invalid, Physics
-from .state import State, wrap_angle
+from .state import State
 
 
 @dataclass(frozen=True)
@@ -89,8 +89,18 @@ def replay(physics: Physics, start: State, arm_path: np.ndarray) -> tuple[list[S
     return states, ""
 
 
+def support_distance(obj, yaw: float, u: np.ndarray) -> float:
+    """How far the footprint of `obj` (a scene MovableObject at heading `yaw`) reaches from its
+    centre along the unit vector u (the support function), m."""
+    if obj.shape == "cylinder":
+        return float(obj.radius)
+    c, s = math.cos(yaw), math.sin(yaw)
+    ux, uy = c * u[0] + s * u[1], -s * u[0] + c * u[1]
+    return 0.5 * (abs(ux) * float(obj.size[0]) + abs(uy) * float(obj.size[1]))
+
+
 def push_policy_prop(physics: Physics, state: State, obj: int, target: np.ndarray,
-                     max_steps: int, dt: float, speed: float, yaw_rate: float,
+                     max_steps: int, dt: float, speed: float,
                      nullspace: np.ndarray,
                      stop: Callable[[State], str | None] | None = None) -> Propagation:
     """A feedback push towards `target` (x, y) for object `obj`, propagated exactly like an
@@ -99,10 +109,11 @@ def push_policy_prop(physics: Physics, state: State, obj: int, target: np.ndarra
     The planner's "push bias" (`PlannerOptions.push_bias`): a closed-loop action in the spirit
     of the pushing policy of Haustein et al. (002, §IV) but analytic: bring the tool behind the
     object on the line through the object and the target (going around the object when the
-    tool is on the wrong side), face the fingers along the push, then push along the line with
-    a lateral correction. Whatever else the arm meets on the way is pushed by the physics."""
+    tool is on the wrong side), then push along the line with a lateral correction. The hand
+    keeps its yaw. Whatever else the arm meets on the way is pushed by the physics."""
     robot, table_height = physics.robot, physics.scene.table.height
-    radius = physics.scene.objects[obj].footprint_radius
+    shape = physics.scene.objects[obj]
+    radius = shape.footprint_radius
     states: list[State] = []
     links: set[str] = set()
     x = state
@@ -118,21 +129,23 @@ def push_policy_prop(physics: Physics, state: State, obj: int, target: np.ndarra
         perp = np.array([-u[1], u[0]])
         rel = tool[:2] - centre
         along, across = float(rel @ u), float(rel @ perp)
-        behind = centre - u * (radius + 0.02)
-        if along > -radius and abs(across) < radius + 0.04:
-            # On the wrong side or beside the object: go round it, on the tool's side.
-            side = 1.0 if across >= 0 else -1.0
-            waypoint = centre + perp * side * (radius + 0.07) - u * (radius + 0.02)
-            v = waypoint - tool[:2]
-        elif float(np.hypot(*(tool[:2] - behind))) > 0.015 and along < -radius - 0.005:
-            v = behind - tool[:2]
-            v += -across * perp   # line up with the object first
+        extent = support_distance(shape, x.objects[obj, 2], u)
+        behind = centre - u * (extent + 0.025)
+        if abs(across) <= 0.015 and -(extent + 0.06) <= along <= -extent:
+            v = u * speed - (0.5 / dt) * across * perp        # push, staying on the line
+        elif along > -extent - 0.005:
+            if abs(across) < radius + 0.04:
+                # Beside or in front of the object: go round it, on the tool's side.
+                side = 1.0 if across >= 0 else -1.0
+                v = (centre + perp * side * (radius + 0.07) - u * (extent + 0.03)
+                     - tool[:2]) / dt
+            else:
+                v = (behind - tool[:2]) / dt
         else:
-            v = u * speed - 2.0 * across * perp
+            v = (behind - tool[:2]) / dt
         norm = float(np.hypot(*v))
         v = v * (speed / norm) if norm > speed else v
-        yaw_error = float(wrap_angle(math.atan2(u[1], u[0]) - tool[2]))
-        w = float(np.clip(2.0 * yaw_error, -yaw_rate, yaw_rate))
+        w = 0.0   # the hand keeps its yaw: turning it to face the push often runs into joint 7
         q_new = project_step(robot, x.q, np.array([v[0], v[1], w]), dt, table_height,
                              nullspace_velocity=nullspace)
         result = physics.step(x, q_new)
