@@ -15,7 +15,7 @@ from rearrangement_planner.propagation import replay
 from rearrangement_planner.scene import load_scene
 from rearrangement_planner.state import State
 
-STATIC_SEED = 0   # a seed for which the Static RRT solves the default scene quickly
+STATIC_SEED = 1   # a seed for which the Static RRT solves the default scene quickly
 
 
 @pytest.fixture(scope="module")

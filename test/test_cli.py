@@ -74,3 +74,51 @@ def test_help_explains_every_option(capsys):
     for option in ("--planner", "--time-limit", "--seed", "--shortcut", "--json", "--record",
                    "--plot"):
         assert option in text
+
+
+@pytest.mark.parametrize("planner", ["static-rrt", "darrt"])
+def test_baseline_planners_from_the_cli(tmp_path, planner):
+    out = tmp_path / "plan.json"
+    code = main([str(scenes_dir() / "easy_push.yaml"), "--planner", planner, "--time-limit",
+                 "30", "--json", str(out), "--quiet"])
+    record = json.loads(out.read_text())
+    assert code == 0 and record["planner"] == planner and record["solved"] is True
+
+
+def test_shortcut_and_record_from_the_cli(tmp_path):
+    out, mcap = tmp_path / "plan.json", tmp_path / "rec" / "plan.mcap"
+    code = main([str(scenes_dir() / "easy_push.yaml"), "--seed", "1", "--shortcut", "30",
+                 "--shortcut-attempts", "10", "--json", str(out), "--record", str(mcap),
+                 "--quiet"])
+    assert code == 0
+    record = json.loads(out.read_text())
+    before = record["before_shortcut"]
+    assert before["path_length_rad"] >= record["path_length_rad"] > 0
+    from mcap.reader import make_reader
+
+    with mcap.open("rb") as f:
+        reader = make_reader(f)
+        topics = {c.topic for c in reader.get_summary().channels.values()}
+        metadata = {m.name for m in reader.iter_metadata()}
+    assert "/planner_node/trajectory" in topics and "rearrangement_plan" in metadata
+
+
+def test_recording_failure_keeps_the_plan(tmp_path, capsys):
+    blocker = tmp_path / "file"
+    blocker.write_text("")
+    out = tmp_path / "plan.json"
+    code = main([str(scenes_dir() / "easy_push.yaml"), "--json", str(out), "--record",
+                 str(blocker / "x.mcap"), "--quiet"])
+    assert code == 0 and json.loads(out.read_text())["solved"] is True
+    assert "recording failed" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("option, value", [("--shortcut", "-1"),
+                                           ("--shortcut-attempts", "0"),
+                                           ("--planner", "rrt-star")])
+def test_bad_planner_options_exit_2(option, value, capsys):
+    with pytest.raises(SystemExit) as exc:
+        code = main([str(scenes_dir() / "easy_push.yaml"), option, value, "--quiet"])
+        raise SystemExit(code)
+    assert exc.value.code == 2
+    assert option.lstrip("-") in capsys.readouterr().err

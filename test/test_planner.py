@@ -118,3 +118,35 @@ def test_timed_trajectory_replays_to_the_planned_final_poses(easy, easy_plan):
     states, problem = replay(Physics(easy), easy_plan.states[0], trajectory.positions)
     assert problem == ""
     np.testing.assert_allclose(states[-1].objects, easy_plan.states[-1].objects, atol=1e-6)
+
+
+def test_push_policy_moves_the_object_towards_its_target(easy):
+    """The push-bias action lines the tool up behind the object and pushes it along the line
+    to the target; every step is a valid physics step (replays exactly)."""
+    from rearrangement_planner.manifold import ik_on_manifold
+    from rearrangement_planner.propagation import push_policy_prop
+    from rearrangement_planner.state import State
+
+    physics = Physics(easy)
+    g = easy.goal_index
+    centre, goal = easy.object_poses[g, :2], np.asarray(easy.goal.position)
+    u = (goal - centre) / np.linalg.norm(goal - centre)
+    tool = centre - u * 0.12 + np.array([-u[1], u[0]]) * 0.03   # behind, a little off the line
+    q = ik_on_manifold(easy.robot, tool[0], tool[1], float(np.arctan2(u[1], u[0])), 0.0,
+                       easy.robot.home, rng=np.random.default_rng(0))
+    start = State(q, easy.object_poses)
+    assert physics.check_state(start) is None and not physics.world.arm_object_contacts(
+        easy.robot.shape_poses(q), start.objects)
+    result = push_policy_prop(physics, start, g, goal, 60, 0.1, 0.1, np.zeros(7))
+    assert len(result.states) >= 20
+    end = result.states[-1].objects[g, :2]
+    assert np.linalg.norm(end - goal) < np.linalg.norm(centre - goal) - 0.05
+    states, problem = replay(physics, start, [start.q] + [s.q for s in result.states])
+    assert problem == ""
+    np.testing.assert_array_equal(states[-1].objects, result.states[-1].objects)
+
+
+@pytest.mark.parametrize("push_bias", [0.0, 1.0])
+def test_push_bias_is_switchable(easy, push_bias):
+    result = PCRRT(easy, PlannerOptions(time_limit=60.0, push_bias=push_bias)).plan(seed=2)
+    assert result.solved
