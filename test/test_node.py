@@ -254,6 +254,19 @@ def test_plan_succeeds_publishes_records_and_executes(ros):
     assert outcome == "SUCCEEDED" and iterations > 0
     assert Path(mcap).is_file() and Path(mcap).parent == ros["record_dir"]
     assert Path(mcap).name == f"{plan_id}.mcap"
+    # The recording, read back with an independent reader, holds every topic and the metadata.
+    from mcap.reader import make_reader
+    from mcap_ros2.decoder import DecoderFactory
+
+    with open(mcap, "rb") as f:
+        reader = make_reader(f, decoder_factories=[DecoderFactory()])
+        topics = {channel.topic for _, channel, _, _ in reader.iter_decoded_messages()}
+        f.seek(0)
+        metadata = {m.name: m.metadata for m in make_reader(f).iter_metadata()}
+    assert {"/joint_states", f"{NS}/object_poses", f"{NS}/goal", f"{NS}/trajectory",
+            f"{NS}/predicted_object_poses", f"{NS}/markers"} <= topics
+    assert metadata["rearrangement_plan"]["plan_id"] == plan_id
+    assert metadata["rearrangement_plan"]["outcome"] == "SUCCEEDED"
     overhead = answered - plan_time
     print(f"\n~/plan answered {answered:.3f} s after the request; planning {plan_time:.3f} s; "
           f"overhead {overhead:.3f} s")
@@ -295,6 +308,24 @@ def test_plan_succeeds_publishes_records_and_executes(ros):
     assert executed.success, executed.message
     assert wait_until(lambda: client.commands, 5.0)
     assert client.commands[0].points[-1].positions == msg.points[-1].positions
+
+
+def test_another_domain_does_not_see_this_node(ros):
+    """Two test runs at once use different domain ids (from the pid): a node on another domain
+    finds neither the planner's services nor its topics, while this run's client does."""
+    from std_srvs.srv import Trigger
+
+    other = Context()
+    rclpy.init(context=other, domain_id=(DOMAIN_ID + 1 - 10) % 150 + 10)
+    try:
+        stranger = rclpy.create_node("stranger", context=other)
+        client = stranger.create_client(Trigger, f"{NS}/plan")
+        assert not client.wait_for_service(timeout_sec=1.5)
+        assert stranger.count_publishers(f"{NS}/status") == 0
+        stranger.destroy_node()
+    finally:
+        rclpy.shutdown(context=other)
+    assert ros["client"].node.count_publishers(f"{NS}/status") >= 1
 
 
 def test_plan_on_goal_plans_when_a_goal_arrives(ros):
