@@ -1,6 +1,8 @@
 """`rearrangement-bench`: benchmarks.
 
     rearrangement-bench physics [--seconds S] [--json OUT]
+    rearrangement-bench scenes [--scenes NAME ...] [--planners P ...] [--seeds N ...]
+                               [--time-limit S] [--jsonl OUT]
 
 measures the throughput of the quasistatic physics step (DESIGN §5) on the Panda at the default
 scene's table: the arm, folded low so that forearm and wrist sweep at object height, rotates
@@ -115,6 +117,24 @@ def physics_benchmark(seconds: float) -> dict:
     }
 
 
+def scene_trial(scene_name: str, planner: str, seed: int, time_limit: float) -> dict:
+    """One planner run on one shipped scene: outcome, plan time and which objects moved."""
+    from .pipeline import plan_scene
+    from .planner import PlannerOptions
+
+    scene = load_scene(scene_name)
+    result = plan_scene(scene, planner, PlannerOptions(time_limit=time_limit), seed=seed).result
+    moved: list[str] = []
+    if result.states:
+        first = result.states[0].objects
+        moved = [o.name for i, o in enumerate(scene.objects)
+                 if any(not (s.objects[i] == first[i]).all() for s in result.states)]
+    return {"scene": scene_name, "planner": planner, "seed": seed,
+            "outcome": result.outcome.value, "plan_time_s": round(result.plan_time, 2),
+            "iterations": result.iterations, "moved": moved,
+            "best_goal_distance_m": round(result.best_goal_distance, 3)}
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(
         prog="rearrangement-bench",
@@ -126,7 +146,31 @@ def main(argv: list[str] | None = None) -> int:
     phys.add_argument("--seconds", type=float, default=5.0,
                       help="measuring time per scene, s (default 5)")
     phys.add_argument("--json", type=Path, help="also write the JSON record to this file")
+    scenes = sub.add_parser(
+        "scenes", help="each planner on each shipped scene with several seeds (one line of "
+                       "JSON per run: outcome, plan time, objects moved)")
+    scenes.add_argument("--scenes", nargs="+", default=["easy_push", "default", "clutter",
+                                                        "seven_objects"],
+                        help="shipped scene names or scene files")
+    scenes.add_argument("--planners", nargs="+", default=["pc-rrt", "static-rrt", "darrt"],
+                        choices=["pc-rrt", "static-rrt", "darrt"])
+    scenes.add_argument("--seeds", nargs="+", type=int, default=[0, 1, 2])
+    scenes.add_argument("--time-limit", type=float, default=60.0, metavar="S",
+                        help="planning budget per run, s (default 60)")
+    scenes.add_argument("--jsonl", type=Path, help="also append the lines to this file")
     args = parser.parse_args(argv)
+    if args.command == "scenes":
+        if not args.time_limit > 0:
+            parser.error("--time-limit must be positive")
+        for scene_name in args.scenes:
+            for planner in args.planners:
+                for seed in args.seeds:
+                    line = json.dumps(scene_trial(scene_name, planner, seed, args.time_limit))
+                    print(line, flush=True)
+                    if args.jsonl:
+                        with args.jsonl.open("a") as f:
+                            f.write(line + "\n")
+        return 0
     if args.command != "physics":
         parser.print_help(sys.stderr)
         return 2

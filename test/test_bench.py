@@ -23,3 +23,15 @@ def test_physics_benchmark_writes_a_complete_record(tmp_path, capsys):
 def test_bench_without_a_command_is_a_usage_error(capsys):
     assert main([]) == 2
     assert "physics" in capsys.readouterr().err
+
+
+def test_scenes_benchmark_reports_one_line_per_run(tmp_path, capsys):
+    from rearrangement_planner.bench import main
+
+    out = tmp_path / "runs.jsonl"
+    assert main(["scenes", "--scenes", "easy_push", "--planners", "darrt", "static-rrt",
+                 "--seeds", "1", "--time-limit", "30", "--jsonl", str(out)]) == 0
+    rows = [json.loads(line) for line in out.read_text().splitlines()]
+    assert [(r["planner"], r["seed"]) for r in rows] == [("darrt", 1), ("static-rrt", 1)]
+    assert all(r["outcome"] == "SUCCEEDED" and r["moved"] == ["target"] for r in rows)
+    assert capsys.readouterr().out.count("\n") == 2
