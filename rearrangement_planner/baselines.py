@@ -37,7 +37,7 @@ import numpy as np
 
 from .manifold import ik_on_manifold, project_step, tool_planar_pose
 from .physics import Physics
-from .planner import PCRRT, Outcome, PlannerOptions, PlanResult, Progress
+from .planner import PCRRT, Outcome, PlannerOptions, PlanResult, Progress, _Tree
 from .propagation import support_distance
 from .scene import Scene
 from .state import State
@@ -63,43 +63,6 @@ class StaticRRT(PCRRT):
         weights = np.zeros(len(scene.objects))
         weights[scene.goal_index] = self.options.goal_weight
         self._weights = weights
-
-
-class _Tree:
-    def __init__(self, root: State):
-        self.states = [root]
-        self.parent = [-1]
-        self.segments: list[tuple[State, ...]] = [()]
-        m = root.objects.shape[0]
-        self.q = np.empty((256, root.q.size))
-        self.objects = np.empty((256, m, 3))
-        self.q[0], self.objects[0] = root.q, root.objects
-
-    @property
-    def n(self) -> int:
-        return len(self.states)
-
-    def add(self, parent: int, segment: list[State]) -> int:
-        n = self.n
-        if n == len(self.q):
-            self.q = np.concatenate([self.q, np.empty_like(self.q)])
-            self.objects = np.concatenate([self.objects, np.empty_like(self.objects)])
-        end = segment[-1]
-        self.states.append(end)
-        self.parent.append(parent)
-        self.segments.append(tuple(segment))
-        self.q[n], self.objects[n] = end.q, end.objects
-        return n
-
-    def path_to(self, node: int) -> list[State]:
-        pieces = []
-        while node > 0:
-            pieces.append(self.segments[node])
-            node = self.parent[node]
-        states = [self.states[0]]
-        for piece in reversed(pieces):
-            states.extend(piece)
-        return states
 
 
 class _Cancelled(Exception):
@@ -143,7 +106,7 @@ class DARRT:
             return PlanResult(Outcome.START_INVALID, "start configuration touches an object; "
                               "DARRT's transit primitives need a collision-free start", seed)
         rng = np.random.default_rng(seed)
-        tree = _Tree(start)
+        tree = _Tree(start, start.q)
         deadline = t0 + opts.time_limit
         self._cancelled = cancel.is_set if cancel is not None else (lambda: False)
         iterations = steps = 0
@@ -174,11 +137,12 @@ class DARRT:
                 if not segment:
                     continue
                 steps += len(segment)
-                tree.add(node, segment)
+                end_state = segment[-1]
+                tree.add(end_state, end_state.q, node, tuple(segment))
                 best = min(best, min(self._goal_distance(s) for s in segment))
                 end = self._first_at_goal(segment)
                 if end is not None:
-                    states = tree.path_to(node) + segment[:end + 1]
+                    states = tree.path_to(node, start) + segment[:end + 1]
                     return PlanResult(Outcome.SUCCEEDED, f"goal reached after {iterations} "
                                       f"iterations", seed, tuple(states), iterations, tree.n,
                                       steps, time.monotonic() - t0,
@@ -214,7 +178,7 @@ class DARRT:
             target = np.array([rng.uniform(lo[0], hi[0]), rng.uniform(lo[1], hi[1])])
         d_obj = np.linalg.norm(tree.objects[:tree.n, obj, :2] - target, axis=1)
         node = int(np.argmin(d_obj))
-        here = tree.states[node]
+        here = State(tree.q[node], tree.objects[node])
         pose = here.objects[obj]
         delta = target - pose[:2]
         length = float(np.hypot(*delta))

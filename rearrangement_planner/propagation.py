@@ -52,15 +52,26 @@ def constrained_prop(physics: Physics, state: State, action: Action, dt: float,
 
     `stop(state)`, called after every valid step, may end the action early with a reason
     (e.g. 'goal' when the goal is reached, 'cancel'); that state is kept."""
+    velocity = action.velocity
+    return _propagate(physics, state, lambda x: velocity, int(round(action.duration / dt)), dt,
+                      action.nullspace, stop)
+
+
+def _propagate(physics: Physics, state: State, velocity: Callable[[State], np.ndarray | None],
+               steps: int, dt: float, nullspace: np.ndarray,
+               stop: Callable[[State], str | None] | None) -> Propagation:
+    """Up to `steps` steps: tool velocity `velocity(x)` (None ends the action) through Project
+    and the physics; stops at the first invalid step and keeps the valid prefix."""
     robot, table_height = physics.robot, physics.scene.table.height
     states: list[State] = []
     links: set[str] = set()
     x = state
-    steps = int(round(action.duration / dt))
     stopped: Invalid | str | None = None
     for _ in range(steps):
-        q_new = project_step(robot, x.q, action.velocity, dt, table_height,
-                             nullspace_velocity=action.nullspace)
+        v = velocity(x)
+        if v is None:
+            break
+        q_new = project_step(robot, x.q, v, dt, table_height, nullspace_velocity=nullspace)
         result = physics.step(x, q_new)
         if not result.valid:
             stopped = result.reason
@@ -111,52 +122,34 @@ def push_policy_prop(physics: Physics, state: State, obj: int, target: np.ndarra
     object on the line through the object and the target (going around the object when the
     tool is on the wrong side), then push along the line with a lateral correction. The hand
     keeps its yaw. Whatever else the arm meets on the way is pushed by the physics."""
-    robot, table_height = physics.robot, physics.scene.table.height
+    robot = physics.robot
     shape = physics.scene.objects[obj]
     radius = shape.footprint_radius
-    states: list[State] = []
-    links: set[str] = set()
-    x = state
-    stopped: Invalid | str | None = None
-    for _ in range(max_steps):
+    target = np.asarray(target, dtype=float)
+
+    def velocity(x: State) -> np.ndarray | None:
         tool = tool_planar_pose(robot, x.q)
         centre = x.objects[obj, :2]
-        to_target = np.asarray(target, dtype=float) - centre
+        to_target = target - centre
         distance = float(np.hypot(*to_target))
         if distance < 0.01:
-            break
+            return None
         u = to_target / distance
         perp = np.array([-u[1], u[0]])
         rel = tool[:2] - centre
         along, across = float(rel @ u), float(rel @ perp)
         extent = support_distance(shape, x.objects[obj, 2], u)
-        behind = centre - u * (extent + 0.025)
         if abs(across) <= 0.015 and -(extent + 0.06) <= along <= -extent:
             v = u * speed - (0.5 / dt) * across * perp        # push, staying on the line
-        elif along > -extent - 0.005:
-            if abs(across) < radius + 0.04:
-                # Beside or in front of the object: go round it, on the tool's side.
-                side = 1.0 if across >= 0 else -1.0
-                v = (centre + perp * side * (radius + 0.07) - u * (extent + 0.03)
-                     - tool[:2]) / dt
-            else:
-                v = (behind - tool[:2]) / dt
-        else:
-            v = (behind - tool[:2]) / dt
+        elif along > -extent - 0.005 and abs(across) < radius + 0.04:
+            # Beside or in front of the object: go round it, on the tool's side.
+            side = 1.0 if across >= 0 else -1.0
+            v = (centre + perp * side * (radius + 0.07) - u * (extent + 0.03) - tool[:2]) / dt
+        else:                                                  # line up behind it
+            v = (centre - u * (extent + 0.025) - tool[:2]) / dt
         norm = float(np.hypot(*v))
         v = v * (speed / norm) if norm > speed else v
-        w = 0.0   # the hand keeps its yaw: turning it to face the push often runs into joint 7
-        q_new = project_step(robot, x.q, np.array([v[0], v[1], w]), dt, table_height,
-                             nullspace_velocity=nullspace)
-        result = physics.step(x, q_new)
-        if not result.valid:
-            stopped = result.reason
-            break
-        x = result.state
-        states.append(x)
-        links |= result.pushing_links
-        if stop is not None:
-            stopped = stop(x)
-            if stopped is not None:
-                break
-    return Propagation(tuple(states), len(states) * dt, stopped, frozenset(links))
+        # The hand keeps its yaw: turning it to face the push often runs into joint 7.
+        return np.array([v[0], v[1], 0.0])
+
+    return _propagate(physics, state, velocity, max_steps, dt, nullspace, stop)
