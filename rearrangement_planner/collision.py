@@ -427,6 +427,14 @@ class CollisionWorld:
         shape_idx, col = near.nonzero()
         return shape_idx, (col if sel is None else sel[col])
 
+    def object_candidates(self, shape_poses: np.ndarray, object_poses: np.ndarray,
+                          margin: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+        """The broad phase alone: (shape, object) index arrays of the pairs whose bounding
+        boxes come within `margin` (m). An empty result means no arm-object contact within
+        `margin`; a pair in it may still be apart (boxes are conservative)."""
+        return self._object_candidates(np.asarray(shape_poses, dtype=float),
+                                       self._object_poses(object_poses), margin, None)
+
     def arm_object_contacts(self, shape_poses: np.ndarray, object_poses: np.ndarray,
                             margin: float = 0.0,
                             objects: Iterable[int] | np.ndarray | None = None) -> list[Contact]:

@@ -41,6 +41,8 @@ from .scene import MovableObject, Scene
 from .state import State
 
 _INV_SQRT2 = 1.0 / math.sqrt(2.0)
+FREE_SPACE_MARGIN = 0.01
+"""Extra clearance (m) before a step counts as free space and skips its substeps."""
 
 
 class Invalid(str, Enum):
@@ -127,8 +129,13 @@ class Physics:
             return StepResult(state, False, Invalid.JOINT_LIMIT, self._limit_detail(q_next))
         poses_a = self.robot.shape_poses(state.q)
         poses_b = self.robot.shape_poses(q_next)
-        n = self._substep_count(poses_a, poses_b)
+        sweep = self._sweep(poses_a, poses_b)
+        n = max(1, math.ceil(sweep / self.options.max_substep - 1e-9))
         objects = state.objects
+        if n > 1 and self._out_of_reach(poses_a, sweep, objects):
+            # Free space: no substep can touch an object, so the substeps would only repeat
+            # the static check. One substep at q_next (DESIGN §5 substepping is for contacts).
+            n = 1
         pushing_links: set[str] = set()
         moved: set[int] = set()
         q_a = state.q
@@ -165,16 +172,22 @@ class Physics:
 
     # -- internals ---------------------------------------------------------------------------
 
-    def _substep_count(self, poses_a: np.ndarray, poses_b: np.ndarray) -> int:
-        """Substeps so that no shape point moves more than max_substep. A point at distance
-        rho from the shape origin moves at most |dc| + rho |R_b - R_a|_F / sqrt(2) (the chord
-        of a rotation by theta is 2 rho sin(theta/2), and
-        |R_b - R_a|_F = 2 sqrt(2) sin(theta/2))."""
+    def _sweep(self, poses_a: np.ndarray, poses_b: np.ndarray) -> float:
+        """How far any point of any contact shape moves from a to b, m (substeps are cut so
+        that no point moves more than max_substep). A point at distance rho from the shape
+        origin moves at most |dc| + rho |R_b - R_a|_F / sqrt(2) (the chord of a rotation by
+        theta is 2 rho sin(theta/2), and |R_b - R_a|_F = 2 sqrt(2) sin(theta/2))."""
         diff = poses_b[:, :3, :] - poses_a[:, :3, :]
         dc = np.sqrt(np.einsum("ni,ni->n", diff[:, :, 3], diff[:, :, 3]))
         drot = np.sqrt(np.einsum("nij,nij->n", diff[:, :, :3], diff[:, :, :3]))
-        sweep = dc + self._shape_radii * drot * _INV_SQRT2
-        return max(1, math.ceil(float(sweep.max()) / self.options.max_substep - 1e-9))
+        return float((dc + self._shape_radii * drot * _INV_SQRT2).max())
+
+    def _out_of_reach(self, poses_a: np.ndarray, sweep: float, objects: np.ndarray) -> bool:
+        """True when no contact shape can reach any object during the step: every shape's
+        bounding box at a, grown by the sweep (plus FREE_SPACE_MARGIN for the bulge of a joint
+        interpolation between a and b), is clear of every object's bounding box."""
+        shapes, _ = self.world.object_candidates(poses_a, objects, sweep + FREE_SPACE_MARGIN)
+        return shapes.size == 0
 
     def _static_collision(self, poses: np.ndarray) -> tuple[Invalid, str] | None:
         hit = self.world.arm_static_collision(poses)

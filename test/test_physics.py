@@ -133,6 +133,34 @@ def test_chopping_a_motion_gives_the_same_result(whole_arm_scene, calls):
     np.testing.assert_allclose(state.objects[:, 2], whole.state.objects[:, 2], atol=0.01)
 
 
+def test_a_step_in_free_space_is_one_substep(panda):
+    """No object within reach of the swept arm: one substep at q_next, no object moves."""
+    q = np.array(LOW_ARM)
+    q[0] -= 0.7
+    scene = make_scene([cylinder("far", [0.70, 0.48, 0.0])], q, robot=panda)
+    physics = Physics(scene)
+    start = scene.initial_state()
+    result = physics.step(start, q + np.array([0.5, 0, 0, 0, 0, 0, 0]))
+    assert result.valid and result.substeps == 1
+    np.testing.assert_array_equal(result.state.objects, start.objects)
+
+
+def test_a_long_step_through_an_object_is_not_free_space(panda):
+    """Both ends of the motion are clear of the object, the sweep between them is not: the
+    free-space shortcut must not skip the substeps that push it."""
+    q = np.array(LOW_ARM)
+    q[0] -= 0.7
+    scene = make_scene([cylinder("a", polar(0.43, 0.45))], q, robot=panda)
+    physics = Physics(scene)
+    start = scene.initial_state()
+    q_next = q + np.array([1.8, 0, 0, 0, 0, 0, 0])
+    for end in (q, q_next):
+        assert physics.world.object_candidates(panda.shape_poses(end), start.objects)[0].size == 0
+    result = physics.step(start, q_next)
+    assert result.valid and result.substeps > 100 and result.moved_objects == {0}
+    assert np.linalg.norm(result.state.objects[0, :2] - start.objects[0, :2]) > 0.1
+
+
 def test_limit_surface_c_uses_each_objects_footprint(panda):
     scene = make_scene([cylinder("can", [0.5, 0.3, 0.0], radius=0.04),
                         box("block", [0.5, -0.3, 0.0], size=(0.06, 0.08, 0.1))],
