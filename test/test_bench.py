@@ -2,6 +2,8 @@
 
 import json
 
+import pytest
+
 from rearrangement_planner.bench import main
 
 
@@ -20,9 +22,23 @@ def test_physics_benchmark_writes_a_complete_record(tmp_path, capsys):
         assert "panda_link5" in result["pushing_links"]
 
 
-def test_bench_without_a_command_is_a_usage_error(capsys):
-    assert main([]) == 2
-    assert "physics" in capsys.readouterr().err
+def test_bench_without_a_command_runs_the_benchmark(capsys):
+    """No command (or options only) means `run`; its options are checked before anything runs."""
+    assert main(["--time-limit", "0"]) == 2
+    assert capsys.readouterr().err == ("rearrangement-bench: --time-limit: must be a positive "
+                                       "number of seconds, got 0.0\n")
+    with pytest.raises(SystemExit) as exc:
+        main(["--help"])
+    assert exc.value.code == 0
+    out = capsys.readouterr().out
+    assert all(command in out for command in ("run", "generate", "physics", "scenes"))
+
+
+def test_physics_and_scenes_reject_non_positive_times(capsys):
+    assert main(["physics", "--seconds", "0"]) == 2
+    assert "--seconds" in capsys.readouterr().err
+    assert main(["scenes", "--time-limit", "-1"]) == 2
+    assert "--time-limit" in capsys.readouterr().err
 
 
 def test_scenes_benchmark_reports_one_line_per_run(tmp_path, capsys):

@@ -1,0 +1,492 @@
+"""The benchmark of King et al. §V (DESIGN §9): the committed 35-scene set, a tiny protocol
+through the real runner (process pool, CSV, resume, summary, plots), Ctrl-C, and bad input."""
+
+import csv
+import json
+import math
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from rearrangement_planner import bench, benchmark
+from rearrangement_planner.benchmark import CSV_COLUMNS
+from rearrangement_planner.physics import Physics
+from rearrangement_planner.scene import load_scene
+
+SCENE_DIR = benchmark.scene_set_dir()
+TIMING = ("plan_time_s", "shortcut_time_s", "trial_wall_s")
+
+# --------------------------------------------------------------------------------------------
+# The scene set
+# --------------------------------------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def scene_set(panda):
+    """{name: Scene} of the committed files, loaded and validated like `rearrangement-plan`
+    loads them (no overlaps, on the table, start configuration collision-free)."""
+    return {p.stem: load_scene(p, robot=panda) for p in sorted(SCENE_DIR.glob("*.yaml"))}
+
+
+def test_committed_scene_files_equal_a_fresh_generation():
+    fresh = benchmark.generate_scene_set(benchmark.SCENE_SET_SEED)
+    committed = {p.stem: p.read_text() for p in SCENE_DIR.glob("*.yaml")}
+    assert sorted(committed) == sorted(fresh)
+    for name, text in fresh.items():
+        assert committed[name] == text, f"{name}.yaml differs: run rearrangement-bench generate"
+
+
+def test_five_scenes_for_each_number_of_objects_from_1_to_7(scene_set):
+    counts = {}
+    for name, scene in scene_set.items():
+        n = len(scene.objects)
+        assert name.startswith(f"n{n}_s")
+        counts[n] = counts.get(n, 0) + 1
+    assert counts == {n: 5 for n in range(1, 8)}
+
+
+def test_goal_region_and_goal_object_are_the_same_everywhere_and_its_start_random(scene_set):
+    starts = set()
+    for scene in scene_set.values():
+        goal = scene.goal
+        assert (tuple(goal.position), goal.radius) == (benchmark.GOAL_POSITION, 0.1)
+        target = scene.objects[scene.goal_index]
+        assert (target.name, target.shape, tuple(target.size), target.mass) == (
+            "target", "box", (0.06, 0.08, 0.12), 0.4)
+        assert goal.distance(target.pose[:2]) >= benchmark.MIN_GOAL_OFFSET
+        starts.add(tuple(target.pose))
+    assert len(starts) == 35
+
+
+def test_objects_are_varied_in_reach_on_the_table_and_apart(scene_set, panda):
+    from rearrangement_planner.collision import CollisionWorld
+    from rearrangement_planner.manifold import ik_on_manifold
+
+    shapes, masses = set(), set()
+    for name, scene in scene_set.items():
+        poses = scene.object_poses
+        assert not CollisionWorld(scene).object_overlaps(poses), name
+        for obj in scene.objects:
+            x, y = obj.pose[:2]
+            assert benchmark.in_workspace(x, y, obj.footprint_radius), (name, obj.name)
+            # the tool reaches the object's centre on the pushing plane
+            q = ik_on_manifold(panda, x, y, math.atan2(y, x), scene.table.height, panda.home,
+                               restarts=5, min_clearance=0.0)
+            assert q is not None, (name, obj.name)
+            if obj.name != "target":
+                shapes.add(obj.shape)
+                masses.add(obj.mass)
+                assert benchmark.MASS[0] <= obj.mass <= benchmark.MASS[1]
+                assert benchmark.HEIGHT[0] <= obj.height <= benchmark.HEIGHT[1]
+    assert shapes == {"box", "cylinder"} and len(masses) > 50
+
+
+def test_table_and_start_configuration_are_those_of_the_default_scene(scene_set, default_scene):
+    for scene in scene_set.values():
+        assert np.array_equal(scene.start_configuration, default_scene.start_configuration)
+        assert np.array_equal(scene.table.center, default_scene.table.center)
+        assert np.array_equal(scene.table.size, default_scene.table.size)
+        assert scene.table.height == default_scene.table.height
+        assert not scene.obstacles
+
+
+def test_generation_is_a_function_of_the_seed_and_each_scene_of_its_own_generator(panda):
+    a = benchmark.generate_scene(4, 2, seed=0, robot=panda)
+    assert benchmark.generate_scene(4, 2, seed=0, robot=panda) == a
+    assert benchmark.generate_scene(4, 2, seed=1, robot=panda) != a
+    assert benchmark.generate_scene(4, 3, seed=0, robot=panda) != a
+
+
+def test_generation_rejects_candidates_that_parse_scene_rejects(panda, monkeypatch):
+    """Candidates are drawn until parse_scene accepts one: a start configuration in collision
+    is never written."""
+    from rearrangement_planner.errors import SceneError
+
+    calls = []
+    real = benchmark.parse_scene
+
+    def picky(data, **kwargs):
+        calls.append(data)
+        if len(calls) < 3:
+            raise SceneError("objects[1].pose", "overlaps")
+        return real(data, **kwargs)
+
+    monkeypatch.setattr(benchmark, "parse_scene", picky)
+    data = benchmark.generate_scene(3, 0, robot=panda)
+    assert len(calls) == 3 and data == calls[-1] and calls[0] != calls[-1]
+
+
+def test_generate_command_writes_the_set_and_removes_stale_files(tmp_path, capsys):
+    (tmp_path / "n9_s9.yaml").write_text("stale")
+    assert bench.main(["generate", "--out", str(tmp_path)]) == 0
+    assert "wrote 35 scenes" in capsys.readouterr().out
+    written = {p.name for p in tmp_path.iterdir()}
+    assert written == {p.name for p in SCENE_DIR.glob("*.yaml")}
+    assert (tmp_path / "n3_s2.yaml").read_text() == (SCENE_DIR / "n3_s2.yaml").read_text()
+    assert bench.main(["generate", "--seed", "5", "--out", str(tmp_path)]) == 0
+    assert (tmp_path / "n3_s2.yaml").read_text() != (SCENE_DIR / "n3_s2.yaml").read_text()
+    assert "--seed 5" in (tmp_path / "n3_s2.yaml").read_text()
+
+
+def test_a_benchmark_scene_runs_alone_with_rearrangement_plan(tmp_path):
+    from rearrangement_planner import cli
+
+    out = tmp_path / "r.json"
+    code = cli.main([str(SCENE_DIR / "n2_s1.yaml"), "--time-limit", "0.5", "--quiet",
+                     "--json", str(out)])
+    assert code in (0, 1)   # planned (solved or not), not rejected as bad input
+    assert json.loads(out.read_text())["planner"] == "pc-rrt"
+
+
+# --------------------------------------------------------------------------------------------
+# Trials, pushing links, summary
+# --------------------------------------------------------------------------------------------
+
+
+def test_pushing_links_replays_the_path_through_the_physics():
+    """The physics sweep of `bench physics` pushes with the forearm: the replay of the stepped
+    path finds exactly the links the steps reported."""
+    scene = bench.sweep_scene(bench.ONE_OBJECT)
+    physics = Physics(scene)
+    states, expected = [scene.initial_state()], set()
+    for _ in range(120):
+        q = states[-1].q.copy()
+        q[0] += bench.STEP_RAD
+        result = physics.step(states[-1], q)
+        assert result.valid
+        if result.moved_objects:
+            expected |= result.pushing_links
+        states.append(result.state)
+    assert expected and "panda_link5" in expected
+    assert benchmark.pushing_links(Physics(scene), states) == expected
+    assert benchmark.pushing_links(Physics(scene), states[:1] * 3) == set()
+    assert benchmark.objects_moved(scene, states) == ["object0"]
+    assert benchmark.objects_moved(scene, states, skip=0) == []
+
+
+def test_end_effector_links_are_those_moved_by_the_last_joint_only(panda):
+    assert benchmark.end_effector_links(panda) == {"panda_hand", "panda_link7"}
+
+
+def _row(planner, objects, solved, plan_time, before=10.0, after=8.0, links="panda_hand"):
+    row = dict.fromkeys(CSV_COLUMNS, "")
+    row.update(scene=f"n{objects}_s0", objects=str(objects), planner=planner, seed="0",
+               time_limit="60.0", solved=str(int(solved)), plan_time_s=str(plan_time),
+               iterations="10", outcome="SUCCEEDED" if solved else "TIMEOUT")
+    if solved:
+        row.update(path_length_rad_before=str(before), path_length_rad_after=str(after),
+                   ee_path_length_m_before="2.0", ee_path_length_m_after="1.5",
+                   object_displacement_m_before="0.4", object_displacement_m_after="0.4",
+                   shortcut_time_s="1.0", pushing_links=links, non_goal_objects_moved="1")
+    return row
+
+
+def test_summary_success_at_budget_shortcut_means_and_pushing_links():
+    rows = [_row("pc-rrt", 1, True, 2.0, 10.0, 6.0, "panda_hand"),
+            _row("pc-rrt", 2, True, 8.0, 30.0, 24.0, "panda_hand;panda_link5"),
+            _row("pc-rrt", 3, False, 60.0),
+            _row("pc-rrt", 3, True, 5.0, 20.0, 15.0, ""),
+            _row("darrt", 1, True, 1.0, 5.0, 5.0, "panda_hand"),
+            _row("darrt", 2, False, 60.0), _row("darrt", 3, False, 60.0),
+            _row("darrt", 3, False, 60.0)]
+    protocol = {"scenes": ["n1_s0", "n2_s0", "n3_s0"], "planners": ["pc-rrt", "darrt"],
+                "seeds": [0], "time_limit": 60.0, "shortcut_time_s": 5.0,
+                "shortcut_attempts": 100, "quick": False}
+    rows[1]["shortcut_time_s"] = "5.0"   # ran out of time before its attempt bound
+    summary = benchmark.summarize(rows, protocol, {"panda_hand", "panda_link7"})
+    json.dumps(summary)   # JSON-safe
+    pc, darrt = summary["planners"]["pc-rrt"], summary["planners"]["darrt"]
+    assert (pc["trials"], pc["solved"], pc["solved_share"]) == (4, 3, 0.75)
+    assert pc["solved_after_time_limit"] == 0
+    assert pc["plan_time_s"]["median"] == 5.0
+    # a trial counts at budget t when solved with plan time <= t (Fig. 7)
+    assert pc["success_at_budget"] == {"1": 0.0, "2": 0.25, "5": 0.5, "10": 0.75, "20": 0.75,
+                                       "30": 0.75, "60": 0.75}
+    assert pc["by_objects"]["3"] == {"trials": 2, "solved_share": 0.5,
+                                     "median_plan_time_s": 5.0}
+    arm = pc["shortcut"]["path_length_rad"]
+    assert (arm["mean_before"], arm["mean_after"]) == (20.0, 15.0)
+    assert arm["reduction"] == 0.25   # of the means, as Fig. 8 compares means
+    assert pc["shortcut"]["shortcut_time_s"] == {"median": 1.0, "max": 5.0,
+                                                 "ended_by_time_limit": 1}
+    assert pc["pushing_links"] == {"trials_pushing": 2, "beyond_end_effector": 1,
+                                   "per_link": {"panda_hand": 2, "panda_link5": 1}}
+    assert darrt["shortcut"] == "not shortcut"
+    assert summary["pc_rrt_vs"]["darrt"]["solves_more_at_budget"] == {
+        "5": True, "10": True, "20": True, "30": True, "60": True}
+    assert summary["pc_rrt_vs"]["darrt"]["lower_median_plan_time"] is False
+    targets = summary["targets"]
+    assert targets["solved_share_at_60s"]["measured"] == 0.75
+    assert targets["shortcut_arm_path_reduction"]["measured"] == 0.25
+    table = benchmark.summary_table(summary)
+    assert "| pc-rrt | 3/4 (75 %) | 5.0 s |" in table and "(-25 %)" in table
+
+
+def test_summary_counts_plans_found_after_the_time_limit_as_solved_but_not_within_it():
+    rows = [_row("pc-rrt", 1, True, 2.0), _row("pc-rrt", 1, True, 61.2)]
+    protocol = {"scenes": ["n1_s0"], "planners": ["pc-rrt"], "seeds": [0, 1],
+                "time_limit": 60.0, "shortcut_time_s": 5.0, "shortcut_attempts": 100,
+                "quick": False}
+    pc = benchmark.summarize(rows, protocol)["planners"]["pc-rrt"]
+    assert (pc["solved_share"], pc["solved_after_time_limit"]) == (1.0, 1)
+    assert pc["success_at_budget"]["60"] == 0.5
+
+
+def test_summary_does_not_claim_the_60_s_target_from_a_shorter_budget():
+    rows = [_row("pc-rrt", 1, True, 2.0)]
+    for r in rows:
+        r["time_limit"] = "20.0"
+    protocol = {"scenes": ["n1_s0"], "planners": ["pc-rrt"], "seeds": [0], "time_limit": 20.0,
+                "shortcut_time_s": 5.0, "shortcut_attempts": 100, "quick": True}
+    target = benchmark.summarize(rows, protocol)["targets"]["solved_share_at_60s"]
+    assert target["measured"] is None and "20 s < 60 s" in target["note"]
+
+
+def test_progress_bar_redraws_in_place_on_a_terminal():
+    import io
+
+    class Tty(io.StringIO):
+        def isatty(self):
+            return True
+
+    stream = Tty()
+    bar = benchmark.ProgressBar(4, stream)
+    bar.advance(True, "a")
+    bar.advance(False, "b")
+    bar.finish()
+    text = stream.getvalue()
+    assert text.count("\r") == 2 and text.endswith("\n") and "\n" not in text[:-1]
+    assert "2/4 trials, 1 solved" in text and "[" + "#" * 15 + "-" * 15 + "]" in text
+
+
+# --------------------------------------------------------------------------------------------
+# The runner, end to end
+# --------------------------------------------------------------------------------------------
+
+TINY = ["--scenes", "n1_s0", "n1_s1", "--planners", "pc-rrt", "static-rrt", "--seeds", "0",
+        "--time-limit", "4", "--shortcut", "3", "--shortcut-attempts", "3", "--workers", "1"]
+
+
+def _read_csv(path: Path) -> tuple[list[str], list[dict]]:
+    with path.open(newline="") as f:
+        reader = csv.DictReader(f)
+        return list(reader.fieldnames), list(reader)
+
+
+def test_tiny_protocol_writes_csv_json_and_plots_and_resumes(tmp_path, capsys):
+    out = tmp_path / "bench"
+    assert bench.main(["run", *TINY, "--out", str(out)]) == 0
+    captured = capsys.readouterr()
+    header, rows = _read_csv(out / "trials.csv")
+    assert header == list(CSV_COLUMNS)
+    assert sorted((r["scene"], r["planner"]) for r in rows) == [
+        ("n1_s0", "pc-rrt"), ("n1_s0", "static-rrt"), ("n1_s1", "pc-rrt"),
+        ("n1_s1", "static-rrt")]
+    for r in rows:
+        assert (r["objects"], r["seed"], r["time_limit"]) == ("1", "0", "4.0")
+        assert r["outcome"] in ("SUCCEEDED", "TIMEOUT")
+        # (an iteration begun within the budget may end after it)
+        assert 0 < float(r["plan_time_s"]) < 10 and int(r["iterations"]) > 0
+        if r["solved"] == "1":
+            assert float(r["path_length_rad_after"]) <= float(r["path_length_rad_before"])
+            assert float(r["goal_distance_m"]) <= 0.1
+            assert r["non_goal_objects_moved"] == "0"   # one object: the goal object alone
+            assert "panda_hand" in r["pushing_links"].split(";") or r["pushing_links"]
+    summary = json.loads((out / "summary.json").read_text())
+    assert {"protocol", "trials", "planners", "end_effector_links", "pc_rrt_vs", "targets",
+            "paper"} <= set(summary)
+    assert summary["trials"] == 4 and summary["protocol"]["time_limit"] == 4.0
+    for planner in ("pc-rrt", "static-rrt"):
+        assert {"solved_share", "plan_time_s", "success_at_budget", "by_objects",
+                "pushing_links", "shortcut"} <= set(summary["planners"][planner])
+    for name in ("success_vs_budget", "plan_time", "shortcut", "by_objects"):
+        png = (out / f"{name}.png").read_bytes()
+        assert png.startswith(b"\x89PNG") and len(png) > 5000
+    assert "| pc-rrt |" in captured.out and "4/4 trials" in captured.err
+
+    # Resume: a second run skips every trial already in the CSV; a trial of another protocol
+    # (another time limit) stays in the CSV but out of this protocol's summary ...
+    foreign = {**rows[0], "time_limit": "99.0"}
+    with (out / "trials.csv").open("a", newline="") as f:
+        csv.DictWriter(f, CSV_COLUMNS, lineterminator="\n").writerow(foreign)
+    assert bench.main(["run", *TINY, "--out", str(out)]) == 0
+    assert "resuming: 4 of 4 trials already in" in capsys.readouterr().err
+    assert _read_csv(out / "trials.csv")[1] == [*rows, foreign]
+    assert json.loads((out / "summary.json").read_text())["trials"] == 4
+
+    # ... and after losing a row, reruns that trial alone: a solved trial with the same result
+    # except timing (same scene and seed; shortcutting bounded by attempts, not time)
+    lost = next((r for r in rows if r["solved"] == "1"), rows[-1])
+    kept = [r for r in rows if r is not lost]
+    with (out / "trials.csv").open("w", newline="") as f:
+        writer = csv.DictWriter(f, CSV_COLUMNS, lineterminator="\n")
+        writer.writeheader()
+        writer.writerows(kept)
+    assert bench.main(["run", *TINY, "--out", str(out)]) == 0
+    assert "resuming: 3 of 4 trials" in capsys.readouterr().err
+    again = _read_csv(out / "trials.csv")[1]
+    assert again[:3] == kept and len(again) == 4
+    rerun = again[3]
+    same = [k for k in CSV_COLUMNS if k not in TIMING] if lost["solved"] == "1" \
+        else ["scene", "planner", "seed", "time_limit"]
+    assert {k: rerun[k] for k in same} == {k: lost[k] for k in same}
+
+
+def test_a_trial_that_fails_internally_is_reported_and_not_written(tmp_path):
+    import io
+
+    trial = benchmark.Trial("gone", str(tmp_path / "gone.yaml"), 1, "pc-rrt", 0, 1.0)
+    stream = io.StringIO()
+    report = benchmark.run_trials([trial], tmp_path / "trials.csv", 1, 0.0, None, stream)
+    assert (report.finished, report.failed, report.interrupted) == (0, 1, False)
+    assert "gone pc-rrt seed 0 failed with an internal error" in stream.getvalue()
+    assert "does not exist" in stream.getvalue()
+    assert (tmp_path / "trials.csv").read_text().splitlines() == [",".join(CSV_COLUMNS)]
+
+
+def test_ctrl_c_keeps_complete_rows_stops_the_workers_and_says_how_to_resume(tmp_path):
+    """SIGINT to the whole process group, as Ctrl-C in a terminal, while the second trial (a
+    7-object scene that takes the whole budget) runs."""
+    out = tmp_path / "bench"
+    args = ["run", "--scenes", "n1_s0", "n7_s0", "--planners", "pc-rrt", "--seeds", "0",
+            "--time-limit", "30", "--shortcut", "0", "--workers", "1", "--out", str(out)]
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "rearrangement_planner.bench", *args], stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE, text=True, start_new_session=True,
+        # a shell's background job starts with SIGINT ignored; give the bench the default
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    csv_path = out / "trials.csv"
+    deadline = time.monotonic() + 40
+    while time.monotonic() < deadline:
+        if csv_path.exists() and len(csv_path.read_text().splitlines()) >= 2:
+            break
+        time.sleep(0.1)
+    time.sleep(0.5)   # the second trial is running
+    os.killpg(proc.pid, signal.SIGINT)
+    try:
+        _, err = proc.communicate(timeout=15)
+    except subprocess.TimeoutExpired:
+        os.killpg(proc.pid, signal.SIGKILL)
+        raise
+    assert proc.returncode == 130
+    assert f"Resume with: rearrangement-bench {' '.join(args)}" in err
+    assert "Traceback" not in err
+    header, rows = _read_csv(csv_path)
+    assert header == list(CSV_COLUMNS) and [r["scene"] for r in rows] == ["n1_s0"]
+    assert csv_path.read_text().endswith("\n")
+    # the worker is gone with the parent: nothing alive is left in the process group
+    deadline = time.monotonic() + 5
+    while _alive_in_group(proc.pid) and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert _alive_in_group(proc.pid) == []
+
+
+def _alive_in_group(pgid: int) -> list[int]:
+    """Processes of process group `pgid` that are not zombies (from /proc)."""
+    alive = []
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            fields = stat.read_text().rsplit(")", 1)[1].split()
+        except OSError:
+            continue
+        state, pgrp = fields[0], int(fields[2])
+        if pgrp == pgid and state != "Z":
+            alive.append(int(stat.parent.name))
+    return alive
+
+
+# --------------------------------------------------------------------------------------------
+# Protocols and bad input
+# --------------------------------------------------------------------------------------------
+
+
+def test_quick_protocol_is_14_scenes_3_planners_seed_0_at_20_s():
+    args = bench.build_parser().parse_args(["run", "--quick"])
+    scenes, trials = bench.resolve_run(args)
+    assert [p.stem for p, _ in scenes] == [f"n{n}_s{i}" for n in range(1, 8) for i in (0, 1)]
+    assert len(trials) == 42
+    assert {(t.planner, t.seed, t.time_limit) for t in trials} == {
+        (p, 0, 20.0) for p in ("pc-rrt", "static-rrt", "darrt")}
+    # worst case: every trial uses its budget and the shortcut time, two workers
+    assert 42 * (20 + args.shortcut + 1) / 2 < 15 * 60
+
+
+def test_full_protocol_is_35_scenes_3_seeds_at_60_s_and_options_override_quick():
+    _, trials = bench.resolve_run(bench.build_parser().parse_args(["run"]))
+    assert len(trials) == 35 * 3 * 3 and {t.time_limit for t in trials} == {60.0}
+    assert {t.objects for t in trials} == set(range(1, 8))
+    _, trials = bench.resolve_run(bench.build_parser().parse_args(
+        ["run", "--quick", "--time-limit", "7", "--planners", "darrt", "--seeds", "3", "4"]))
+    assert len(trials) == 28 and {(t.planner, t.time_limit) for t in trials} == {("darrt", 7.0)}
+
+
+def _exit_code(argv: list[str]) -> int:
+    """bench.main's return value, or the code of the SystemExit argparse raises."""
+    try:
+        return bench.main(argv)
+    except SystemExit as exc:
+        return exc.code
+
+
+@pytest.mark.parametrize("args, option", [
+    (["--planners", "rrt-star"], "--planners"),
+    (["--time-limit", "0"], "--time-limit"),
+    (["--time-limit", "-3"], "--time-limit"),
+    (["--time-limit", "nan"], "--time-limit"),
+    (["--shortcut", "-1"], "--shortcut"),
+    (["--shortcut-attempts", "0"], "--shortcut-attempts"),
+    (["--workers", "0"], "--workers"),
+    (["--workers", str(benchmark.usable_cores() + 1)], "--workers"),
+    (["--seeds", "-1"], "--seeds"),
+    (["--seeds", "one"], "--seeds"),
+    (["--scenes", "n9_s0"], "--scenes"),
+    (["--scenes", "missing.yaml"], "--scenes"),
+])
+def test_bad_run_options_are_one_line_naming_the_option_and_exit_2(args, option, capsys,
+                                                                    tmp_path):
+    assert _exit_code([*args, "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and option in err and "Traceback" not in err
+    assert not (tmp_path / "o" / "trials.csv").exists()
+
+
+@pytest.mark.parametrize("content, problem", [
+    ("scene,planner\nn1_s0,pc-rrt\n", "columns differ"),
+    (",".join(CSV_COLUMNS) + "\nn1_s0,1,pc-rrt\n", "line 2 has 3 fields"),
+    (",".join(CSV_COLUMNS) + "\n" + ",".join(["x"] * len(CSV_COLUMNS)), "incomplete row"),
+    (b"\xff\xfe\x00garbage", "cannot read"),
+])
+def test_an_unusable_csv_on_resume_is_a_one_line_error_naming_out(content, problem, tmp_path,
+                                                                 capsys):
+    out = tmp_path / "o"
+    out.mkdir()
+    path = out / "trials.csv"
+    if isinstance(content, bytes):
+        path.write_bytes(content)
+    else:
+        path.write_text(content)
+    before = path.read_bytes()
+    assert bench.main([*TINY, "--out", str(out)]) == 2
+    err = capsys.readouterr().err.splitlines()
+    assert len(err) == 2 and err[1].startswith("rearrangement-bench: --out: ")
+    assert problem in err[1]
+    assert path.read_bytes() == before   # never touched
+
+
+def test_two_scenes_of_the_same_name_are_refused(tmp_path, capsys):
+    other = tmp_path / "n1_s0.yaml"
+    other.write_text((SCENE_DIR / "n1_s1.yaml").read_text())
+    assert bench.main(["--scenes", "n1_s0", str(other), "--out", str(tmp_path / "o")]) == 2
+    assert "--scenes: two scenes are called 'n1_s0'" in capsys.readouterr().err
+
+
+def test_out_must_be_a_folder(tmp_path, capsys):
+    (tmp_path / "file").write_text("")
+    assert bench.main([*TINY, "--out", str(tmp_path / "file")]) == 2
+    assert "--out" in capsys.readouterr().err
