@@ -30,10 +30,14 @@ from enum import Enum
 import numpy as np
 
 from .approach import approach_path
-from .physics import Physics
-from .propagation import Action, constrained_prop, push_policy_prop
+from .physics import Invalid, Physics
+from .propagation import Action, Propagation, constrained_prop, push_policy_prop
 from .scene import Scene
 from .state import State
+
+GREEDY_STEPS = 3
+"""The greedy goal push may take this many times `push_steps` (it has to go round the goal
+object and then push it all the way)."""
 
 
 class Outcome(str, Enum):
@@ -89,6 +93,14 @@ class PlannerOptions:
     """Share of push-bias pushes aimed at the goal object."""
     push_steps: int = 30
     """Longest closed-loop push, in steps of dt."""
+    greedy_goal: bool = True
+    """Whenever a new node brings the goal object closer to the goal than any before, try at
+    once a closed-loop push of the goal object from it to the goal centre (a greedy
+    extension, like the Connect step of RRT-Connect; needs push_bias > 0 only for its
+    blocked-push handling)."""
+    clear_blockers: bool = True
+    """When a push-bias push of the goal object ends against another object, push that object
+    out of the goal object's way and push on, within the same action (`_clear_and_push`)."""
 
     def __post_init__(self) -> None:
         if self.sampler not in ("uniform", "tool"):
@@ -214,7 +226,7 @@ class PCRRT:
         iterations = steps = 0
         last_report = t0
         cancelled = cancel.is_set if cancel is not None else (lambda: False)
-        stop = self._stop_check(cancelled)
+        stop = self._stop_check(cancelled, t0 + opts.time_limit)
         while True:
             now = time.monotonic()
             if cancelled():
@@ -249,26 +261,45 @@ class PCRRT:
                     cost = -math.inf
                 if cost < chosen_cost:
                     chosen, chosen_cost = result, cost
-                if result.stopped == "cancel":
+                if result.stopped in ("cancel", "timeout"):
                     break
             if chosen is None:
                 continue
-            end = chosen.states[-1]
-            node = tree.add(end, self._arm_feature(end.q), near, chosen.states)
-            best = min(best, self._goal_distance(end))
-            if chosen.stopped == "goal":
-                states = approach[:-1] + tree.path_to(node, root)
-                return PlanResult(Outcome.SUCCEEDED, f"goal reached after {iterations} "
-                                  f"iterations", seed, tuple(states), iterations, tree.n, steps,
-                                  time.monotonic() - t0, self._goal_distance(end))
+            parent = near
+            while True:
+                end = chosen.states[-1]
+                node = tree.add(end, self._arm_feature(end.q), parent, chosen.states)
+                if chosen.stopped == "goal":
+                    states = approach[:-1] + tree.path_to(node, root)
+                    return PlanResult(Outcome.SUCCEEDED, f"goal reached after {iterations} "
+                                      f"iterations", seed, tuple(states), iterations, tree.n,
+                                      steps, time.monotonic() - t0, self._goal_distance(end))
+                distance = self._goal_distance(end)
+                if (distance >= best - 1e-3 or not opts.greedy_goal
+                        or chosen.stopped in ("cancel", "timeout")):
+                    best = min(best, distance)
+                    break
+                # A new best: push the goal object from it straight for the goal (greedy).
+                best = distance
+                chosen = self._goal_push(end, rng, stop)
+                steps += len(chosen.states)
+                if not chosen.states:
+                    break
+                parent = node
 
     # -- pieces ---------------------------------------------------------------------------------
 
-    def _stop_check(self, cancelled: Callable[[], bool]) -> Callable[[State], str | None]:
+    def _stop_check(self, cancelled: Callable[[], bool],
+                    deadline: float) -> Callable[[State], str | None]:
+        """Ends a propagation early: 'goal' (the goal object is in the goal region), 'cancel',
+        or 'timeout' (past the `time.monotonic()` deadline: an action that would run past the
+        time limit is cut, so a plan is never found after its budget)."""
         radius = self.scene.goal.radius
         g = self.scene.goal_index
 
         def stop(state: State) -> str | None:
+            if time.monotonic() > deadline:
+                return "timeout"
             if float(np.hypot(*(state.objects[g, :2] - self._goal_xy))) <= radius:
                 return "goal"
             if cancelled():
@@ -347,8 +378,69 @@ class PCRRT:
             others = movable[movable != g]
             obj = int(others[rng.integers(others.size)])
         nullspace = rng.uniform(-opts.nullspace_speed, opts.nullspace_speed, self.robot.nq)
-        return push_policy_prop(self.physics, x_near, obj, sample_objects[obj, :2],
-                                opts.push_steps, opts.dt, opts.max_speed, nullspace, stop)
+        result = push_policy_prop(self.physics, x_near, obj, sample_objects[obj, :2],
+                                  opts.push_steps, opts.dt, opts.max_speed, nullspace, stop)
+        if obj != g or not opts.clear_blockers or result.stopped is not Invalid.OBJECT_OVERLAP:
+            return result
+        return self._clear_and_push(x_near, result, sample_objects[g, :2], nullspace, rng, stop)
+
+    def _goal_push(self, x: State, rng: np.random.Generator,
+                   stop: Callable[[State], str | None]) -> Propagation:
+        """The greedy extension: push the goal object from x towards the goal centre."""
+        opts = self.options
+        nullspace = rng.uniform(-opts.nullspace_speed, opts.nullspace_speed, self.robot.nq)
+        result = push_policy_prop(self.physics, x, self.scene.goal_index, self._goal_xy,
+                                  GREEDY_STEPS * opts.push_steps, opts.dt, opts.max_speed,
+                                  nullspace, stop)
+        if not opts.clear_blockers or result.stopped is not Invalid.OBJECT_OVERLAP:
+            return result
+        return self._clear_and_push(x, result, self._goal_xy, nullspace, rng, stop)
+
+    def _clear_and_push(self, x_near: State, blocked: Propagation, target: np.ndarray,
+                        nullspace: np.ndarray, rng: np.random.Generator,
+                        stop: Callable[[State], str | None]) -> Propagation:
+        """The goal object's push towards `target` ran into another object B: push B sideways
+        out of the corridor the goal object sweeps on its way to `target` (to a random point
+        just clear of it), then push the goal object on. One action, every step through the
+        physics, so the edge replays like any other."""
+        opts, scene = self.options, self.scene
+        g = scene.goal_index
+        states = list(blocked.states)
+        links = set(blocked.pushing_links)
+        x = states[-1] if states else x_near
+        stopped: Invalid | str | None = blocked.stopped
+        for _ in range(2):
+            centre = x.objects[g, :2]
+            to_target = target - centre
+            distance = float(np.hypot(*to_target))
+            if distance < 0.01:
+                break
+            u = to_target / distance
+            perp = np.array([-u[1], u[0]])
+            gaps = [float(np.hypot(*(x.objects[i, :2] - centre))) - o.footprint_radius
+                    if i != g else math.inf for i, o in enumerate(scene.objects)]
+            b = int(np.argmin(gaps))
+            rel = x.objects[b, :2] - centre
+            across = float(rel @ perp)
+            side = math.copysign(1.0, across) if abs(across) > 1e-3 else rng.choice([-1.0, 1.0])
+            clear = (scene.objects[g].footprint_radius + scene.objects[b].footprint_radius
+                     + rng.uniform(0.01, 0.05))
+            goal_b = x.objects[b, :2] + perp * side * (clear - abs(across)) \
+                + u * rng.uniform(-0.03, 0.03)
+            for obj, where in ((b, goal_b), (g, target)):
+                part = push_policy_prop(self.physics, x, obj, where, opts.push_steps, opts.dt,
+                                        opts.max_speed, nullspace, stop)
+                states.extend(part.states)
+                links |= part.pushing_links
+                x = states[-1] if states else x_near
+                stopped = part.stopped
+                if (stopped in ("goal", "cancel", "timeout")
+                        or (obj == b and stopped is not None and not part.states)):
+                    return Propagation(tuple(states), len(states) * opts.dt, stopped,
+                                       frozenset(links))
+            if stopped is not Invalid.OBJECT_OVERLAP:
+                break
+        return Propagation(tuple(states), len(states) * opts.dt, stopped, frozenset(links))
 
     def _failure(self, outcome: Outcome, message: str, seed: int, tree: _Tree, iterations: int,
                  steps: int, t0: float, best: float) -> PlanResult:

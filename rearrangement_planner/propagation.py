@@ -100,6 +100,10 @@ def replay(physics: Physics, start: State, arm_path: np.ndarray) -> tuple[list[S
     return states, ""
 
 
+PUSH_BAND = 0.02
+"""Lateral offset (m) of the tool from the push line within which the push policy pushes."""
+
+
 def support_distance(obj, yaw: float, u: np.ndarray) -> float:
     """How far the footprint of `obj` (a scene MovableObject at heading `yaw`) reaches from its
     centre along the unit vector u (the support function), m."""
@@ -139,7 +143,7 @@ def push_policy_prop(physics: Physics, state: State, obj: int, target: np.ndarra
         rel = tool[:2] - centre
         along, across = float(rel @ u), float(rel @ perp)
         extent = support_distance(shape, x.objects[obj, 2], u)
-        if abs(across) <= 0.015 and -(extent + 0.06) <= along <= -extent:
+        if abs(across) <= PUSH_BAND and -(extent + 0.06) <= along <= -extent + 0.005:
             v = u * speed - (0.5 / dt) * across * perp        # push, staying on the line
         elif along > -extent - 0.005 and abs(across) < radius + 0.04:
             # Beside or in front of the object: go round it, on the tool's side.

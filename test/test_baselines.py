@@ -80,7 +80,7 @@ def test_static_objects_must_be_scene_objects(default):
 
 
 def test_static_rrt_solves_easy(easy):
-    result = StaticRRT(easy, PlannerOptions(time_limit=30.0)).plan(seed=0)
+    result = StaticRRT(easy, PlannerOptions(time_limit=30.0)).plan(seed=1)
     assert result.solved and easy.goal.reached(result.states[-1].objects[easy.goal_index, :2])
 
 

@@ -1,6 +1,7 @@
 """PC-RRT (Algorithm 1): solves the easy scene, is reproducible under a seed, its path replays
 through the physics, and it stops honestly (timeout = failure, cancel within 0.2 s)."""
 
+import math
 import threading
 import time
 from itertools import pairwise
@@ -55,8 +56,19 @@ def test_path_starts_at_the_scene_start_and_reaches_the_plane(easy, easy_plan):
     np.testing.assert_array_equal(easy_plan.states[0].objects, easy.object_poses)
 
 
-def test_timeout_is_a_failure_without_a_path(easy):
-    result = PCRRT(easy, PlannerOptions(time_limit=0.3)).plan(seed=1)
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_no_plan_time_past_the_budget(seed):
+    """The deadline is checked inside every propagation step, so neither a failure nor a
+    success ends later than a step after the time limit (a benchmark counts plans found
+    within the budget)."""
+    scene = load_scene("clutter")
+    result = PCRRT(scene, PlannerOptions(time_limit=1.0)).plan(seed=seed)
+    assert result.plan_time <= 1.1, (result.outcome, result.plan_time)
+
+
+def test_timeout_is_a_failure_without_a_path(panda):
+    scene = load_scene("seven_objects", robot=panda)
+    result = PCRRT(scene, PlannerOptions(time_limit=0.3)).plan(seed=1)
     assert result.outcome is Outcome.TIMEOUT and not result.solved
     assert result.states == ()
     assert result.plan_time < 2.0
@@ -150,3 +162,58 @@ def test_push_policy_moves_the_object_towards_its_target(easy):
 def test_push_bias_is_switchable(easy, push_bias):
     result = PCRRT(easy, PlannerOptions(time_limit=60.0, push_bias=push_bias)).plan(seed=2)
     assert result.solved
+
+
+@pytest.mark.parametrize("greedy", [True, False])
+def test_greedy_goal_push_runs_only_when_switched_on(easy, monkeypatch, greedy):
+    calls = []
+    original = PCRRT._goal_push
+
+    def counting(self, x, rng, stop):
+        calls.append(self._goal_distance(x))
+        return original(self, x, rng, stop)
+
+    monkeypatch.setattr(PCRRT, "_goal_push", counting)
+    result = PCRRT(easy, PlannerOptions(time_limit=60.0, max_iterations=40,
+                                        greedy_goal=greedy)).plan(seed=0)
+    if greedy:
+        # Each greedy push starts from a new best: strictly decreasing goal distances.
+        assert calls and all(b < a for a, b in pairwise(calls)), calls
+        assert result.best_goal_distance <= min(calls)
+    else:
+        assert calls == []
+
+
+def test_clear_blockers_pushes_the_blocking_object_out_of_the_line(panda):
+    """The goal object's push ran into `blocker`: `_clear_and_push` pushes the blocker (not the
+    bystander) away from the line to the goal, and the whole action replays through the
+    physics."""
+    from rearrangement_planner.approach import approach_path
+    from rearrangement_planner.physics import Invalid
+    from rearrangement_planner.propagation import Propagation
+    from rearrangement_planner.scene import parse_scene
+
+    data = load_scene("default", robot=panda).to_dict()
+    data.pop("obstacles", None)
+    data["objects"] = [
+        {"name": "target", "shape": "box", "size": [0.06, 0.06, 0.12], "pose": [0.5, 0.13, 0.0]},
+        {"name": "blocker", "shape": "cylinder", "radius": 0.035, "height": 0.12,
+         "pose": [0.51, 0.06, 0.0]},
+        {"name": "bystander", "shape": "cylinder", "radius": 0.03, "height": 0.12,
+         "pose": [0.3, -0.3, 0.0]}]
+    data["goal"] = {"object": "target", "position": [0.5, -0.2], "radius": 0.06}
+    scene = parse_scene(data, robot=panda)
+    planner = PCRRT(scene, PlannerOptions())
+    start = approach_path(planner.physics, scene.initial_state(), np.random.default_rng(0))[0][-1]
+    blocked = Propagation((), 0.0, Invalid.OBJECT_OVERLAP, frozenset())
+    stop = planner._stop_check(lambda: False, math.inf)
+    for seed in range(3):
+        result = planner._clear_and_push(start, blocked, np.array([0.5, -0.2]), np.zeros(7),
+                                         np.random.default_rng(seed), stop)
+        end = result.states[-1].objects
+        assert abs(end[1, 0] - 0.5) > abs(start.objects[1, 0] - 0.5) + 0.005, end[1]
+        np.testing.assert_array_equal(end[2], start.objects[2])
+        arm = np.array([start.q, *(s.q for s in result.states)])
+        replayed, problem = replay(planner.physics, start, arm)
+        assert problem == ""
+        np.testing.assert_allclose(replayed[-1].objects, end, atol=1e-12)
