@@ -158,6 +158,10 @@ PARAMETERS: tuple[ParameterSpec, ...] = (
     ParameterSpec("push_goal_share", 0.5, "Share of the push_bias pushes aimed at the goal "
                   "object.", 0.0, 1.0),
     ParameterSpec("push_steps", 30, "Longest closed-loop push, in steps of dt.", 1, 10000),
+    ParameterSpec("greedy_goal", True, "On every new best goal distance, push the goal object "
+                  "from that node straight for the goal (greedy extension)."),
+    ParameterSpec("clear_blockers", True, "When a push of the goal object runs into another "
+                  "object, push that one out of the way and push on."),
     ParameterSpec("progress_period", 0.25, "Seconds between planner progress reports "
                   "(~/status shows them at 4 Hz).", 0.01, 0.5),
     ParameterSpec("shortcut_time", 10.0, "Longest path shortcutting (King et al. §IV) after a "
