@@ -26,6 +26,7 @@ setup(
         (f"share/{PACKAGE}", ["package.xml"]),
         *tree("config"),
         *tree("launch"),
+        *tree("bags"),
     ],
     install_requires=["setuptools"],
     zip_safe=True,
@@ -38,6 +39,7 @@ setup(
     entry_points={
         "console_scripts": [
             f"planner_node = {PACKAGE}.node:main",
+            f"world_sim = {PACKAGE}.world_sim:main",
             f"rearrangement-plan = {PACKAGE}.cli:main",
             f"rearrangement-bench = {PACKAGE}.bench:main",
         ],

@@ -1,12 +1,20 @@
-"""`python -m rearrangement_planner.node_demo`: the planner node end to end, in one process.
+"""`python -m rearrangement_planner.node_demo` (`make demo`): the whole job, in one process.
 
-Starts `planner_node` on a scene (its own executor thread), publishes the scene's start joint
-state and object poses as a robot and a perception system would (10 Hz) and the scene's goal
-on `~/goal`, calls `~/plan`, prints the one-line summary and where the MCAP went, and draws the
-plan it received on `~/trajectory` (replayed through the physics for the object paths) as a top
-view PNG. Exit code 0 when the plan succeeded, 1 otherwise, 2 for bad arguments.
+Starts `world_sim` (the simulated arm, objects and trajectory controller) and `planner_node`
+on a scene, each a real ROS 2 node on one executor. The planner receives the joint state and
+the object poses from world_sim, as from a robot and a perception system; the demo sends the
+goal (the scene's) on `/planner_node/goal`, calls `~/plan`, then `~/execute`, which sends the
+trajectory on `/joint_trajectory` to world_sim, which executes it open loop through the
+quasistatic physics, faster than real time (`--time-scale`). Prints the plan summary,
+world_sim's outcome (goal object distance, in the region or not, objects moved), the MCAP of
+the plan and a top view PNG of the execution (the objects' true paths and the tool path).
 
-ROS_DOMAIN_ID is taken from the environment; discovery defaults to this machine
+The planner plans for the goal radius minus `--goal-margin`, world_sim judges the scene's
+radius: PC-RRT stops as soon as the goal object's centre enters its region, and open-loop
+execution at the controller's rate never reproduces the planner's physics steps exactly.
+
+Exit code 0 when the goal object ends inside its goal region, 1 otherwise, 2 for bad
+arguments. ROS_DOMAIN_ID is taken from the environment; discovery defaults to this machine
 (ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST) unless set.
 """
 
@@ -15,7 +23,6 @@ from __future__ import annotations
 import argparse
 import os
 import sys
-import threading
 import time
 from pathlib import Path
 
@@ -25,8 +32,8 @@ import numpy as np
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="python -m rearrangement_planner.node_demo",
-        description="Run planner_node in-process on a scene: publish the scene's start state "
-                    "and goal, call ~/plan, print the summary and draw the plan.")
+        description="Run world_sim and planner_node on a scene: plan from world_sim's state, "
+                    "execute the plan open loop in world_sim, print the outcome.")
     parser.add_argument("--scene", default="default",
                         help="shipped scene name or scene YAML path (default: default)")
     parser.add_argument("--seed", type=int, default=0, help="planner seed (default 0)")
@@ -35,7 +42,12 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--record-dir", type=Path, default=Path("out"),
                         help="folder for the MCAP recording (default: out/)")
     parser.add_argument("--plot", type=Path, default=None, metavar="OUT.png",
-                        help="top view PNG of the plan (default: out/<scene>.png)")
+                        help="top view PNG of the execution (default: out/<scene>.png)")
+    parser.add_argument("--time-scale", type=float, default=10.0, metavar="K",
+                        help="world_sim runs the trajectory K times faster than real time "
+                             "(default 10)")
+    parser.add_argument("--goal-margin", type=float, default=0.02, metavar="M",
+                        help="plan for the goal radius minus M metres (default 0.02)")
     return parser
 
 
@@ -43,130 +55,104 @@ def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
     # rclpy and the message packages only once the environment is set.
-    import rclpy
-    from rclpy.context import Context
-    from rclpy.executors import MultiThreadedExecutor
-    from rclpy.node import Node
     from rclpy.parameter import Parameter
 
     from .errors import RearrangementError
-    from .node import EXECUTOR_THREADS, PlannerNode
+    from .node import PlannerNode
+    from .replay import Session
     from .scene import load_scene
+    from .world_sim import WorldSim
 
     try:
-        if not args.time_limit > 0:
-            raise RearrangementError(f"--time-limit must be positive, got {args.time_limit}")
+        for flag, value in (("--time-limit", args.time_limit), ("--time-scale", args.time_scale)):
+            if not value > 0:
+                raise RearrangementError(f"{flag} must be positive, got {value}")
         scene = load_scene(args.scene)
+        if not 0 <= args.goal_margin < scene.goal.radius:
+            raise RearrangementError(f"--goal-margin must be in [0, {scene.goal.radius:g}) "
+                                     f"(the goal radius), got {args.goal_margin}")
         args.record_dir.mkdir(parents=True, exist_ok=True)
     except (RearrangementError, OSError) as exc:
         print(f"node_demo: {exc}", file=sys.stderr)
         return 2
     plot_path = args.plot or args.record_dir / f"{Path(scene.source).stem}.png"
+    planning_radius = scene.goal.radius - args.goal_margin
 
-    context = Context()
-    rclpy.init(context=context)
-    executor = MultiThreadedExecutor(num_threads=EXECUTOR_THREADS, context=context)
-    planner = demo = spinner = None
-    try:
-        planner = PlannerNode(context=context, parameter_overrides=[
-            Parameter("scene", value=args.scene), Parameter("seed", value=args.seed),
-            Parameter("time_limit", value=float(args.time_limit)),
-            Parameter("record_dir", value=str(args.record_dir.resolve()))])
-        demo = Node("planner_demo", context=context)
-        executor.add_node(planner)
-        executor.add_node(demo)
-        spinner = threading.Thread(target=executor.spin, daemon=True)
-        spinner.start()
-        return _run(demo, planner, scene, args, plot_path)
-    except RearrangementError as exc:
-        print(f"node_demo: {exc}", file=sys.stderr)
-        return 2
-    finally:
-        if planner is not None:
-            planner.stop()
-        executor.shutdown()
-        if spinner is not None:
-            spinner.join(timeout=5.0)
-        for node in (planner, demo):
-            if node is not None:
-                node.destroy_node()
-        rclpy.try_shutdown(context=context)
+    with Session(name="demo") as session:
+        try:
+            world = session.add(WorldSim(context=session.context, parameter_overrides=[
+                Parameter("scene", value=args.scene),
+                Parameter("time_scale", value=float(args.time_scale))]))
+            planner = session.add(PlannerNode(context=session.context, parameter_overrides=[
+                Parameter("scene", value=args.scene), Parameter("seed", value=args.seed),
+                Parameter("time_limit", value=float(args.time_limit)),
+                Parameter("goal_radius", value=float(planning_radius)),
+                Parameter("record_dir", value=str(args.record_dir.resolve()))]))
+        except RearrangementError as exc:
+            print(f"node_demo: {exc}", file=sys.stderr)
+            return 2
+        return _run(session, world, planner, scene, args, planning_radius, plot_path)
 
 
-def _run(demo, planner, scene, args, plot_path: Path) -> int:
-    from geometry_msgs.msg import PoseArray, PoseStamped
-    from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
-    from sensor_msgs.msg import JointState
-    from std_srvs.srv import Trigger
-    from trajectory_msgs.msg import JointTrajectory
+def _run(session, world, planner, scene, args, planning_radius: float, plot_path: Path) -> int:
+    from geometry_msgs.msg import PoseStamped
 
-    from msg_adapters import (
-        configuration_to_joint_state,
-        goal_to_pose_stamped,
-        objects_to_pose_array,
-    )
+    from msg_adapters import goal_to_pose_stamped
 
+    from .replay import BagError, OutcomeListener, PlannerClient
+
+    node = session.node
     frame = planner.get_parameter("planning_frame").value or scene.robot.config.base_frame
-    joint_state = configuration_to_joint_state(scene.start_configuration, scene.robot.joint_names)
-    objects = objects_to_pose_array(scene.object_poses, frame)
-    joint_pub = demo.create_publisher(JointState, planner.resolve_topic_name("joint_states"), 10)
-    objects_pub = demo.create_publisher(PoseArray, planner.resolve_topic_name("~/object_poses"),
-                                        10)
-    goal_pub = demo.create_publisher(PoseStamped, planner.resolve_topic_name("~/goal"), 10)
-    demo.create_timer(0.1, lambda: (joint_pub.publish(joint_state), objects_pub.publish(objects)))
-    received: list[JointTrajectory] = []
-    demo.create_subscription(
-        JointTrajectory, planner.resolve_topic_name("~/trajectory"), received.append,
-        QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
-                   durability=DurabilityPolicy.TRANSIENT_LOCAL))
-    plan = demo.create_client(Trigger, planner.resolve_service_name("~/plan"))
-
-    if not (_wait(lambda: goal_pub.get_subscription_count() > 0, 10.0)
-            and plan.wait_for_service(timeout_sec=10.0)):
-        print("node_demo: the planner node's topics/services did not come up", file=sys.stderr)
+    client = PlannerClient(node, "/planner_node")
+    outcomes = OutcomeListener(node, "/world_sim/outcome")
+    goal_pub = node.create_publisher(PoseStamped, "/planner_node/goal", 10)
+    try:
+        client.wait_ready()
+        ready = _wait(lambda: goal_pub.get_subscription_count() >= 2             # both nodes
+                      and node.count_subscribers("/joint_states") >= 1
+                      and world.command_publisher_count() >= 1, 10.0)
+        if not ready:
+            raise BagError("world_sim and planner_node did not connect in 10 s")
+        goal_pub.publish(goal_to_pose_stamped(scene.goal.position, frame, scene.table.height))
+        time.sleep(0.5)   # a few rounds of world_sim's joint states and object poses
+        print(f"world_sim: {scene.source}, {len(scene.objects)} objects, joint states 50 Hz, "
+              f"object poses 30 Hz, time scale {args.time_scale:g}", flush=True)
+        print(f"planning (seed {args.seed}, time limit {args.time_limit:g} s, goal "
+              f"'{scene.goal.object}' within {planning_radius:.3f} m of "
+              f"({scene.goal.position[0]:.2f}, {scene.goal.position[1]:.2f})) ...", flush=True)
+        reply = client.plan(timeout=args.time_limit + 120.0)
+        print(reply.message, flush=True)
+        print(f"recording: {reply.mcap or 'none'}")
+        if not reply.success:
+            return 1
+        duration = reply.trajectory.points[-1].time_from_start
+        seconds = duration.sec + duration.nanosec * 1e-9
+        seen = outcomes.count()
+        executed = client.execute()
+        print(f"executing open loop: {executed.message}; world_sim at time scale "
+              f"{args.time_scale:g} (~{seconds / args.time_scale:.1f} s)", flush=True)
+        if not executed.success:
+            return 1
+        outcome = outcomes.wait_next(seen, seconds / args.time_scale * 3 + 30.0)
+        print(f"outcome: {outcome['message']}")
+        _plot(world, outcome, plot_path,
+              f"{Path(scene.source).stem}: open loop in world_sim, {outcome['status']}")
+        print(f"top view: {plot_path}")
+        return 0 if outcome["status"] == "SUCCEEDED" else 1
+    except BagError as exc:
+        print(f"node_demo: {exc}", file=sys.stderr)
         return 1
-    goal_pub.publish(goal_to_pose_stamped(scene.goal.position, frame))
-    time.sleep(0.5)   # a few rounds of joint state and object poses
-    print(f"planning {scene.source} (seed {args.seed}, time limit {args.time_limit:g} s) ...",
-          flush=True)
-    future = plan.call_async(Trigger.Request())
-    if not _wait(future.done, args.time_limit + 120.0):
-        print("node_demo: ~/plan did not answer", file=sys.stderr)
-        return 1
-    response = future.result()
-    print(response.message)
-    mcap = response.message.split(", mcap ", 1)[-1].split("; ")[0]
-    print(f"recording: {mcap}")
-    if response.success:
-        _wait(lambda: bool(received), 5.0)
-    plan_id, _, rest = response.message.partition(": ")
-    title = f"{Path(scene.source).stem}: {plan_id} of planner_node, {rest.split(' ')[0]}"
-    _plot(scene, received[-1] if response.success and received else None, plot_path, title)
-    print(f"top view: {plot_path}")
-    return 0 if response.success else 1
+    finally:
+        node.destroy_publisher(goal_pub)
 
 
-def _plot(scene, msg, out_path: Path, title: str) -> None:
-    """Top view of the plan in `msg` (replayed from the scene's start through the physics for
-    the object paths), or of the start alone when there is none."""
-    from msg_adapters import msg_to_trajectory
-
-    from .physics import Physics
+def _plot(world, outcome: dict, out_path: Path, title: str) -> None:
+    """Top view of the execution world_sim recorded: the objects' true paths, the tool."""
     from .plot import plot_top_view
-    from .propagation import replay
 
-    start = scene.initial_state()
-    if msg is None:
-        plot_top_view(scene, start.objects[None], np.zeros((0, 2)), out_path, title=title,
-                      start_states_only=True)
-        return
-    positions = msg_to_trajectory(msg).positions
-    states, problem = replay(Physics(scene), start, positions)
-    if problem:
-        print(f"warning: the trajectory replays only to point {len(states) - 1}: {problem}",
-              file=sys.stderr)
-    ee = np.array([scene.robot.tool_pose(q)[:2, 3] for q in positions])
-    plot_top_view(scene, np.array([s.objects for s in states]), ee, out_path, title=title)
+    record = next(r for r in reversed(world.executions) if r.number == outcome["execution"])
+    plot_top_view(world.world, np.array(record.objects), np.array(record.tool), out_path,
+                  title=title)
 
 
 def _wait(predicate, timeout: float) -> bool:

@@ -1,0 +1,325 @@
+"""Bag replay (issue 6): every input bag in bags/ is played into a planner node like
+`ros2 bag play` would, planned, checked against the controller's contract, executed open loop
+in world_sim on the bag's ground truth, and its recorded inputs compared with the bag; every
+reference plan in bags/plans/ is replayed through the current physics.
+
+Isolated from other runs: localhost discovery and a domain id from the pid (190..219;
+test_node uses 10..159, test_world_sim 160..189).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import threading
+import time
+from pathlib import Path
+
+os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
+DOMAIN_ID = 190 + os.getpid() % 30
+
+import numpy as np  # noqa: E402
+import pytest  # noqa: E402
+import yaml  # noqa: E402
+from geometry_msgs.msg import PoseArray, PoseStamped  # noqa: E402
+from rclpy.callback_groups import MutuallyExclusiveCallbackGroup  # noqa: E402
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy  # noqa: E402
+from sensor_msgs.msg import JointState  # noqa: E402
+
+from msg_adapters import msg_to_trajectory, pose_array_to_objects  # noqa: E402
+from rearrangement_planner.make_bags import BAGS as BAG_SPECS  # noqa: E402
+from rearrangement_planner.make_bags import write_bag  # noqa: E402
+from rearrangement_planner.physics import Physics  # noqa: E402
+from rearrangement_planner.propagation import replay  # noqa: E402
+from rearrangement_planner.replay import (  # noqa: E402
+    BagError,
+    BagPlayer,
+    Session,
+    Topic,
+    playback_qos,
+    read_bag,
+    run_bag,
+)
+from rearrangement_planner.scene import parse_scene  # noqa: E402
+from rearrangement_planner.state import wrap_angle  # noqa: E402
+
+BAGS_DIR = Path(__file__).resolve().parent.parent / "bags"
+BAG_PATHS = sorted(BAGS_DIR.glob("*.mcap"))
+PLAN_PATHS = sorted((BAGS_DIR / "plans").glob("*.plan.mcap"))
+JOINTS, OBJECTS, GOAL = "/joint_states", "/planner_node/object_poses", "/planner_node/goal"
+TRAJECTORY, PREDICTED = "/planner_node/trajectory", "/planner_node/predicted_object_poses"
+RATE = 2.0
+"""Playback rate factor (ros2 bag play --rate)."""
+TIME_SCALE = 20.0
+"""world_sim time scale of the open-loop executions."""
+POSITION_TOLERANCE = 1e-3
+YAW_TOLERANCE = 1e-2
+
+
+def wait_until(predicate, timeout: float, period: float = 0.01) -> bool:
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if predicate():
+            return True
+        time.sleep(period)
+    return bool(predicate())
+
+
+def _stem(path: Path) -> str:
+    return path.name.split(".")[0]
+
+
+def _seconds(stamp) -> float:
+    return stamp.sec + stamp.nanosec * 1e-9
+
+
+@pytest.fixture(scope="module")
+def session():
+    with Session(domain_id=DOMAIN_ID, name="bag_replay_test") as s:
+        yield s
+
+
+def check_controller_contract(msg, robot, start) -> None:
+    """What joint_trajectory_controller checks before it accepts a trajectory, and what the
+    planner promises on top (DESIGN §4): the planning joints in order, stamp zero, positions
+    and velocities on every point within the joint limits, strictly increasing times from 0,
+    zero final velocity, starting at the state it was planned from."""
+    assert list(msg.joint_names) == list(robot.joint_names)
+    assert msg.header.stamp.sec == 0 and msg.header.stamp.nanosec == 0
+    assert len(msg.points) >= 2
+    times = [_seconds(p.time_from_start) for p in msg.points]
+    assert times[0] == 0.0 and all(b > a for a, b in zip(times, times[1:], strict=False))
+    for point in msg.points:
+        assert len(point.positions) == 7 and len(point.velocities) == 7
+        assert np.all(np.isfinite(point.positions)) and np.all(np.isfinite(point.velocities))
+        assert robot.within_limits(np.array(point.positions), tol=1e-9)
+        assert np.all(np.abs(point.velocities) <= robot.velocity_limits + 1e-9)
+    assert np.allclose(msg.points[-1].velocities, 0.0)
+    assert np.allclose(msg.points[0].positions, start, atol=1e-12)
+
+
+# --------------------------------------------------------------------------------------------
+# The bags themselves
+# --------------------------------------------------------------------------------------------
+
+
+def _glitches(bag) -> dict[str, bool]:
+    """Gaps, late stamps and file order of a bag."""
+    found = {}
+    for topic, late_after in ((JOINTS, 0.05), (OBJECTS, 0.15)):
+        messages = [m for m in bag.messages if m.topic == topic]
+        logs = np.array([m.log_time_ns for m in messages]) * 1e-9
+        stamps = np.array([_seconds(bag.decode(m).header.stamp) for m in messages])
+        gaps = np.diff(logs)
+        found[f"{topic} gap"] = bool(gaps.max() > 5 * np.median(gaps))
+        found[f"{topic} late"] = bool((logs - stamps).max() > late_after)
+    found["file order"] = not bag.file_order_sorted
+    return found
+
+
+def test_bags_cover_the_scenes_sizes_rates_and_a_bad_connection():
+    bags = [read_bag(p) for p in BAG_PATHS]
+    assert len(bags) >= 6, [p.name for p in BAG_PATHS]
+    scenes = {b.input_metadata()["planner_parameters"]["scene"] for b in bags}
+    assert scenes == {"easy_push", "default", "clutter", "seven_objects"}
+    assert {1, 3, 7} <= {len(b.last(OBJECTS).poses) for b in bags}
+    glitchy = []
+    for bag in bags:
+        name = bag.path.name
+        assert bag.path.stat().st_size < 250_000, name                # KB, not MB
+        assert {t: bag.topics[t].type_name for t in bag.topics} == {
+            JOINTS: "sensor_msgs/msg/JointState", OBJECTS: "geometry_msgs/msg/PoseArray",
+            GOAL: "geometry_msgs/msg/PoseStamped"}, name
+        for topic in bag.topics.values():
+            assert len(topic.offered_qos) == 1, (name, topic.name)
+        assert 2.0 <= bag.duration <= 5.0, name
+        rates = {}
+        for topic in (JOINTS, OBJECTS):
+            logs = np.array([m.log_time_ns for m in bag.messages if m.topic == topic]) * 1e-9
+            rates[topic] = 1.0 / float(np.median(np.diff(logs)))
+        assert 95 <= rates[JOINTS] <= 525 and 14 <= rates[OBJECTS] <= 32, (name, rates)
+        joint_state = bag.last(JOINTS)
+        assert len(joint_state.name) == 9 and len(joint_state.velocity) == 9   # arm + fingers
+        assert bag.last(OBJECTS).header.frame_id == "panda_link0"
+        found = _glitches(bag)
+        if any(found.values()):
+            assert all(found.values()), (name, found)          # the glitchy one has them all
+            glitchy.append(name)
+            goals = bag.messages_on(GOAL)
+            assert len(goals) == 2 and goals[0].pose != goals[1].pose    # corrected goal
+    assert len(glitchy) == 1, glitchy
+
+
+def test_make_bags_regenerates_the_committed_bags(tmp_path):
+    for spec in BAG_SPECS:
+        path = write_bag(spec, tmp_path)
+        assert path.read_bytes() == (BAGS_DIR / path.name).read_bytes(), spec.name
+    assert sorted(p.name for p in BAG_PATHS) == sorted(f"{s.name}.mcap" for s in BAG_SPECS)
+    assert sorted(p.name for p in PLAN_PATHS) == sorted(f"{s.name}.plan.mcap"
+                                                        for s in BAG_SPECS)
+
+
+def test_bad_bags_are_named(tmp_path):
+    not_mcap = tmp_path / "notes.mcap"
+    not_mcap.write_text("not an mcap file")
+    with pytest.raises(BagError, match="notes.mcap"):
+        read_bag(not_mcap)
+    with pytest.raises(BagError, match="no bag 'no_such_bag'"):
+        read_bag("no_such_bag")
+
+
+def test_playback_qos_follows_the_recorded_offer():
+    def topic(**profile):
+        return Topic("/t", "std_msgs/msg/String", [profile], 1)
+
+    sensor = playback_qos(topic(history="keep_last", depth=5, reliability="best_effort",
+                                durability="volatile"))
+    assert sensor.reliability == ReliabilityPolicy.BEST_EFFORT and sensor.depth == 5
+    latched = playback_qos(topic(history=1, depth=1, reliability=1, durability=1))  # < Jazzy
+    assert latched.reliability == ReliabilityPolicy.RELIABLE
+    assert latched.durability == DurabilityPolicy.TRANSIENT_LOCAL
+    mixed = playback_qos(Topic("/t", "std_msgs/msg/String", [
+        {"reliability": "best_effort", "durability": "volatile"},
+        {"reliability": "reliable", "durability": "volatile"}], 1))
+    assert mixed.reliability == ReliabilityPolicy.RELIABLE and mixed.depth == 10
+
+
+def test_player_publishes_in_log_time_order_at_the_rate(session):
+    """The glitchy bag's file is not in log-time order; playback is, at `rate` x speed."""
+    bag = read_bag(BAGS_DIR / "default_3obj_glitches.mcap")
+    assert not bag.file_order_sorted
+    received: dict[str, list[tuple[float, float]]] = {JOINTS: [], OBJECTS: [], GOAL: []}
+    lock = threading.Lock()
+
+    def keep(topic):
+        def callback(msg):
+            with lock:
+                received[topic].append((time.monotonic(), _seconds(msg.header.stamp)))
+        return callback
+
+    ns = "/player_test"
+    node = session.node
+    # Deep queues and one callback group per topic: the 1 kHz joint states must neither
+    # overwrite nor delay the other topics in this (Python) subscriber.
+    best_effort = QoSProfile(depth=1000, reliability=ReliabilityPolicy.BEST_EFFORT)
+    subs = [node.create_subscription(kind, ns + topic, keep(topic), qos,
+                                     callback_group=MutuallyExclusiveCallbackGroup())
+            for kind, topic, qos in ((JointState, JOINTS, best_effort),
+                                     (PoseArray, OBJECTS, best_effort),
+                                     (PoseStamped, GOAL, 10))]
+    rate = 1.0
+    try:
+        player = BagPlayer(node, bag, rate=rate, namespace=ns)
+        assert player.wait_for_subscribers() == []
+        t0 = time.monotonic()
+        report = player.play()
+        last = {t: _seconds(bag.last(t).header.stamp) for t in received}
+
+        def caught_up() -> bool:   # the subscriber took every queued message
+            with lock:
+                return all(got and got[-1][1] == last[t] for t, got in received.items())
+
+        wait_until(caught_up, 10.0)
+    finally:
+        for sub in subs:
+            node.destroy_subscription(sub)
+    assert report.published == {ns + t: bag.topics[t].count for t in bag.topics}
+    # Never faster than the rate; slower only when the process is busy (a Python subscriber
+    # at 250 Hz in rclpy's MultiThreadedExecutor holds the GIL for long stretches).
+    assert bag.duration / rate - 0.01 <= report.wall_time <= bag.duration / rate + 3.0
+    print(f"\nplayed {bag.duration:.2f} s of log in {report.wall_time:.2f} s at rate {rate:g}; "
+          f"largest delay behind schedule {report.max_lag * 1000:.0f} ms")
+    first = bag.start_ns
+    for topic, got in received.items():
+        expected = [(m.log_time_ns, _seconds(bag.decode(m).header.stamp))
+                    for m in bag.messages if m.topic == topic]
+        stamps = [s for _, s in got]
+        # Received in the bag's log-time order: a subsequence (best effort may drop some,
+        # and a Python subscriber does drop joint states at 1 kHz), ending with the last.
+        positions = iter(s for _, s in expected)
+        assert all(any(s == e for e in positions) for s in stamps), topic
+        assert stamps and stamps[-1] == expected[-1][1], topic
+        print(f"\n{topic}: received {len(stamps)} of {len(expected)}")
+        if topic == GOAL:   # reliable: both, never before their time (late only by load)
+            assert len(got) == 2
+            for (arrived, _), (log, _) in zip(got, expected, strict=True):
+                scheduled = t0 + (log - first) * 1e-9 / rate
+                assert scheduled - 0.02 <= arrived <= scheduled + 1.5, arrived - scheduled
+
+
+# --------------------------------------------------------------------------------------------
+# Replays: plan, controller contract, recorded inputs, open-loop execution
+# --------------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("path", BAG_PATHS, ids=_stem)
+def test_bag_plans_and_executes_open_loop_into_the_goal_region(path, session, tmp_path):
+    bag = read_bag(path)
+    ns = f"/{_stem(path)}"
+    run = run_bag(bag, session, rate=RATE, namespace=ns, record_dir=tmp_path, execute=True,
+                  time_scale=TIME_SCALE)
+    outcome = run.outcome
+    print(f"\n{path.name}: {run.plan.message}\n  {outcome and outcome['message']}\n  "
+          f"timings {', '.join(f'{k} {v:.1f} s' for k, v in run.timings.items())}")
+    assert run.playback.published == {ns + t: bag.topics[t].count for t in bag.topics}
+    assert run.plan.success and run.plan.outcome == "SUCCEEDED", run.plan.message
+
+    # The trajectory passes the controller's checks and starts where the bag's arm was.
+    world = parse_scene(bag.input_metadata()["world"])
+    robot = world.robot
+    start = np.array([bag.last(JOINTS).position[list(bag.last(JOINTS).name).index(n)]
+                      for n in robot.joint_names])
+    check_controller_contract(run.plan.trajectory, robot, start)
+
+    # The plan's MCAP (written by the node) holds the replayed inputs: the last of each.
+    recorded = read_bag(run.plan.mcap)
+    for topic in (JOINTS, OBJECTS, GOAL):
+        assert recorded.last(topic) == bag.last(topic), topic
+    assert recorded.last(TRAJECTORY) == run.plan.trajectory
+    planned = recorded.metadata["rearrangement_plan"]
+    assert planned["outcome"] == "SUCCEEDED" and planned["seed"] == str(
+        run.parameters["seed"])
+
+    # Open loop in world_sim, on the ground truth the bag was recorded from.
+    assert outcome is not None, run.execute_message
+    assert outcome["status"] == "SUCCEEDED", outcome["message"]
+    goal = outcome["goal"]
+    assert goal["reached"] and goal["distance_m"] <= goal["radius_m"] == world.goal.radius
+    last_goal = bag.last(GOAL).pose.position
+    assert goal["position"] == [last_goal.x, last_goal.y]
+    assert outcome["invalid"] is None and outcome["executed_s"] == pytest.approx(
+        _seconds(run.plan.trajectory.points[-1].time_from_start))
+
+
+@pytest.mark.parametrize("path", PLAN_PATHS, ids=_stem)
+def test_reference_plan_replays_to_its_recorded_object_poses(path):
+    """Regression: the recorded trajectory, re-simulated by the current physics from the
+    recorded start, moves every object where the recording predicted, at every point."""
+    plan = read_bag(path)
+    metadata = plan.metadata["rearrangement_plan"]
+    assert metadata["outcome"] == "SUCCEEDED"
+    scene = parse_scene(yaml.safe_load(metadata["scene"]), name=path.name)
+    trajectory = msg_to_trajectory(plan.last(TRAJECTORY))
+    predicted = plan.messages_on(PREDICTED)
+    assert len(predicted) == len(trajectory)
+    start = scene.initial_state()
+    assert np.allclose(trajectory.positions[0], start.q, atol=1e-12)
+    states, problem = replay(Physics(scene), start, trajectory.positions)
+    assert problem == "", f"{path.name}: the physics now stops at point {len(states) - 1} " \
+                          f"(t = {trajectory.times[len(states) - 1]:.2f} s): {problem}"
+    worst = 0.0
+    for k, (state, msg) in enumerate(zip(states, predicted, strict=True)):
+        expected = pose_array_to_objects(msg, scene.object_names, msg.header.frame_id)
+        for i, name in enumerate(scene.object_names):
+            off = math.hypot(*(state.objects[i, :2] - expected[i, :2]))
+            turn = abs(float(wrap_angle(state.objects[i, 2] - expected[i, 2])))
+            worst = max(worst, off)
+            assert off <= POSITION_TOLERANCE and turn <= YAW_TOLERANCE, (
+                f"{path.name}: object '{name}' is {off * 1000:.2f} mm and {turn:.4f} rad off "
+                f"its recorded pose at point {k} (t = {trajectory.times[k]:.2f} s): now "
+                f"{np.round(state.objects[i], 4).tolist()}, recorded "
+                f"{np.round(expected[i], 4).tolist()}")
+    final = states[-1].objects[scene.goal_index, :2]
+    assert scene.goal.reached(final), f"{path.name}: the goal object no longer reaches the goal"
+    print(f"\n{path.name}: {len(trajectory)} points, every object within "
+          f"{worst * 1000:.3f} mm of its recorded pose")
