@@ -48,6 +48,16 @@ def build_parser() -> argparse.ArgumentParser:
                              "(default 10)")
     parser.add_argument("--goal-margin", type=float, default=0.02, metavar="M",
                         help="plan for the goal radius minus M metres (default 0.02)")
+    world = parser.add_argument_group(
+        "simulated world", "make world_sim differ from what the planner sees, to probe "
+                           "open-loop robustness")
+    world.add_argument("--pose-noise", type=float, default=0.0, metavar="M",
+                       help="std dev of the true objects' offset from their published poses, "
+                            "m (default 0)")
+    world.add_argument("--friction-scale", type=float, default=1.0, metavar="F",
+                       help="multiplies the simulated objects' frictions (default 1)")
+    world.add_argument("--world-seed", type=int, default=0, metavar="N",
+                       help="seed of the pose offsets (default 0)")
     return parser
 
 
@@ -67,6 +77,11 @@ def main(argv: list[str] | None = None) -> int:
         for flag, value in (("--time-limit", args.time_limit), ("--time-scale", args.time_scale)):
             if not value > 0:
                 raise RearrangementError(f"{flag} must be positive, got {value}")
+        for flag, value, high in (("--pose-noise", args.pose_noise, 0.5),
+                                  ("--friction-scale", args.friction_scale, 100.0),
+                                  ("--world-seed", args.world_seed, 2**31 - 1)):
+            if not 0 <= value <= high:
+                raise RearrangementError(f"{flag} must be in [0, {high:g}], got {value}")
         scene = load_scene(args.scene)
         if not 0 <= args.goal_margin < scene.goal.radius:
             raise RearrangementError(f"--goal-margin must be in [0, {scene.goal.radius:g}) "
@@ -82,7 +97,10 @@ def main(argv: list[str] | None = None) -> int:
         try:
             world = session.add(WorldSim(context=session.context, parameter_overrides=[
                 Parameter("scene", value=args.scene),
-                Parameter("time_scale", value=float(args.time_scale))]))
+                Parameter("time_scale", value=float(args.time_scale)),
+                Parameter("pose_noise", value=float(args.pose_noise)),
+                Parameter("friction_scale", value=float(args.friction_scale)),
+                Parameter("seed", value=args.world_seed)]))
             planner = session.add(PlannerNode(context=session.context, parameter_overrides=[
                 Parameter("scene", value=args.scene), Parameter("seed", value=args.seed),
                 Parameter("time_limit", value=float(args.time_limit)),
@@ -115,8 +133,11 @@ def _run(session, world, planner, scene, args, planning_radius: float, plot_path
             raise BagError("world_sim and planner_node did not connect in 10 s")
         goal_pub.publish(goal_to_pose_stamped(scene.goal.position, frame, scene.table.height))
         time.sleep(0.5)   # a few rounds of world_sim's joint states and object poses
+        perturbed = (f", pose noise {args.pose_noise:g} m (seed {args.world_seed}), friction "
+                     f"x{args.friction_scale:g}"
+                     if args.pose_noise > 0 or args.friction_scale != 1.0 else "")
         print(f"world_sim: {scene.source}, {len(scene.objects)} objects, joint states 50 Hz, "
-              f"object poses 30 Hz, time scale {args.time_scale:g}", flush=True)
+              f"object poses 30 Hz, time scale {args.time_scale:g}{perturbed}", flush=True)
         print(f"planning (seed {args.seed}, time limit {args.time_limit:g} s, goal "
               f"'{scene.goal.object}' within {planning_radius:.3f} m of "
               f"({scene.goal.position[0]:.2f}, {scene.goal.position[1]:.2f})) ...", flush=True)

@@ -21,8 +21,16 @@ Pieces, usable on their own (the tests and `make_bags` use them):
   played into it, `~/plan`, and optionally open-loop execution (`~/execute`) in a `world_sim`
   started on the bag's ground-truth world; returns a `BagRun`.
 
+- `OutcomeListener(node, topic)`: collects world_sim's `~/outcome` JSON messages.
+
 Topics are the bag's, prefixed by `namespace` (e.g. "/b1" turns "/joint_states" into
 "/b1/joint_states"), so that several replays can share one ROS domain.
+
+Timing: messages are never published before their time; in a busy process they may be late
+(`PlaybackReport.max_lag`): the player is a Python thread, and rclpy's MultiThreadedExecutor
+handling a few hundred messages a second in the same process holds the GIL for long stretches
+(stalls of up to ~1 s measured with 250 Hz joint states). `run_bag` then waits that much longer
+before `~/plan`, so that the node has taken the last messages off its queues.
 """
 
 from __future__ import annotations

@@ -63,8 +63,8 @@ import numpy as np
 import rclpy
 from builtin_interfaces.msg import Time
 from geometry_msgs.msg import PoseArray, PoseStamped
-from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
 from rclpy.callback_groups import ReentrantCallbackGroup
+from rclpy.exceptions import InvalidParameterTypeException, InvalidParameterValueException
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.logging import get_logger
 from rclpy.node import Node
@@ -78,6 +78,7 @@ from trajectory_msgs.msg import JointTrajectory
 from msg_adapters import objects_to_pose_array, pose_stamped_to_goal
 
 from .errors import InputError, RearrangementError, SceneError
+from .node import ParameterSpec
 from .physics import Physics, PhysicsOptions
 from .robot import RobotModel
 from .scene import Scene, load_scene, parse_scene
@@ -404,27 +405,8 @@ def perturbed_world(scene: Scene, start_configuration: np.ndarray | None, pose_n
     return world, offsets
 
 
-@dataclass(frozen=True)
-class _Spec:
-    name: str
-    default: Any
-    description: str
-    low: float | None = None
-    high: float | None = None
-    read_only: bool = False
-
-    def descriptor(self) -> ParameterDescriptor:
-        descriptor = ParameterDescriptor(description=self.description, read_only=self.read_only)
-        if self.low is not None and isinstance(self.default, int):
-            descriptor.integer_range = [IntegerRange(from_value=int(self.low),
-                                                     to_value=int(self.high), step=1)]
-        elif self.low is not None:
-            descriptor.floating_point_range = [FloatingPointRange(
-                from_value=float(self.low), to_value=float(self.high), step=0.0)]
-        return descriptor
-
-
-PARAMETERS: tuple[_Spec, ...] = (
+_Spec = ParameterSpec
+PARAMETERS: tuple[ParameterSpec, ...] = (
     _Spec("scene", "default", "Scene simulated: a shipped scene name (config/scenes) or a scene "
           "YAML path; the planner node's `scene`. Its goal judges the outcome until a goal "
           "arrives on goal_topic.", read_only=True),
@@ -445,10 +427,10 @@ PARAMETERS: tuple[_Spec, ...] = (
           "objects (the world then differs from the planner's model).", 0.0, 100.0,
           read_only=True),
     _Spec("seed", 0, "Seed of the pose offsets.", 0, 2**31 - 1, read_only=True),
-    _Spec("max_substep", MAX_SUBSTEP, "Largest motion (m) of any point of the arm's contact shapes "
-          "within one physics substep. Finer than the planner's 4 mm so that the simulated "
-          "world is converged: its result no longer depends on the step size or on the rate.",
-          0.0001, 0.05, read_only=True),
+    _Spec("max_substep", MAX_SUBSTEP, "Largest motion (m) of any point of the arm's contact "
+          "shapes within one physics substep. Finer than the planner's 4 mm so that the "
+          "simulated world is converged: its result no longer depends on the step size or on "
+          "the rate.", 0.0001, 0.05, read_only=True),
     _Spec("start_tolerance", 0.01, "Largest distance (rad, per joint) between a trajectory's "
           "point at time 0 and the current position; farther is rejected. 0 = no check.",
           0.0, 10.0),
@@ -461,7 +443,7 @@ PARAMETERS: tuple[_Spec, ...] = (
 )
 
 
-def _declare(node: Node, spec: _Spec) -> None:
+def _declare(node: Node, spec: ParameterSpec) -> None:
     if spec.default == ():
         # An empty list has no ROS type (rclpy would guess a byte array): declare the type,
         # then set the empty default (which is why such a parameter cannot be read-only).
@@ -481,7 +463,6 @@ class WorldSim(Node):
         super().__init__(NODE_NAME, **kwargs)
         self._lock = threading.Lock()   # held by every callback; `stop` waits for it
         self._stopped = False
-        self._timers: list = []
         self._execution: OpenLoopExecution | None = None
         try:
             self._setup()
@@ -491,7 +472,11 @@ class WorldSim(Node):
 
     def _setup(self) -> None:
         for spec in PARAMETERS:
-            _declare(self, spec)
+            try:
+                _declare(self, spec)
+            except (InvalidParameterValueException, InvalidParameterTypeException) as exc:
+                raise InputError(f"parameter {spec.name}", f"{exc}; {spec.description}"
+                                 ) from None
         p = {spec.name: self.get_parameter(spec.name).value for spec in PARAMETERS}
         self._nominal = load_scene(p["scene"])
         robot = self._nominal.robot
@@ -542,12 +527,10 @@ class WorldSim(Node):
                                  callback_group=group)
         self.create_service(Trigger, "~/reset", self._guarded(self._on_reset),
                             callback_group=group)
-        self._timers = [
-            self.create_timer(self._period, self._guarded(self._on_update, tick=True),
-                              callback_group=group),
-            self.create_timer(1.0 / p["object_rate"],
-                              self._guarded(self._publish_objects, tick=True),
-                              callback_group=group)]
+        self.create_timer(self._period, self._guarded(self._on_update, tick=True),
+                          callback_group=group)
+        self.create_timer(1.0 / p["object_rate"], self._guarded(self._publish_objects, tick=True),
+                          callback_group=group)
         perturbed = ", ".join(f"{o.name} {np.hypot(*d[:2]) * 1000:.1f} mm/{d[2]:+.3f} rad"
                               for o, d in zip(self._world.objects, self._offsets, strict=True))
         self.get_logger().info(
@@ -582,11 +565,9 @@ class WorldSim(Node):
     def stop(self) -> None:
         """Stop updating and publishing (call before destroy_node while an executor may still
         run this node's callbacks): any execution ends where it is, without an outcome."""
-        with self._lock:
+        with self._lock:   # waits for a running callback; later ones return at once
             self._stopped = True
             self._execution = None
-            for timer in self._timers:
-                timer.cancel()
 
     def destroy_node(self) -> None:
         self.stop()

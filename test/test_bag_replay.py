@@ -323,3 +323,62 @@ def test_reference_plan_replays_to_its_recorded_object_poses(path):
     assert scene.goal.reached(final), f"{path.name}: the goal object no longer reaches the goal"
     print(f"\n{path.name}: {len(trajectory)} points, every object within "
           f"{worst * 1000:.3f} mm of its recorded pose")
+
+
+# --------------------------------------------------------------------------------------------
+# The command line
+# --------------------------------------------------------------------------------------------
+
+
+def test_replay_cli(session, tmp_path, monkeypatch, capsys):
+    """`python -m rearrangement_planner.replay`: into a running planner node, and with its own
+    node and world_sim; bad arguments exit 2 with the problem named."""
+    from rclpy.parameter import Parameter
+
+    from rearrangement_planner import replay as replay_module
+    from rearrangement_planner.node import PlannerNode
+
+    monkeypatch.setenv("ROS_DOMAIN_ID", str(DOMAIN_ID))
+    bag = BAGS_DIR / "easy_push_1obj.mcap"
+    parameters = read_bag(bag).input_metadata()["planner_parameters"]
+    parameters["record_dir"] = str(tmp_path)
+    running = session.add(PlannerNode(
+        context=session.context, namespace="/cli_running",
+        parameter_overrides=[Parameter(k, value=v) for k, v in parameters.items()]))
+    try:
+        assert replay_module.main([str(bag), "--rate", "2", "--namespace", "/cli_running"]) == 0
+    finally:
+        session.remove(running)
+    out = capsys.readouterr().out
+    assert "/joint_states (300)" in out and "played 346 messages" in out
+    assert "SUCCEEDED" in out and str(tmp_path) in out
+
+    assert replay_module.main(["easy_push_1obj", "--rate", "2", "--namespace", "/cli_own",
+                               "--start-node", "--execute", "--time-scale", "20",
+                               "--record-dir", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    assert out.count("SUCCEEDED") == 2 and "inside radius" in out
+
+    assert replay_module.main(["easy_push_1obj", "--execute"]) == 2
+    assert "--execute needs --start-node" in capsys.readouterr().err
+    assert replay_module.main(["no_such_bag"]) == 2
+    assert "no bag 'no_such_bag'" in capsys.readouterr().err
+
+
+def test_make_bags_cli_writes_a_bag_and_its_reference_plan(tmp_path, monkeypatch, capsys):
+    from rearrangement_planner import make_bags
+
+    monkeypatch.setenv("ROS_DOMAIN_ID", str(DOMAIN_ID))
+    assert make_bags.main(["--only", "easy_push_1obj", "--out", str(tmp_path)]) == 0
+    bag = tmp_path / "easy_push_1obj.mcap"
+    assert bag.read_bytes() == (BAGS_DIR / "easy_push_1obj.mcap").read_bytes()
+    plan = read_bag(tmp_path / "plans" / "easy_push_1obj.plan.mcap")
+    assert plan.metadata["rearrangement_plan"]["outcome"] == "SUCCEEDED"
+    assert plan.last(JOINTS) == read_bag(bag).last(JOINTS)
+    assert "easy_push_1obj.plan.mcap: SUCCEEDED" in capsys.readouterr().out
+
+    assert make_bags.main(["--out", str(tmp_path), "--only", "easy_push_1obj",
+                           "--search-seeds", "1"]) == 0
+    assert "easy_push_1obj seed 1: SUCCEEDED" in capsys.readouterr().out
+    assert make_bags.main(["--only", "no_such_bag"]) == 2
+    assert "unknown bags ['no_such_bag']" in capsys.readouterr().err

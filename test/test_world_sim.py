@@ -412,10 +412,44 @@ def test_a_good_plan_fails_in_a_perturbed_world_and_the_outcome_says_so(
 def test_bad_parameters_are_named(session, reference):
     cases = [({"start_configuration": [0.0, 1.0]}, "start_configuration"),
              ({"pose_noise": 0.4, "seed": 3}, "pose_noise"),
-             ({"scene": "no_such_scene"}, "no_such_scene")]
+             ({"scene": "no_such_scene"}, "no_such_scene"),
+             ({"rate": 0.0}, "parameter rate")]
     for parameters, named in cases:
         settings = {"scene": str(reference.world_file), **parameters}
         with pytest.raises(RearrangementError) as info:
             WorldSim(context=session.context, namespace="/broken",
                      parameter_overrides=[Parameter(k, value=v) for k, v in settings.items()])
         assert named in str(info.value)
+
+
+# --------------------------------------------------------------------------------------------
+# make demo (node_demo): world_sim + planner_node, plan, execute, outcome
+# --------------------------------------------------------------------------------------------
+
+
+def test_node_demo_exit_code_is_the_open_loop_outcome(tmp_path, monkeypatch, capsys):
+    """The demo on the fast easy_push scene: exit 0 when the goal object ends in its region,
+    1 when a perturbed world (pose noise) makes the same plan miss it, 2 for bad arguments."""
+    from rearrangement_planner import node_demo
+
+    monkeypatch.setenv("ROS_DOMAIN_ID", str(DOMAIN_ID))
+    common = ["--scene", "easy_push", "--seed", "1", "--time-limit", "20", "--time-scale", "20",
+              "--record-dir", str(tmp_path)]
+    plot = tmp_path / "demo.png"
+    assert node_demo.main([*common, "--plot", str(plot)]) == 0
+    out = capsys.readouterr().out
+    assert "outcome: execution 1: SUCCEEDED" in out and "inside radius 0.080 m" in out
+    assert "time scale 20" in out and f"top view: {plot}" in out
+    recording = out.split("recording: ")[1].split()[0]
+    assert Path(recording).is_file() and plot.stat().st_size > 10_000
+
+    assert node_demo.main([*common, "--pose-noise", "0.01", "--world-seed", "1"]) == 1
+    out = capsys.readouterr().out
+    assert "outcome: execution 1: GOAL_NOT_REACHED" in out and "outside radius" in out
+
+    for bad, named in ((["--time-scale", "0"], "--time-scale"),
+                       (["--goal-margin", "0.5"], "--goal-margin"),
+                       (["--pose-noise", "-1"], "--pose-noise"),
+                       (["--scene", "no_such_scene"], "no_such_scene")):
+        assert node_demo.main(bad) == 2
+        assert named in capsys.readouterr().err
