@@ -381,7 +381,7 @@ class PlannerClient:
     def wait_ready(self, timeout: float = 10.0) -> None:
         if not (self._plan.wait_for_service(timeout_sec=timeout)
                 and self._execute.wait_for_service(timeout_sec=timeout)
-                and _wait(lambda: self._subscription.get_publisher_count() > 0, timeout)):
+                and wait_until(lambda: self._subscription.get_publisher_count() > 0, timeout)):
             raise BagError(f"the planner node's services {self.namespace}/plan and "
                            f"{self.namespace}/execute did not come up in {timeout:g} s")
 
@@ -394,14 +394,14 @@ class PlannerClient:
             seen = len(self._trajectories)
         t0 = time.monotonic()
         future = self._plan.call_async(Trigger.Request())
-        if not _wait(future.done, timeout):
+        if not wait_until(future.done, timeout):
             raise BagError(f"{self.namespace}/plan did not answer in {timeout:g} s")
         response = future.result()
         wall = time.monotonic() - t0
         plan_id, outcome, plan_time, iterations, mcap = parse_summary(response.message)
         trajectory = None
         if response.success:
-            _wait(lambda: len(self._trajectories) > seen, 10.0)
+            wait_until(lambda: len(self._trajectories) > seen, 10.0)
             with self._lock:
                 trajectory = self._trajectories[-1] if len(self._trajectories) > seen else None
         return PlanReply(response.success, response.message, plan_id, outcome, plan_time,
@@ -412,7 +412,7 @@ class PlannerClient:
         from std_srvs.srv import Trigger
 
         future = self._execute.call_async(Trigger.Request())
-        if not _wait(future.done, timeout):
+        if not wait_until(future.done, timeout):
             raise BagError(f"{self.namespace}/execute did not answer in {timeout:g} s")
         return future.result()
 
@@ -441,13 +441,14 @@ class OutcomeListener:
 
     def wait_next(self, seen: int, timeout: float) -> dict[str, Any]:
         """The first outcome after the first `seen` ones."""
-        if not _wait(lambda: self.count() > seen, timeout):
+        if not wait_until(lambda: self.count() > seen, timeout):
             raise BagError(f"no outcome on {self._subscription.topic_name} in {timeout:g} s")
         with self._lock:
             return self.outcomes[seen]
 
 
-def _wait(predicate, timeout: float, period: float = 0.01) -> bool:
+def wait_until(predicate, timeout: float, period: float = 0.01) -> bool:
+    """Poll `predicate` every `period` s until it holds or `timeout` s pass; its last value."""
     deadline = time.monotonic() + timeout
     while time.monotonic() < deadline:
         if predicate():
@@ -612,7 +613,7 @@ def run_bag(bag: Bag | str | os.PathLike[str], session: Session, *, rate: float 
             context=session.context, namespace=ns or None,
             parameter_overrides=[Parameter(k, value=v) for k, v in settings.items()]))
         listener = OutcomeListener(session.node, f"{ns}/world_sim/outcome")
-        if not _wait(lambda: world.command_publisher_count() > 0, 10.0):
+        if not wait_until(lambda: world.command_publisher_count() > 0, 10.0):
             raise BagError(f"world_sim does not see the planner's {ns}/joint_trajectory")
         seen = listener.count()
         executed = client.execute()

@@ -39,6 +39,7 @@ from rearrangement_planner.replay import (  # noqa: E402
     playback_qos,
     read_bag,
     run_bag,
+    wait_until,
 )
 from rearrangement_planner.scene import parse_scene  # noqa: E402
 from rearrangement_planner.state import wrap_angle  # noqa: E402
@@ -54,15 +55,6 @@ TIME_SCALE = 20.0
 """world_sim time scale of the open-loop executions."""
 POSITION_TOLERANCE = 1e-3
 YAW_TOLERANCE = 1e-2
-
-
-def wait_until(predicate, timeout: float, period: float = 0.01) -> bool:
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if predicate():
-            return True
-        time.sleep(period)
-    return bool(predicate())
 
 
 def _stem(path: Path) -> str:

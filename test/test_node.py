@@ -47,6 +47,7 @@ from rearrangement_planner.node import DEFAULTS, EXECUTOR_THREADS, PARAMETERS, P
 from rearrangement_planner.physics import Physics  # noqa: E402
 from rearrangement_planner.planner import PlannerOptions  # noqa: E402
 from rearrangement_planner.propagation import replay  # noqa: E402
+from rearrangement_planner.replay import wait_until  # noqa: E402
 from rearrangement_planner.resources import config_dir  # noqa: E402
 from rearrangement_planner.scene import load_scene  # noqa: E402
 from rearrangement_planner.state import State  # noqa: E402
@@ -148,15 +149,6 @@ class Client:
         assert wait_until(lambda: self.joint_pub.get_subscription_count() > 0
                           and self.objects_pub.get_subscription_count() > 0, 10.0)
         time.sleep(0.25)
-
-
-def wait_until(predicate, timeout: float, period: float = 0.01) -> bool:
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if predicate():
-            return True
-        time.sleep(period)
-    return bool(predicate())
 
 
 def parse_summary(message: str) -> tuple[str, str, float, int, str]:
