@@ -195,7 +195,10 @@ def test_command_checks_name_the_field(reference):
 
 
 def test_publishes_state_at_its_rates(session, reference):
-    sim = Sim(session, "/rates", reference.world_file, rate=50.0, object_rate=20.0)
+    # Rates below the defaults (50 and 30 Hz), so a sim that ignored its parameters would
+    # publish more than the upper bounds below; low enough that a loaded CI machine keeps up
+    # (at 50 Hz one CI run saw 20 Hz).
+    sim = Sim(session, "/rates", reference.world_file, rate=20.0, object_rate=8.0)
     joints: list[tuple[float, JointState]] = []
     objects: list[tuple[float, PoseArray]] = []
     subs = [session.node.create_subscription(JointState, "/rates/joint_states",
@@ -207,7 +210,7 @@ def test_publishes_state_at_its_rates(session, reference):
         assert wait_until(lambda: joints and objects, 10.0)
         joints.clear()
         objects.clear()
-        time.sleep(2.0)
+        time.sleep(2.5)
         received_joints, received_objects = list(joints), list(objects)
     finally:
         for sub in subs:
@@ -216,8 +219,8 @@ def test_publishes_state_at_its_rates(session, reference):
     scene = reference.scene
     # Rates on a loaded 2-core machine (rclpy timers skip the periods they miss): at least
     # half the nominal, never more than the nominal.
-    assert 0.5 * 100 <= len(received_joints) <= 102, len(received_joints)
-    assert 0.5 * 40 <= len(received_objects) <= 42, len(received_objects)
+    assert 0.5 * 50 <= len(received_joints) <= 52, len(received_joints)
+    assert 0.5 * 20 <= len(received_objects) <= 22, len(received_objects)
     stamps = [m.header.stamp.sec + m.header.stamp.nanosec * 1e-9 for _, m in received_joints]
     assert all(b > a for a, b in zip(stamps, stamps[1:], strict=False))
     for received, msg in received_joints:
