@@ -162,6 +162,14 @@ PARAMETERS: tuple[ParameterSpec, ...] = (
                   "from that node straight for the goal (greedy extension)."),
     ParameterSpec("clear_blockers", True, "When a push of the goal object runs into another "
                   "object, push that one out of the way and push on."),
+    ParameterSpec("push_yaw_rate", 0.0, "Yaw rate at which closed-loop pushes turn the hand to "
+                  "push finger first, rad/s; 0 = the hand keeps its yaw.", 0.0, 10.0),
+    ParameterSpec("avoid_others", False, "Closed-loop pushes approach their object sliding "
+                  "round the other objects instead of running into them."),
+    ParameterSpec("detour", 0.0, "When a push of the goal object runs into another object, "
+                  "probability of going round it instead of clearing it away.", 0.0, 1.0),
+    ParameterSpec("fail_penalty", 0.0, "Added to a node's distance in Nearest per extension "
+                  "from it that made no progress; 0 = plain Voronoi bias.", 0.0, 1000.0),
     ParameterSpec("progress_period", 0.25, "Seconds between planner progress reports "
                   "(~/status shows them at 4 Hz).", 0.01, 0.5),
     ParameterSpec("shortcut_time", 10.0, "Longest path shortcutting (King et al. §IV) after a "

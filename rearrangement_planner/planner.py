@@ -101,13 +101,31 @@ class PlannerOptions:
     clear_blockers: bool = True
     """When a push-bias push of the goal object ends against another object, push that object
     out of the goal object's way and push on, within the same action (`_clear_and_push`)."""
+    push_yaw_rate: float = 0.0
+    """Yaw rate (rad/s) at which the closed-loop pushes turn the hand to push finger first
+    (`propagation.push_policy_prop`); 0 = the hand keeps its yaw and the tool point is taken
+    as the pusher."""
+    avoid_others: bool = False
+    """The closed-loop pushes' approach slides the tool round the objects it is not pushing
+    (`propagation._around_others`) instead of running straight into them."""
+    detour: float = 0.0
+    """When a push of the goal object towards the goal (greedy or push-bias) ends against
+    another object, the probability of going round that object (`_detour_push`) rather than
+    clearing it out of the way (`_clear_and_push`, if `clear_blockers`)."""
+    fail_penalty: float = 0.0
+    """Added to a node's metric distance in Nearest for every extension from it that made no
+    progress towards its sample (nothing valid, or ending no closer than the node): dead ends
+    such as a goal object pushed out of the arm's reach near the goal stop attracting the
+    goal-biased samples. 0 = the plain Voronoi bias of Algorithm 1."""
 
     def __post_init__(self) -> None:
         if self.sampler not in ("uniform", "tool"):
             raise ValueError(f"sampler must be 'uniform' or 'tool', not {self.sampler!r}")
-        for name in ("goal_bias", "push_bias", "push_goal_share"):
+        for name in ("goal_bias", "push_bias", "push_goal_share", "detour"):
             if not 0.0 <= getattr(self, name) <= 1.0:
                 raise ValueError(f"{name} must be in [0, 1], not {getattr(self, name)}")
+        if self.push_yaw_rate < 0 or self.fail_penalty < 0:
+            raise ValueError("push_yaw_rate and fail_penalty must be >= 0")
         if self.push_steps < 1:
             raise ValueError(f"push_steps must be >= 1, not {self.push_steps}")
         if not 0 < self.min_duration <= self.max_duration:
@@ -154,6 +172,7 @@ class _Tree:
         self.q = np.empty((capacity, root.q.size))
         self.arm = np.empty((capacity, root_arm.size))
         self.objects = np.empty((capacity, *root.objects.shape))
+        self.fails = np.zeros(capacity)
         self.parent: list[int] = []
         self.segments: list[tuple[State, ...]] = []
         self.add(root, root_arm, -1, ())
@@ -163,6 +182,7 @@ class _Tree:
             self.q = np.concatenate([self.q, np.empty_like(self.q)])
             self.arm = np.concatenate([self.arm, np.empty_like(self.arm)])
             self.objects = np.concatenate([self.objects, np.empty_like(self.objects)])
+            self.fails = np.concatenate([self.fails, np.zeros_like(self.fails)])
         self.q[self.n] = state.q
         self.arm[self.n] = arm
         self.objects[self.n] = state.objects
@@ -243,6 +263,8 @@ class PCRRT:
             sample_arm, sample_objects = self._sample(rng)
             near = self._nearest(tree, sample_arm, sample_objects)
             x_near = State(tree.q[near], tree.objects[near])
+            near_cost = self._distance(tree.arm[near], x_near.objects, sample_arm,
+                                       sample_objects)
             chosen, chosen_cost = None, math.inf
             policy = opts.push_bias > 0 and rng.random() < opts.push_bias
             for k in range(opts.k_actions):
@@ -263,6 +285,8 @@ class PCRRT:
                     chosen, chosen_cost = result, cost
                 if result.stopped in ("cancel", "timeout"):
                     break
+            if chosen is None or chosen_cost >= near_cost:
+                tree.fails[near] += 1.0
             if chosen is None:
                 continue
             parent = near
@@ -351,7 +375,8 @@ class PCRRT:
         d_arm = np.linalg.norm(tree.arm[:n] - sample_arm, axis=1)
         diff = tree.objects[:n, :, :2] - sample_objects[:, :2]
         d_obj = np.sqrt((diff * diff).sum(axis=2)) @ self._weights
-        return int(np.argmin(self.options.arm_weight * d_arm + d_obj))
+        return int(np.argmin(self.options.arm_weight * d_arm + d_obj
+                             + self.options.fail_penalty * tree.fails[:n]))
 
     def _sample_action(self, rng: np.random.Generator) -> Action:
         """SampleAction: uniform in the bounds (§V: 'Actions are uniformly sampled from a
@@ -378,23 +403,120 @@ class PCRRT:
             others = movable[movable != g]
             obj = int(others[rng.integers(others.size)])
         nullspace = rng.uniform(-opts.nullspace_speed, opts.nullspace_speed, self.robot.nq)
-        result = push_policy_prop(self.physics, x_near, obj, sample_objects[obj, :2],
-                                  opts.push_steps, opts.dt, opts.max_speed, nullspace, stop)
-        if obj != g or not opts.clear_blockers or result.stopped is not Invalid.OBJECT_OVERLAP:
+        result = self._push(x_near, obj, sample_objects[obj, :2], opts.push_steps, nullspace,
+                            stop)
+        if obj != g:
             return result
-        return self._clear_and_push(x_near, result, sample_objects[g, :2], nullspace, rng, stop)
+        return self._when_blocked(x_near, result, sample_objects[g, :2], nullspace, rng, stop)
 
     def _goal_push(self, x: State, rng: np.random.Generator,
                    stop: Callable[[State], str | None]) -> Propagation:
         """The greedy extension: push the goal object from x towards the goal centre."""
         opts = self.options
         nullspace = rng.uniform(-opts.nullspace_speed, opts.nullspace_speed, self.robot.nq)
-        result = push_policy_prop(self.physics, x, self.scene.goal_index, self._goal_xy,
-                                  GREEDY_STEPS * opts.push_steps, opts.dt, opts.max_speed,
-                                  nullspace, stop)
-        if not opts.clear_blockers or result.stopped is not Invalid.OBJECT_OVERLAP:
+        result = self._push(x, self.scene.goal_index, self._goal_xy,
+                            GREEDY_STEPS * opts.push_steps, nullspace, stop)
+        return self._when_blocked(x, result, self._goal_xy, nullspace, rng, stop)
+
+    def _push(self, x: State, obj: int, where: np.ndarray, steps: int, nullspace: np.ndarray,
+              stop: Callable[[State], str | None]) -> Propagation:
+        """The closed-loop push of `obj` from x towards `where`, with the options' policy."""
+        opts = self.options
+        return push_policy_prop(self.physics, x, obj, where, steps, opts.dt, opts.max_speed,
+                                nullspace, stop, avoid=opts.avoid_others,
+                                yaw_rate=opts.push_yaw_rate)
+
+    def _when_blocked(self, x: State, result: Propagation, target: np.ndarray,
+                      nullspace: np.ndarray, rng: np.random.Generator,
+                      stop: Callable[[State], str | None]) -> Propagation:
+        """A push of the goal object from x towards `target` that ended against another object
+        goes on round it or clears it away (`detour`, `clear_blockers`)."""
+        opts = self.options
+        if result.stopped is not Invalid.OBJECT_OVERLAP:
             return result
-        return self._clear_and_push(x, result, self._goal_xy, nullspace, rng, stop)
+        if opts.detour > 0 and (not opts.clear_blockers or rng.random() < opts.detour):
+            return self._detour_push(x, result, target, nullspace, rng, stop)
+        if opts.clear_blockers:
+            return self._clear_and_push(x, result, target, nullspace, rng, stop)
+        return result
+
+    def _blocker(self, x: State) -> int:
+        """The object nearest to the goal object's footprint (the one a blocked push hit)."""
+        g = self.scene.goal_index
+        centre = x.objects[g, :2]
+        gaps = [float(np.hypot(*(x.objects[i, :2] - centre))) - o.footprint_radius
+                if i != g else math.inf for i, o in enumerate(self.scene.objects)]
+        return int(np.argmin(gaps))
+
+    def _detour_push(self, x_near: State, blocked: Propagation, target: np.ndarray,
+                     nullspace: np.ndarray, rng: np.random.Generator,
+                     stop: Callable[[State], str | None]) -> Propagation:
+        """The goal object's push towards `target` ran into another object B: push the goal
+        object to a point beside B (on the side it already leans to), clear of B by a random
+        margin, then on towards `target`; up to three times (the next blocker). One action,
+        every step through the physics, so the edge replays like any other."""
+        opts, scene = self.options, self.scene
+        g = scene.goal_index
+        states = list(blocked.states)
+        links = set(blocked.pushing_links)
+        x = states[-1] if states else x_near
+        stopped: Invalid | str | None = blocked.stopped
+        for _ in range(3):
+            centre = x.objects[g, :2]
+            to_target = target - centre
+            distance = float(np.hypot(*to_target))
+            if distance < 0.01:
+                break
+            u = to_target / distance
+            perp = np.array([-u[1], u[0]])
+            via = self._via_point(x, target, u, perp, rng)
+            if via is None:
+                break
+            for where in (via, target):
+                part = self._push(x, g, where, opts.push_steps, nullspace, stop)
+                states.extend(part.states)
+                links |= part.pushing_links
+                x = states[-1] if states else x_near
+                stopped = part.stopped
+                if stopped in ("goal", "cancel", "timeout") or (stopped is not None
+                                                                 and not part.states):
+                    return Propagation(tuple(states), len(states) * opts.dt, stopped,
+                                       frozenset(links))
+            if stopped is not Invalid.OBJECT_OVERLAP:
+                break
+        return Propagation(tuple(states), len(states) * opts.dt, stopped, frozenset(links))
+
+    def _via_point(self, x: State, target: np.ndarray, u: np.ndarray, perp: np.ndarray,
+                   rng: np.random.Generator) -> np.ndarray | None:
+        """Where to push the goal object to get round the object blocking it: beside the
+        blocker, on either side, stepping out (3 cm at a time) until the goal object's
+        footprint there is clear of every object and on the table, so that a row of objects
+        is gone round as a whole. The shorter way round is taken with probability 3/4."""
+        scene = self.scene
+        g = scene.goal_index
+        centre = x.objects[g, :2]
+        b = self._blocker(x)
+        others = np.array([i for i in range(len(scene.objects)) if i != g])
+        need = scene.objects[g].footprint_radius + np.array(
+            [scene.objects[i].footprint_radius for i in others]) + 0.01
+        lo = np.asarray(scene.table.lower) + scene.objects[g].footprint_radius
+        hi = np.asarray(scene.table.upper) - scene.objects[g].footprint_radius
+        ahead = u * rng.uniform(-0.02, 0.04)
+        base = scene.objects[g].footprint_radius + scene.objects[b].footprint_radius \
+            + rng.uniform(0.01, 0.03)
+        options = []
+        for side in (-1.0, 1.0):
+            for k in range(6):
+                via = x.objects[b, :2] + perp * side * (base + 0.03 * k) + ahead
+                free = np.all(np.hypot(*(x.objects[others, :2] - via).T) >= need)
+                if free and np.all(via >= lo) and np.all(via <= hi):
+                    options.append((float(np.hypot(*(via - centre)) + np.hypot(*(target - via))),
+                                    via))
+                    break
+        if not options:
+            return None
+        options.sort(key=lambda o: o[0])
+        return options[0][1] if len(options) == 1 or rng.random() < 0.75 else options[1][1]
 
     def _clear_and_push(self, x_near: State, blocked: Propagation, target: np.ndarray,
                         nullspace: np.ndarray, rng: np.random.Generator,
@@ -417,9 +539,7 @@ class PCRRT:
                 break
             u = to_target / distance
             perp = np.array([-u[1], u[0]])
-            gaps = [float(np.hypot(*(x.objects[i, :2] - centre))) - o.footprint_radius
-                    if i != g else math.inf for i, o in enumerate(scene.objects)]
-            b = int(np.argmin(gaps))
+            b = self._blocker(x)
             rel = x.objects[b, :2] - centre
             across = float(rel @ perp)
             side = math.copysign(1.0, across) if abs(across) > 1e-3 else rng.choice([-1.0, 1.0])
@@ -428,8 +548,7 @@ class PCRRT:
             goal_b = x.objects[b, :2] + perp * side * (clear - abs(across)) \
                 + u * rng.uniform(-0.03, 0.03)
             for obj, where in ((b, goal_b), (g, target)):
-                part = push_policy_prop(self.physics, x, obj, where, opts.push_steps, opts.dt,
-                                        opts.max_speed, nullspace, stop)
+                part = self._push(x, obj, where, opts.push_steps, nullspace, stop)
                 states.extend(part.states)
                 links |= part.pushing_links
                 x = states[-1] if states else x_near
