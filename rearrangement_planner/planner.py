@@ -452,9 +452,9 @@ class PCRRT:
                      nullspace: np.ndarray, rng: np.random.Generator,
                      stop: Callable[[State], str | None]) -> Propagation:
         """The goal object's push towards `target` ran into another object B: push the goal
-        object to a point beside B (on the side it already leans to), clear of B by a random
-        margin, then on towards `target`; up to three times (the next blocker). One action,
-        every step through the physics, so the edge replays like any other."""
+        object to a point beside B where it is clear of every object (`_via_point`), then on
+        towards `target`; up to three times (the next blocker). One action, every step
+        through the physics, so the edge replays like any other."""
         opts, scene = self.options, self.scene
         g = scene.goal_index
         states = list(blocked.states)
