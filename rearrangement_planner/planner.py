@@ -35,6 +35,9 @@ from .propagation import Action, Propagation, constrained_prop, push_policy_prop
 from .scene import Scene
 from .state import State
 
+_Leg = tuple[int, np.ndarray, bool]
+"""One closed-loop push of a chained action: object, where to, must it move (`_push_past`)."""
+
 GREEDY_STEPS = 3
 """The greedy goal push may take this many times `push_steps` (it has to go round the goal
 object and then push it all the way)."""
@@ -453,38 +456,14 @@ class PCRRT:
                      stop: Callable[[State], str | None]) -> Propagation:
         """The goal object's push towards `target` ran into another object B: push the goal
         object to a point beside B where it is clear of every object (`_via_point`), then on
-        towards `target`; up to three times (the next blocker). One action, every step
-        through the physics, so the edge replays like any other."""
-        opts, scene = self.options, self.scene
-        g = scene.goal_index
-        states = list(blocked.states)
-        links = set(blocked.pushing_links)
-        x = states[-1] if states else x_near
-        stopped: Invalid | str | None = blocked.stopped
-        for _ in range(3):
-            centre = x.objects[g, :2]
-            to_target = target - centre
-            distance = float(np.hypot(*to_target))
-            if distance < 0.01:
-                break
-            u = to_target / distance
-            perp = np.array([-u[1], u[0]])
+        towards `target`; up to three times (the next blocker)."""
+        g = self.scene.goal_index
+
+        def legs(x: State, u: np.ndarray, perp: np.ndarray) -> list[_Leg] | None:
             via = self._via_point(x, target, u, perp, rng)
-            if via is None:
-                break
-            for where in (via, target):
-                part = self._push(x, g, where, opts.push_steps, nullspace, stop)
-                states.extend(part.states)
-                links |= part.pushing_links
-                x = states[-1] if states else x_near
-                stopped = part.stopped
-                if stopped in ("goal", "cancel", "timeout") or (stopped is not None
-                                                                 and not part.states):
-                    return Propagation(tuple(states), len(states) * opts.dt, stopped,
-                                       frozenset(links))
-            if stopped is not Invalid.OBJECT_OVERLAP:
-                break
-        return Propagation(tuple(states), len(states) * opts.dt, stopped, frozenset(links))
+            return None if via is None else [(g, via, True), (g, target, True)]
+
+        return self._push_past(x_near, blocked, target, nullspace, stop, 3, legs)
 
     def _via_point(self, x: State, target: np.ndarray, u: np.ndarray, perp: np.ndarray,
                    rng: np.random.Generator) -> np.ndarray | None:
@@ -523,38 +502,55 @@ class PCRRT:
                         stop: Callable[[State], str | None]) -> Propagation:
         """The goal object's push towards `target` ran into another object B: push B sideways
         out of the corridor the goal object sweeps on its way to `target` (to a random point
-        just clear of it), then push the goal object on. One action, every step through the
-        physics, so the edge replays like any other."""
-        opts, scene = self.options, self.scene
+        just clear of it), then push the goal object on; up to twice."""
+        scene = self.scene
         g = scene.goal_index
-        states = list(blocked.states)
-        links = set(blocked.pushing_links)
-        x = states[-1] if states else x_near
-        stopped: Invalid | str | None = blocked.stopped
-        for _ in range(2):
-            centre = x.objects[g, :2]
-            to_target = target - centre
-            distance = float(np.hypot(*to_target))
-            if distance < 0.01:
-                break
-            u = to_target / distance
-            perp = np.array([-u[1], u[0]])
+
+        def legs(x: State, u: np.ndarray, perp: np.ndarray) -> list[_Leg]:
             b = self._blocker(x)
-            rel = x.objects[b, :2] - centre
-            across = float(rel @ perp)
+            across = float((x.objects[b, :2] - x.objects[g, :2]) @ perp)
             side = math.copysign(1.0, across) if abs(across) > 1e-3 else rng.choice([-1.0, 1.0])
             clear = (scene.objects[g].footprint_radius + scene.objects[b].footprint_radius
                      + rng.uniform(0.01, 0.05))
             goal_b = x.objects[b, :2] + perp * side * (clear - abs(across)) \
                 + u * rng.uniform(-0.03, 0.03)
-            for obj, where in ((b, goal_b), (g, target)):
+            return [(b, goal_b, True), (g, target, False)]
+
+        return self._push_past(x_near, blocked, target, nullspace, stop, 2, legs)
+
+    def _push_past(self, x_near: State, blocked: Propagation, target: np.ndarray,
+                   nullspace: np.ndarray, stop: Callable[[State], str | None], rounds: int,
+                   legs: Callable[[State, np.ndarray, np.ndarray], list[_Leg] | None],
+                   ) -> Propagation:
+        """Go on from the blocked push of the goal object towards `target`: each round,
+        `legs(x, u, perp)` (u towards the target, perp to its left) gives the closed-loop
+        pushes (object, where, must_move) to chain; another round while the last one ends in
+        an object overlap. The action ends at the goal, on cancel or timeout, or when a
+        must_move leg cannot take a step. One action, every step through the physics, so the
+        edge replays like any other."""
+        opts = self.options
+        g = self.scene.goal_index
+        states = list(blocked.states)
+        links = set(blocked.pushing_links)
+        x = states[-1] if states else x_near
+        stopped: Invalid | str | None = blocked.stopped
+        for _ in range(rounds):
+            to_target = target - x.objects[g, :2]
+            distance = float(np.hypot(*to_target))
+            if distance < 0.01:
+                break
+            u = to_target / distance
+            chain = legs(x, u, np.array([-u[1], u[0]]))
+            if chain is None:
+                break
+            for obj, where, must_move in chain:
                 part = self._push(x, obj, where, opts.push_steps, nullspace, stop)
                 states.extend(part.states)
                 links |= part.pushing_links
                 x = states[-1] if states else x_near
                 stopped = part.stopped
                 if (stopped in ("goal", "cancel", "timeout")
-                        or (obj == b and stopped is not None and not part.states)):
+                        or (must_move and stopped is not None and not part.states)):
                     return Propagation(tuple(states), len(states) * opts.dt, stopped,
                                        frozenset(links))
             if stopped is not Invalid.OBJECT_OVERLAP:

@@ -39,7 +39,12 @@ from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint  # noqa: E
 from msg_adapters import goal_to_pose_stamped, pose_array_to_objects  # noqa: E402
 from rearrangement_planner.errors import InputError, RearrangementError  # noqa: E402
 from rearrangement_planner.physics import Physics, PhysicsOptions  # noqa: E402
-from rearrangement_planner.replay import OutcomeListener, Session, read_bag  # noqa: E402
+from rearrangement_planner.replay import (  # noqa: E402
+    OutcomeListener,
+    Session,
+    read_bag,
+    wait_until,
+)
 from rearrangement_planner.scene import load_scene  # noqa: E402
 from rearrangement_planner.world_sim import (  # noqa: E402
     MAX_SUBSTEP,
@@ -107,15 +112,6 @@ class Sim:
     def close(self) -> None:
         self.session.node.destroy_publisher(self.commands)
         self.session.remove(self.node)
-
-
-def wait_until(predicate, timeout: float, period: float = 0.01) -> bool:
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if predicate():
-            return True
-        time.sleep(period)
-    return bool(predicate())
 
 
 def replayed_offline(scene, command: Command, period: float = 1.0 / 50.0) -> OpenLoopExecution:
