@@ -146,7 +146,10 @@ def pusher_footprint(physics: Physics, q: np.ndarray) -> np.ndarray:
 
 
 def _lead_offset(footprint: np.ndarray, yaw: float, u: np.ndarray) -> np.ndarray:
-    """World offset from the tool of the footprint's point furthest along u (support)."""
+    """World offset from the tool of the footprint's point furthest along u (support); zero
+    when the footprint is empty (no part of the arm reaches object height near the tool)."""
+    if footprint.size == 0:
+        return np.zeros(2)
     c, s = math.cos(yaw), math.sin(yaw)
     ua, ub = c * u[0] + s * u[1], -s * u[0] + c * u[1]
     ends = np.concatenate([footprint[:, 0:2], footprint[:, 2:4]])

@@ -6,6 +6,7 @@ import math
 
 import numpy as np
 import pytest
+import yaml
 
 from rearrangement_planner.approach import approach_path
 from rearrangement_planner.manifold import tool_planar_pose
@@ -19,7 +20,7 @@ from rearrangement_planner.propagation import (
     replay,
 )
 from rearrangement_planner.resources import scenes_dir
-from rearrangement_planner.scene import load_scene
+from rearrangement_planner.scene import load_scene, parse_scene
 from rearrangement_planner.state import State
 
 ALL_ON = {"push_yaw_rate": 1.0, "avoid_others": True, "detour": 1.0, "fail_penalty": 0.05}
@@ -152,3 +153,20 @@ def test_variant_options_are_checked():
     for bad in ({"detour": 1.5}, {"push_yaw_rate": -1.0}, {"fail_penalty": -0.1}):
         with pytest.raises(ValueError):
             PlannerOptions(**bad)
+
+
+def test_finger_first_push_with_nothing_of_the_hand_at_object_height_does_not_crash(panda):
+    """Objects lower than the hand: `pusher_footprint` is empty, and the finger-first push
+    takes the tool point as the pusher instead of failing (it raised ValueError on argmax of
+    an empty sequence, which aborted a planning run with push_yaw_rate > 0)."""
+    data = yaml.safe_load((scenes_dir() / "easy_push.yaml").read_text())
+    data["objects"][0]["size"][2] = 0.01
+    scene = parse_scene(data, robot=panda)
+    physics = Physics(scene)
+    x = approach_path(physics, scene.initial_state(), np.random.default_rng(0))[0][-1]
+    assert pusher_footprint(physics, x.q).size == 0
+    goal = np.asarray(scene.goal.position)
+    result = push_policy_prop(physics, x, 0, goal, 20, 0.1, 0.1, np.zeros(7), yaw_rate=1.0)
+    assert len(result.states) == 20 and result.stopped is None
+    tool = tool_planar_pose(physics.robot, result.states[-1].q)
+    assert float(np.hypot(*(tool[:2] - tool_planar_pose(physics.robot, x.q)[:2]))) > 0.05
