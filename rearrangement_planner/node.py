@@ -153,7 +153,7 @@ PARAMETERS: tuple[ParameterSpec, ...] = (
     ParameterSpec("object_weight", 1.0, "Metric weight of each non-goal object, per m.",
                   0.0, 1000.0),
     ParameterSpec("goal_weight", 5.0, "Metric weight of the goal object, per m.", 0.0, 1000.0),
-    ParameterSpec("push_bias", 0.3, "Probability that an iteration replaces one random action "
+    ParameterSpec("push_bias", 0.6, "Probability that an iteration replaces one random action "
                   "by a closed-loop push of one object; 0 = the paper's PC-RRT.", 0.0, 1.0),
     ParameterSpec("push_goal_share", 0.5, "Share of the push_bias pushes aimed at the goal "
                   "object.", 0.0, 1.0),

@@ -87,7 +87,7 @@ class PlannerOptions:
     """w_i of the metric for the goal object, per m."""
     progress_period: float = 0.5
     """Seconds between progress callbacks."""
-    push_bias: float = 0.3
+    push_bias: float = 0.6
     """Probability that an iteration replaces one of its k random actions by a closed-loop
     push (`propagation.push_policy_prop`) of one object towards its sampled position: the goal
     object with probability `push_goal_share`, else a random other object. 0 = the paper's
