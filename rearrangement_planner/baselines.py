@@ -37,7 +37,7 @@ import numpy as np
 
 from .manifold import ik_on_manifold, project_step, tool_planar_pose
 from .physics import Physics
-from .planner import PCRRT, Outcome, PlannerOptions, PlanResult, Progress, _Tree
+from .planner import PCRRT, SUPERSEDED, Outcome, PlannerOptions, PlanResult, Progress, _Tree
 from .propagation import support_distance
 from .scene import Scene
 from .state import State
@@ -91,7 +91,9 @@ class DARRT:
 
     def plan(self, start: State | None = None, seed: int = 0,
              cancel: threading.Event | None = None,
-             progress: Callable[[Progress], None] | None = None) -> PlanResult:
+             progress: Callable[[Progress], None] | None = None,
+             iteration_gate: Callable[[int], bool] | None = None) -> PlanResult:
+        """As `PCRRT.plan`."""
         t0 = time.monotonic()
         opts, scene = self.options, self.scene
         start = start or scene.initial_state()
@@ -126,6 +128,9 @@ class DARRT:
                 if progress is not None and now - last_report >= opts.progress_period:
                     progress(Progress(iterations, tree.n, best, now - t0))
                     last_report = now
+                if iteration_gate is not None and not iteration_gate(iterations + 1):
+                    return self._failure(Outcome.CANCELLED, SUPERSEDED, seed, tree,
+                                         iterations, steps, t0, best)
                 iterations += 1
                 choice = int(rng.integers(3))
                 if choice == 0:

@@ -6,7 +6,7 @@
     rearrangement-bench generate [--seed S] [--out DIR]
     rearrangement-bench physics [--seconds S] [--json OUT]
     rearrangement-bench scenes [--scenes NAME ...] [--planners P ...] [--seeds N ...]
-                               [--time-limit S] [--jsonl OUT]
+                               [--time-limit S] [--trees N] [--jsonl OUT]
 
 `run` (the default) is the benchmark of King et al. §V (DESIGN §9, `benchmark.py`): each
 planner on each of the 35 scenes of config/benchmark/scenes with each seed, one worker process
@@ -17,7 +17,9 @@ protocol (14 scenes, seed 0, 20 s budget; under 10 minutes on 2 cores). `generat
 the scene set. Exit codes: 0 done, 1 some trials failed with an internal error, 2 bad input
 (one line naming the option), 130 interrupted.
 
-`scenes` runs each planner on the shipped demo scenes (one line of JSON per run).
+`scenes` runs each planner on the shipped demo scenes, one run at a time with 2 trees raced
+per run (`parallel`; `--trees 1` for one tree), one line of JSON per run. `run` grows one tree
+per trial and spreads the trials over the cores instead.
 """
 
 from __future__ import annotations
@@ -139,19 +141,22 @@ def physics_benchmark(seconds: float) -> dict:
     }
 
 
-def scene_trial(scene_name: str, planner: str, seed: int, time_limit: float) -> dict:
-    """One planner run on one shipped scene: outcome, plan time and which objects moved."""
+def scene_trial(scene_name: str, planner: str, seed: int, time_limit: float,
+                trees: int = 1) -> dict:
+    """One planner run on one shipped scene (`trees` raced trees): outcome, plan time and
+    which objects moved."""
     from .pipeline import plan_scene
     from .planner import PlannerOptions
 
     scene = load_scene(scene_name)
-    result = plan_scene(scene, planner, PlannerOptions(time_limit=time_limit), seed=seed).result
+    result = plan_scene(scene, planner, PlannerOptions(time_limit=time_limit, trees=trees),
+                        seed=seed).result
     moved: list[str] = []
     if result.states:
         first = result.states[0].objects
         moved = [o.name for i, o in enumerate(scene.objects)
                  if any(not (s.objects[i] == first[i]).all() for s in result.states)]
-    return {"scene": scene_name, "planner": planner, "seed": seed,
+    return {"scene": scene_name, "planner": planner, "seed": seed, "trees": trees,
             "outcome": result.outcome.value, "plan_time_s": round(result.plan_time, 2),
             "iterations": result.iterations, "moved": moved,
             "best_goal_distance_m": round(result.best_goal_distance, 3)}
@@ -234,6 +239,10 @@ def build_parser() -> argparse.ArgumentParser:
     scenes.add_argument("--seeds", nargs="+", type=int, default=[0, 1, 2])
     scenes.add_argument("--time-limit", type=float, default=60.0, metavar="S",
                         help="planning budget per run, s (default 60)")
+    scenes.add_argument("--trees", type=int, default=2, metavar="N",
+                        help="trees raced per run (OR-parallel, one process each; see "
+                             "rearrangement-plan --help; default 2, for a 2-core machine "
+                             "running one run at a time)")
     scenes.add_argument("--jsonl", type=Path, help="also append the lines to this file")
     return parser
 
@@ -278,10 +287,13 @@ def scenes_command(args: argparse.Namespace) -> int:
     if not args.time_limit > 0:
         raise benchmark.BenchmarkError("--time-limit", f"must be positive, got "
                                                        f"{args.time_limit}")
+    if not 1 <= args.trees <= 64:
+        raise benchmark.BenchmarkError("--trees", f"must be between 1 and 64, got {args.trees}")
     for scene_name in args.scenes:
         for planner in args.planners:
             for seed in args.seeds:
-                line = json.dumps(scene_trial(scene_name, planner, seed, args.time_limit))
+                line = json.dumps(scene_trial(scene_name, planner, seed, args.time_limit,
+                                              args.trees))
                 print(line, flush=True)
                 if args.jsonl:
                     with args.jsonl.open("a") as f:

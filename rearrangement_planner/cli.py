@@ -20,6 +20,9 @@ from .pipeline import PLANNERS, PlanOutput, plan_scene
 from .planner import PlannerOptions, Progress
 from .scene import load_scene
 
+DEFAULT_TREES = 2
+"""Trees raced by default (`parallel`): the 2 cores of the reference machine."""
+
 
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
@@ -39,6 +42,11 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--seed", type=int, default=0, metavar="N",
                         help="random seed: the same scene, options and seed give the same plan "
                              "(default 0)")
+    parser.add_argument("--trees", type=int, default=DEFAULT_TREES, metavar="N",
+                        help="independent trees grown at once, one process each; the plan "
+                             "found in the fewest iterations wins, so the result does not "
+                             "depend on the machine's speed (OR-parallel RRT; default "
+                             f"{DEFAULT_TREES}; 1 = a single tree in this process)")
     parser.add_argument("--shortcut", type=float, default=0.0, metavar="S",
                         help="seconds of path shortcutting (King et al. §IV) after a plan is "
                              "found (default 0: none). The JSON then also holds the path "
@@ -78,6 +86,8 @@ def main(argv: list[str] | None = None) -> int:
     try:
         if not args.time_limit > 0:
             raise RearrangementError(f"--time-limit must be positive, got {args.time_limit}")
+        if not 1 <= args.trees <= 64:
+            raise RearrangementError(f"--trees must be between 1 and 64, got {args.trees}")
         if not args.shortcut >= 0:
             raise RearrangementError(f"--shortcut must be >= 0 s, got {args.shortcut}")
         if args.shortcut_attempts is not None and args.shortcut_attempts < 1:
@@ -88,7 +98,8 @@ def main(argv: list[str] | None = None) -> int:
         print(f"rearrangement-plan: {exc}", file=sys.stderr)
         return 2
     started = time.monotonic()
-    output = plan_scene(scene, args.planner, PlannerOptions(time_limit=args.time_limit),
+    options = PlannerOptions(time_limit=args.time_limit, trees=args.trees)
+    output = plan_scene(scene, args.planner, options,
                         seed=args.seed, progress=_progress_printer(args.quiet),
                         shortcut_time=args.shortcut, shortcut_attempts=args.shortcut_attempts)
     result = output.result
@@ -136,6 +147,7 @@ def _record(output: PlanOutput, args: argparse.Namespace) -> None:
     from .recording import RecordingError
 
     parameters = {"planner": output.planner, "time_limit": args.time_limit, "seed": args.seed,
+                  "trees": args.trees,
                   "shortcut": args.shortcut, "shortcut_attempts": args.shortcut_attempts,
                   "scene": str(args.scene)}
     try:

@@ -170,6 +170,9 @@ PARAMETERS: tuple[ParameterSpec, ...] = (
                   "probability of going round it instead of clearing it away.", 0.0, 1.0),
     ParameterSpec("fail_penalty", 0.0, "Added to a node's distance in Nearest per extension "
                   "from it that made no progress; 0 = plain Voronoi bias.", 0.0, 1000.0),
+    ParameterSpec("trees", 2, "Independent trees grown at once, one process each; the plan "
+                  "found in the fewest iterations wins (reproducible); 1 = one tree in the "
+                  "node's process.", 1, 64),
     ParameterSpec("progress_period", 0.25, "Seconds between planner progress reports "
                   "(~/status shows them at 4 Hz).", 0.01, 0.5),
     ParameterSpec("shortcut_time", 10.0, "Longest path shortcutting (King et al. §IV) after a "

@@ -147,7 +147,8 @@ def plan_scene(scene: Scene, planner: str = "pc-rrt", options: PlannerOptions | 
                shortcut_time: float = 0.0, timing: TimingOptions | None = None,
                physics: Physics | None = None,
                shortcut_attempts: int | None = None) -> PlanOutput:
-    """Plan `scene` (from `start`, default the scene's initial state), shortcut the path for up
+    """Plan `scene` (from `start`, default the scene's initial state) with `options.trees`
+    trees (`parallel.plan_race` when more than one), shortcut the path for up
     to `shortcut_time` s or `shortcut_attempts` attempts (whichever ends first; an attempt
     bound that ends first makes the result reproducible), time it, and predict the object
     poses along the trajectory.
@@ -155,8 +156,13 @@ def plan_scene(scene: Scene, planner: str = "pc-rrt", options: PlannerOptions | 
     DARRT's Push primitive holds the object rigidly in the hand, a different world model from
     the quasistatic physics, so its paths are not shortcut (shortcutting re-simulates pushes)."""
     physics = physics or Physics(scene)
-    result = make_planner(planner, scene, options, physics).plan(
-        start=start, seed=seed, cancel=cancel, progress=progress)
+    if options is not None and options.trees > 1:
+        from .parallel import plan_race
+
+        result = plan_race(planner, scene, options, seed, start, cancel, progress, physics)
+    else:
+        result = make_planner(planner, scene, options, physics).plan(
+            start=start, seed=seed, cancel=cancel, progress=progress)
     if not result.solved:
         return PlanOutput(scene, planner, result)
     before = PathMetrics.of(scene, result.states)

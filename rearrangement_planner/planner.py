@@ -38,6 +38,8 @@ from .state import State
 _Leg = tuple[int, np.ndarray, bool]
 """One closed-loop push of a chained action: object, where to, must it move (`_push_past`)."""
 
+SUPERSEDED = "superseded: another tree of the race found a plan in fewer iterations"
+
 GREEDY_STEPS = 3
 """The greedy goal push may take this many times `push_steps` (it has to go round the goal
 object and then push it all the way)."""
@@ -115,6 +117,10 @@ class PlannerOptions:
     """When a push of the goal object towards the goal (greedy or push-bias) ends against
     another object, the probability of going round that object (`_detour_push`) rather than
     clearing it out of the way (`_clear_and_push`, if `clear_blockers`)."""
+    trees: int = 1
+    """Independent trees grown at once on separate processes, the first plan in iteration
+    order winning (`parallel`, OR-parallel RRT); 1 = one tree in this process. Honoured by
+    `pipeline.plan_scene` (the CLI, the node and the benchmarks), not by `PCRRT.plan` itself."""
     fail_penalty: float = 0.0
     """Added to a node's metric distance in Nearest for every extension from it that made no
     progress towards its sample (nothing valid, or ending no closer than the node): dead ends
@@ -133,6 +139,8 @@ class PlannerOptions:
             raise ValueError(f"push_steps must be >= 1, not {self.push_steps}")
         if not 0 < self.min_duration <= self.max_duration:
             raise ValueError("need 0 < min_duration <= max_duration")
+        if not 1 <= self.trees <= 64:
+            raise ValueError(f"trees must be between 1 and 64, not {self.trees}")
         if self.k_actions < 1 or self.dt <= 0 or self.time_limit <= 0:
             raise ValueError("k_actions >= 1, dt > 0 and time_limit > 0 are required")
 
@@ -227,8 +235,11 @@ class PCRRT:
 
     def plan(self, start: State | None = None, seed: int = 0,
              cancel: threading.Event | None = None,
-             progress: Callable[[Progress], None] | None = None) -> PlanResult:
-        """Algorithm 1. `cancel` is checked every iteration and every propagation step."""
+             progress: Callable[[Progress], None] | None = None,
+             iteration_gate: Callable[[int], bool] | None = None) -> PlanResult:
+        """Algorithm 1. `cancel` is checked every iteration and every propagation step.
+        `iteration_gate(i)`, if given, is asked before iteration i; False ends the plan as
+        CANCELLED (`parallel`: another tree of a race has already found a better plan)."""
         t0 = time.monotonic()
         opts = self.options
         start = start or self.scene.initial_state()
@@ -262,6 +273,9 @@ class PCRRT:
             if progress is not None and now - last_report >= opts.progress_period:
                 progress(Progress(iterations, tree.n, best, now - t0))
                 last_report = now
+            if iteration_gate is not None and not iteration_gate(iterations + 1):
+                return self._failure(Outcome.CANCELLED, SUPERSEDED, seed, tree, iterations,
+                                     steps, t0, best)
             iterations += 1
             sample_arm, sample_objects = self._sample(rng)
             near = self._nearest(tree, sample_arm, sample_objects)

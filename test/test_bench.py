@@ -39,6 +39,8 @@ def test_physics_and_scenes_reject_non_positive_times(capsys):
     assert "--seconds" in capsys.readouterr().err
     assert main(["scenes", "--time-limit", "-1"]) == 2
     assert "--time-limit" in capsys.readouterr().err
+    assert main(["scenes", "--trees", "0"]) == 2
+    assert "--trees" in capsys.readouterr().err
 
 
 def test_scenes_benchmark_reports_one_line_per_run(tmp_path, capsys):
@@ -48,6 +50,7 @@ def test_scenes_benchmark_reports_one_line_per_run(tmp_path, capsys):
     assert main(["scenes", "--scenes", "easy_push", "--planners", "darrt", "static-rrt",
                  "--seeds", "1", "--time-limit", "30", "--jsonl", str(out)]) == 0
     rows = [json.loads(line) for line in out.read_text().splitlines()]
-    assert [(r["planner"], r["seed"]) for r in rows] == [("darrt", 1), ("static-rrt", 1)]
+    assert [(r["planner"], r["seed"], r["trees"]) for r in rows] == [("darrt", 1, 2),
+                                                                     ("static-rrt", 1, 2)]
     assert all(r["outcome"] == "SUCCEEDED" and r["moved"] == ["target"] for r in rows)
     assert capsys.readouterr().out.count("\n") == 2

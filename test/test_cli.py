@@ -64,6 +64,18 @@ def test_missing_scene_file_exits_2(tmp_path, capsys):
 def test_bad_option_exits_2(capsys):
     assert main([str(scenes_dir() / "easy_push.yaml"), "--time-limit", "-1", "--quiet"]) == 2
     assert "--time-limit" in capsys.readouterr().err
+    assert main([str(scenes_dir() / "easy_push.yaml"), "--trees", "0", "--quiet"]) == 2
+    assert "--trees must be between 1 and 64, got 0" in capsys.readouterr().err
+
+
+def test_two_trees_race_by_default(tmp_path):
+    out = tmp_path / "plan.json"
+    assert main([str(scenes_dir() / "easy_push.yaml"), "--seed", "5", "--json", str(out),
+                 "--quiet"]) == 0
+    assert "of tree 1 of 2" in json.loads(out.read_text())["message"]   # test_parallel: seed 5
+    assert main([str(scenes_dir() / "easy_push.yaml"), "--seed", "5", "--trees", "1",
+                 "--json", str(out), "--quiet"]) == 0
+    assert "tree" not in json.loads(out.read_text())["message"]
 
 
 def test_help_explains_every_option(capsys):
@@ -71,8 +83,8 @@ def test_help_explains_every_option(capsys):
         main(["--help"])
     assert exit_info.value.code == 0
     text = capsys.readouterr().out
-    for option in ("--planner", "--time-limit", "--seed", "--shortcut", "--json", "--record",
-                   "--plot"):
+    for option in ("--planner", "--time-limit", "--seed", "--trees", "--shortcut", "--json",
+                   "--record", "--plot"):
         assert option in text
 
 

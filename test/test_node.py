@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import copy
 import dataclasses
+import json
 import os
 import re
 import threading
@@ -226,7 +227,9 @@ def test_parameters_declared_once_with_descriptions_and_yaml_defaults(ros):
         assert descriptor.read_only == (spec.name in ("scene", "robot_description"))
     for field in dataclasses.fields(PlannerOptions):       # every planner option, same default
         assert field.name in DEFAULTS, f"PlannerOptions.{field.name} is no node parameter"
-        if field.name != "progress_period":                # the node reports at 4 Hz
+        if field.name == "trees":       # the node races a tree per core of a 2-core machine
+            assert (DEFAULTS["trees"], field.default) == (2, 1)
+        elif field.name != "progress_period":              # the node reports at 4 Hz
             assert DEFAULTS[field.name] == field.default, field.name
     data = yaml.safe_load((config_dir() / "planner.yaml").read_text())
     file_defaults = data["planner_node"]["ros__parameters"]
@@ -262,6 +265,9 @@ def test_plan_succeeds_publishes_records_and_executes(ros):
             f"{NS}/predicted_object_poses", f"{NS}/markers"} <= topics
     assert metadata["rearrangement_plan"]["plan_id"] == plan_id
     assert metadata["rearrangement_plan"]["outcome"] == "SUCCEEDED"
+    # Two trees raced (the `trees` default); the parameters recorded say so.
+    assert " of 2 (tree seed " in metadata["rearrangement_plan"]["message"]
+    assert json.loads(metadata["rearrangement_plan"]["parameters"])["trees"] == 2
     overhead = answered - plan_time
     print(f"\n~/plan answered {answered:.3f} s after the request; planning {plan_time:.3f} s; "
           f"overhead {overhead:.3f} s")

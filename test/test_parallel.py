@@ -1,0 +1,110 @@
+"""OR-parallel planning (`parallel`): trees race on worker processes, the plan with the fewest
+iterations wins, so a race is reproducible and equals the single-process plan of the winning
+tree's seed; it stops honestly (timeout = failure, cancel within 0.2 s) and the worker pool
+survives a cancelled race."""
+
+import dataclasses
+import threading
+import time
+
+import numpy as np
+import pytest
+
+from rearrangement_planner.parallel import plan_race, race_key, tree_seed
+from rearrangement_planner.pipeline import make_planner, plan_scene
+from rearrangement_planner.planner import Outcome, PlannerOptions
+from rearrangement_planner.scene import load_scene
+
+RACE_SEED = 5
+"""On easy_push, tree 1 of this seed's race solves in fewer iterations than tree 0 (asserted
+below), so the race's plan comes from the worker process."""
+
+
+@pytest.fixture(scope="module")
+def easy(panda):
+    return load_scene("easy_push", robot=panda)
+
+
+def _same_path(a, b) -> bool:
+    return len(a.states) == len(b.states) and all(
+        np.array_equal(x.q, y.q) and np.array_equal(x.objects, y.objects)
+        for x, y in zip(a.states, b.states, strict=True))
+
+
+def test_tree_seeds():
+    assert tree_seed(7, 0) == 7                        # one tree = the plain planner's seed
+    seeds = {tree_seed(7, t) for t in range(8)} | {tree_seed(8, t) for t in range(8)}
+    assert len(seeds) == 16 and all(0 <= s < 2 ** 31 for s in seeds)
+    assert tree_seed(7, 3) == tree_seed(7, 3)
+    assert race_key(10, 1, 2) < race_key(11, 0, 2) and race_key(10, 0, 2) < race_key(10, 1, 2)
+
+
+@pytest.mark.parametrize("planner", ["pc-rrt", "darrt"])
+def test_race_returns_the_fewest_iteration_plan_of_its_trees(easy, planner):
+    options = PlannerOptions(time_limit=60.0)
+    singles = [make_planner(planner, easy, options).plan(seed=tree_seed(RACE_SEED, t))
+               for t in range(2)]
+    assert all(s.solved for s in singles)
+    winner = min(range(2), key=lambda t: race_key(singles[t].iterations, t, 2))
+    race = plan_race(planner, easy, dataclasses.replace(options, trees=2), seed=RACE_SEED)
+    assert race.solved, race.message
+    assert race.seed == RACE_SEED and f"tree {winner} of 2" in race.message
+    assert race.iterations == singles[winner].iterations
+    assert _same_path(race, singles[winner])
+    assert all(s.q.flags.writeable is False for s in race.states)
+    if planner == "pc-rrt":
+        assert winner == 1       # the plan crossed the process boundary
+    again = plan_race(planner, easy, dataclasses.replace(options, trees=2), seed=RACE_SEED)
+    assert _same_path(race, again)
+
+
+def test_plan_scene_races_when_asked(easy):
+    one = plan_scene(easy, "pc-rrt", PlannerOptions(time_limit=60.0), seed=RACE_SEED).result
+    two = plan_scene(easy, "pc-rrt", PlannerOptions(time_limit=60.0, trees=2),
+                     seed=RACE_SEED).result
+    assert one.solved and two.solved
+    assert "tree" not in one.message and "tree 1 of 2" in two.message
+    assert two.iterations < one.iterations
+
+
+def test_race_timeout_is_a_failure_without_a_path(panda):
+    scene = load_scene("seven_objects", robot=panda)
+    result = plan_race("pc-rrt", scene, PlannerOptions(time_limit=1.0, trees=2), seed=1)
+    assert result.outcome is Outcome.TIMEOUT and result.states == ()
+    assert "2 trees" in result.message
+    assert result.plan_time < 2.0
+
+
+def test_race_cancel_stops_within_0_2_s_and_the_pool_recovers(panda, easy):
+    clutter = load_scene("clutter", robot=panda)            # not solved in 1 s
+    cancel = threading.Event()
+    box = {}
+
+    def run():
+        box["result"] = plan_race("pc-rrt", clutter, PlannerOptions(
+            time_limit=60.0, goal_bias=0.0, trees=2), seed=3, cancel=cancel)
+        box["done"] = time.monotonic()
+
+    thread = threading.Thread(target=run)
+    thread.start()
+    time.sleep(1.5)
+    assert "result" not in box
+    sent = time.monotonic()
+    cancel.set()
+    thread.join(5.0)
+    assert box["result"].outcome is Outcome.CANCELLED and box["result"].states == ()
+    assert box["done"] - sent < 0.2
+    # The worker that was cut off is waited for; the next race works as usual.
+    after = plan_race("pc-rrt", easy, PlannerOptions(time_limit=60.0, trees=2), seed=RACE_SEED)
+    assert after.solved and "tree 1 of 2" in after.message
+
+
+def test_start_invalid_is_reported_once(easy):
+    bad = easy.initial_state().with_q(np.array([0.0, 1.7, 0.0, -0.5, 0.0, 0.5, 0.0]))
+    result = plan_race("pc-rrt", easy, PlannerOptions(time_limit=5.0, trees=2), start=bad)
+    assert result.outcome is Outcome.START_INVALID and "table" in result.message
+
+
+def test_options_reject_a_bad_tree_count():
+    with pytest.raises(ValueError, match="trees"):
+        PlannerOptions(trees=0)
