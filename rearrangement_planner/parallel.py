@@ -243,9 +243,13 @@ def plan_race(planner: str, scene: Scene, options: PlannerOptions, seed: int = 0
                 return True
             return False
 
-        own = make_planner(planner, scene, options, physics).plan(
-            start=start, seed=seed, cancel=_Flag(stop_all), progress=progress,
-            iteration_gate=_gate(pool.best, 0, trees))
+        try:
+            own = make_planner(planner, scene, options, physics).plan(
+                start=start, seed=seed, cancel=_Flag(stop_all), progress=progress,
+                iteration_gate=_gate(pool.best, 0, trees))
+        except BaseException:
+            pool.cancel.set()       # do not leave the workers planning to their deadline
+            raise
         _claim(pool.best, own, 0, trees)
         if own.outcome is Outcome.CANCELLED and user_cancelled():
             pool.cancel.set()       # the workers stop within a step; `take` waits for them

@@ -108,3 +108,25 @@ def test_start_invalid_is_reported_once(easy):
 def test_options_reject_a_bad_tree_count():
     with pytest.raises(ValueError, match="trees"):
         PlannerOptions(trees=0)
+
+
+def test_a_failing_tree_stops_the_race(panda, easy, monkeypatch):
+    """An exception in the calling process's tree propagates and cancels the workers (the
+    worker's tree, on a scene it does not solve for a long while, would otherwise plan on to its
+    deadline and hold up the next race), and the pool serves the next race."""
+    from rearrangement_planner import planner as planner_module
+
+    clutter = load_scene("clutter", robot=panda)
+
+    def broken(self, *args, **kwargs):
+        raise RuntimeError("broken sampler")
+
+    with monkeypatch.context() as patch:
+        patch.setattr(planner_module.PCRRT, "_sample", broken)
+        t0 = time.monotonic()
+        with pytest.raises(RuntimeError, match="broken sampler"):
+            plan_race("pc-rrt", clutter, PlannerOptions(time_limit=60.0, goal_bias=0.0,
+                                                         trees=2), seed=3)
+    after = plan_race("pc-rrt", easy, PlannerOptions(time_limit=60.0, trees=2), seed=RACE_SEED)
+    assert after.solved and "tree 1 of 2" in after.message
+    assert time.monotonic() - t0 < 30.0          # not the 60 s the cut-off worker had left
