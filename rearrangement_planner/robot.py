@@ -240,7 +240,7 @@ class RobotModel:
             raise RobotModelError(
                 f"robot '{config.name}': home configuration {list(config.home)} is outside "
                 f"the joint limits")
-        self._cached_q: np.ndarray | None = None
+        self._cached_q: bytes | None = None
         self._jacobians_ready = False
         self._cached_shape_poses: np.ndarray | None = None
 
@@ -303,10 +303,13 @@ class RobotModel:
         q = np.asarray(q, dtype=float)
         if q.shape != (self.nq,):
             raise ValueError(f"configuration has shape {q.shape}, expected ({self.nq},)")
-        if self._cached_q is None or not np.array_equal(q, self._cached_q):
+        # The cache key is q's bytes: one C-level comparison, far cheaper than
+        # np.array_equal on this hot path (every physics substep asks for the shape poses).
+        key = q.tobytes()
+        if key != self._cached_q:
             self._q_full[self._idx_q] = q
             pin.framesForwardKinematics(self.model, self.data, self._q_full)
-            self._cached_q = q.copy()
+            self._cached_q = key
             self._jacobians_ready = False
             self._cached_shape_poses = None
         if jacobians and not self._jacobians_ready:
