@@ -487,6 +487,56 @@ def test_broad_phase_finds_every_narrow_phase_contact(world: CollisionWorld,
         assert expected == everything
 
 
+def test_packed_box_test_matches_the_interval_test() -> None:
+    """`_overlapping` (eight comparisons read as one 64-bit word) gives exactly the strict
+    interval-overlap answer, for random boxes, touching faces (no overlap) and NaN (none)."""
+    rng = np.random.default_rng(11)
+    for _ in range(200):
+        lo_a = rng.uniform(-1, 1, (6, 3)).round(1)     # rounded: many exactly touching faces
+        hi_a = lo_a + rng.uniform(0, 1, (6, 3)).round(1)
+        lo_b = rng.uniform(-1, 1, (4, 3)).round(1)
+        hi_b = lo_b + rng.uniform(0, 1, (4, 3)).round(1)
+        lo_a[0, 0] = np.nan
+        expected = ((lo_a[:, None, :] < hi_b) & (hi_a[:, None, :] > lo_b)).all(axis=2)
+        packed_a = np.full((6, 8), -np.inf)
+        packed_a[:, :3], packed_a[:, 3:6] = lo_a, -hi_a
+        got = collision._overlapping(packed_a, collision._packed_boxes(lo_b, hi_b))
+        assert got.dtype == bool and got.shape == (6, 4)
+        assert np.array_equal(got, expected)
+    touching = collision._overlapping(np.array([[0, 0, 0, -1, -1, -1, -np.inf, -np.inf]], float),
+                                      collision._packed_boxes(np.array([[1.0, 0, 0]]),
+                                                              np.array([[2.0, 1, 1]])))
+    assert not touching.any()
+
+
+def test_queries_follow_bodies_that_moved_since_the_last_query(world: CollisionWorld) -> None:
+    """The fcl bodies are only re-placed when their pose changed. Each move below is 8 mm,
+    from 4 mm deep to a 4 mm gap, so the pair stays a broad-phase candidate and a body left
+    at its old pose would still report the contact: a pose array changed in place, an object
+    pose changed, and read-only arrays (RobotModel.shape_poses) queried alternately."""
+    poses = initial(world)
+    centre, normal = box_face_point(0.0, R_CAP - 0.004, TABLE_TOP + 0.06)
+    shapes = place(CAPSULE, centre, rot_z_to([0, 1, 0]))
+    assert [(c.shape, c.obj) for c in world.arm_object_contacts(shapes, poses)] == [(CAPSULE, 0)]
+    shapes[CAPSULE, :3, 3] += 0.008 * normal       # the same (writable) array, moved away
+    assert world.object_candidates(shapes, poses)[0].size == 1
+    assert world.arm_object_contacts(shapes, poses) == []
+    shapes[CAPSULE, :3, 3] -= 0.008 * normal
+    assert len(world.arm_object_contacts(shapes, poses)) == 1
+    moved = poses.copy()
+    moved[0, :2] -= 0.008 * normal[:2]             # the box moved away from the capsule
+    assert world.object_candidates(shapes, moved)[0].size == 1
+    assert world.arm_object_contacts(shapes, moved) == []
+    assert len(world.arm_object_contacts(shapes, poses)) == 1
+    touching, apart = shapes.copy(), shapes.copy()
+    apart[CAPSULE, :3, 3] += 0.008 * normal
+    touching.setflags(write=False)
+    apart.setflags(write=False)
+    for _ in range(2):
+        assert len(world.arm_object_contacts(touching, poses)) == 1
+        assert world.arm_object_contacts(apart, poses) == []
+
+
 def test_hot_path_queries_are_cheap(default_scene: Scene) -> None:
     """Not a benchmark, a guard against accidental per-query allocation or Python loops over
     far pairs: far-apart queries on the 3-object demo scene take well under 1 ms each."""
