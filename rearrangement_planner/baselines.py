@@ -47,6 +47,15 @@ PUSH_STEP = 0.01         # m, tool travel per push step
 STANDOFF = 0.005         # m, gap between the tool and the carried object's surface
 
 
+def static_physics(scene: Scene, physics: Physics | None = None) -> Physics:
+    """The Static RRT's world: `physics` (default the scene's own) with every object but the
+    goal object static, so that touching one is invalid. Whatever re-simulates a Static RRT
+    path (shortcutting) must use it too, or it could push the objects the planner may not."""
+    static = frozenset(o.name for o in scene.objects if o.name != scene.goal.object)
+    base = physics or Physics(scene)
+    return Physics(scene, dataclasses.replace(base.options, static_objects=static), base.robot)
+
+
 class StaticRRT(PCRRT):
     """PC-RRT where only the goal object may move (§V-A of King et al.)."""
 
@@ -54,11 +63,7 @@ class StaticRRT(PCRRT):
 
     def __init__(self, scene: Scene, options: PlannerOptions | None = None,
                  physics: Physics | None = None):
-        static = frozenset(o.name for o in scene.objects if o.name != scene.goal.object)
-        base = physics or Physics(scene)
-        physics = Physics(scene, dataclasses.replace(base.options, static_objects=static),
-                          base.robot)
-        super().__init__(scene, options, physics)
+        super().__init__(scene, options, static_physics(scene, physics))
         # Objects that cannot move add the same distance to every node: leave them out.
         weights = np.zeros(len(scene.objects))
         weights[scene.goal_index] = self.options.goal_weight

@@ -170,6 +170,12 @@ def plan_scene(scene: Scene, planner: str = "pc-rrt", options: PlannerOptions | 
     if shortcut_time > 0 and len(result.states) > 2 and planner != "darrt":
         from .shortcut import shortcut
 
+        # Shortcutting re-simulates the pushes in the planner's own world: the Static RRT's
+        # non-goal objects stay obstacles there, so a shortcut cannot push them either.
+        if planner == "static-rrt":
+            from .baselines import static_physics
+
+            physics = static_physics(scene, physics)
         short = shortcut(physics, result.states, shortcut_time, seed=seed, cancel=cancel,
                          max_attempts=shortcut_attempts)
         result = PlanResult(**{**result.__dict__, "states": tuple(short.states)})

@@ -94,6 +94,25 @@ def test_static_rrt_never_moves_a_non_goal_object(default, static_plan):
     assert problem == "" and len(states) == len(static_plan.states)
 
 
+def test_static_rrt_shortcuts_never_move_a_non_goal_object(panda):
+    """Shortcutting re-simulates the pushes: for the Static RRT it must do so in the Static
+    RRT's world. Benchmark scene n4_s1, seed 0: in the all-movable physics 20 shortcut
+    attempts pushed cylinder1 and cylinder2 (found by `rearrangement-bench --quick`)."""
+    from rearrangement_planner.benchmark import scene_set_dir
+    from rearrangement_planner.pipeline import plan_scene
+
+    scene = load_scene(scene_set_dir() / "n4_s1.yaml", robot=panda)
+    output = plan_scene(scene, "static-rrt", PlannerOptions(time_limit=60.0), seed=0,
+                        shortcut_time=60.0, shortcut_attempts=20)
+    assert output.result.solved, output.result.message
+    assert output.metrics.path_length_rad < output.metrics_before_shortcut.path_length_rad
+    states = output.result.states
+    for i, obj in enumerate(scene.objects):
+        if i != scene.goal_index:
+            assert not _moved(states, i), obj.name
+    assert scene.goal.reached(states[-1].objects[scene.goal_index, :2])
+
+
 def test_static_rrt_is_reproducible(easy):
     a = StaticRRT(easy, PlannerOptions(time_limit=30.0)).plan(seed=3)
     b = StaticRRT(easy, PlannerOptions(time_limit=30.0)).plan(seed=3)
