@@ -425,24 +425,19 @@ class CollisionWorld:
         self._boxes_for, self._boxes = shape_poses, boxes
         return boxes
 
-    def _static_candidates(self, shape_poses: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Broad phase against the table slab and the obstacles (axis-aligned boxes):
-        (S,) and (S, K) boolean masks of pairs that may penetrate."""
-        near = _overlapping(self._shape_boxes(shape_poses), self._static_boxes)
-        return near[:, 0], near[:, 1:]
-
     def _static_hit(self, shape_poses: np.ndarray, tol: float) -> tuple[int, str, float] | None:
-        near_table, near_obstacle = self._static_candidates(shape_poses)
-        if not (near_table.any() or near_obstacle.any()):
+        # Broad phase: (S, 1 + K) mask of the shapes whose boxes overlap the table slab
+        # (column 0) or an obstacle's box.
+        near = _overlapping(self._shape_boxes(shape_poses), self._static_boxes)
+        if not near.any():
             return None     # the common case on the pushing plane, decided without a loop
-        rows = np.flatnonzero(near_table | near_obstacle.any(axis=1))
-        for s in rows.tolist():
+        for s in np.flatnonzero(near.any(axis=1)).tolist():
             self._place_shape(s, shape_poses)
-            if near_table[s]:
+            if near[s, 0]:
                 depth = self._arm_depth(s, shape_poses, self._table_fcl, True)
                 if depth > tol:
                     return s, "table", depth
-            for k in np.flatnonzero(near_obstacle[s]).tolist():
+            for k in np.flatnonzero(near[s, 1:]).tolist():
                 depth = self._arm_depth(s, shape_poses, self._obst_fcl[k], True)
                 if depth > tol:
                     return s, self.obstacle_names[k], depth

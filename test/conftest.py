@@ -1,6 +1,10 @@
 """Shared fixtures. Robots and scenes are built once per session (Pinocchio models are cheap to
 query but not free to build)."""
 
+import threading
+import time
+from collections.abc import Callable
+
 import pytest
 
 from rearrangement_planner.robot import RobotModel
@@ -17,3 +21,27 @@ def default_scene(panda: RobotModel):
     from rearrangement_planner.scene import load_scene
 
     return load_scene("default", robot=panda)
+
+
+@pytest.fixture
+def cancel_after() -> Callable:
+    """`cancel_after(plan, delay)`: runs `plan(cancel)` on a thread, sets `cancel` after
+    `delay` s and returns (the plan's result, whether it was still running when cancelled,
+    seconds from the cancel to the plan's return)."""
+    def run(plan: Callable[[threading.Event], object], delay: float):
+        cancel = threading.Event()
+        box = {}
+
+        def target():
+            box["result"] = plan(cancel)
+            box["done"] = time.monotonic()
+
+        thread = threading.Thread(target=target)
+        thread.start()
+        time.sleep(delay)
+        running = "result" not in box
+        sent = time.monotonic()
+        cancel.set()
+        thread.join(5.0)
+        return box["result"], running, box["done"] - sent
+    return run
