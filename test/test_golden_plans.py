@@ -1,0 +1,49 @@
+"""Plans recorded before the package was reorganised (issue 17): the same scene, planner, seed
+and options must give the same trajectory, final object poses and search statistics after it.
+
+test/data/golden_plans.npz was written by the code at commit 4b9d3b9 with exactly the calls
+below (`plan_scene`, 600 iterations, 10 shortcut attempts). A change that alters plans on
+purpose must say so and regenerate the file (`python test/test_golden_plans.py`)."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from rearrangement_planner.pipeline import plan_scene
+from rearrangement_planner.planner import PlannerOptions
+from rearrangement_planner.scene import load_scene
+
+GOLDEN = Path(__file__).parent / "data" / "golden_plans.npz"
+CASES = [("easy_push", "pc-rrt", 1), ("easy_push", "pc-rrt", 2), ("easy_push", "static-rrt", 1),
+         ("easy_push", "darrt", 0), ("default", "pc-rrt", 4), ("default", "pc-rrt", 1),
+         ("default", "static-rrt", 0), ("default", "darrt", 1)]
+
+
+def _plan(scene_name: str, planner: str, seed: int) -> dict[str, np.ndarray]:
+    output = plan_scene(load_scene(scene_name), planner,
+                        PlannerOptions(time_limit=1000, max_iterations=600), seed,
+                        shortcut_time=1000.0, shortcut_attempts=10)
+    r = output.result
+    key = f"{scene_name}/{planner}/{seed}"
+    positions = output.trajectory.positions if output.trajectory else np.zeros((0, 7))
+    return {f"{key}/positions": positions, f"{key}/final_objects": output.final_objects,
+            f"{key}/stats": np.array([r.iterations, r.propagation_steps, r.tree_size,
+                                      r.best_goal_distance])}
+
+
+@pytest.mark.parametrize(("scene_name", "planner", "seed"), CASES)
+def test_plan_matches_the_one_recorded_before_the_refactor(scene_name, planner, seed):
+    golden = np.load(GOLDEN)
+    for key, value in _plan(scene_name, planner, seed).items():
+        np.testing.assert_array_equal(value, golden[key], err_msg=key)
+
+
+if __name__ == "__main__":
+    plans: dict[str, np.ndarray] = {}
+    for case in CASES:
+        plans.update(_plan(*case))
+    np.savez_compressed(sys.argv[1] if len(sys.argv) > 1 else GOLDEN, **plans)
