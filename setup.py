@@ -38,10 +38,10 @@ setup(
     tests_require=["pytest"],
     entry_points={
         "console_scripts": [
-            f"planner_node = {PACKAGE}.node:main",
-            f"world_sim = {PACKAGE}.world_sim:main",
-            f"rearrangement-plan = {PACKAGE}.cli:main",
-            f"rearrangement-bench = {PACKAGE}.bench:main",
+            f"planner_node = {PACKAGE}.ros.node:main",
+            f"world_sim = {PACKAGE}.ros.world_sim:main",
+            f"rearrangement-plan = {PACKAGE}.tools.cli:main",
+            f"rearrangement-bench = {PACKAGE}.tools.bench:main",
         ],
     },
 )

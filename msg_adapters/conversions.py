@@ -25,8 +25,8 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Header
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
-from rearrangement_planner.errors import InputError
-from rearrangement_planner.trajectory import Trajectory
+from rearrangement_planner.model.errors import InputError
+from rearrangement_planner.planning.trajectory import Trajectory
 
 _NANOSECONDS = 1_000_000_000
 _MIN_QUATERNION_NORM = 1e-6

@@ -13,8 +13,8 @@ from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from std_msgs.msg import Header
 
-from rearrangement_planner.errors import InputError
-from rearrangement_planner.status import PlannerStatus
+from rearrangement_planner.model.errors import InputError
+from rearrangement_planner.planning.status import PlannerStatus
 
 LEVELS = {
     "idle": DiagnosticStatus.OK,

@@ -14,7 +14,7 @@ from geometry_msgs.msg import Point, Pose, Quaternion, Vector3
 from std_msgs.msg import ColorRGBA, Header
 from visualization_msgs.msg import Marker, MarkerArray
 
-from rearrangement_planner.scene import Scene
+from rearrangement_planner.model.scene import Scene
 
 from .conversions import yaw_to_quaternion
 

@@ -33,10 +33,10 @@ from builtin_interfaces.msg import Duration, Time
 from geometry_msgs.msg import PoseArray, PoseStamped
 from sensor_msgs.msg import JointState
 
-from rearrangement_planner.errors import RearrangementError
-from rearrangement_planner.pipeline import PlanOutput
-from rearrangement_planner.recording import McapRecorder, RecordingError
-from rearrangement_planner.scene import Scene
+from rearrangement_planner.io.recording import McapRecorder, RecordingError
+from rearrangement_planner.model.errors import RearrangementError
+from rearrangement_planner.model.scene import Scene
+from rearrangement_planner.planning.pipeline import PlanOutput
 
 from .conversions import (
     configuration_to_joint_state,

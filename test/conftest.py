@@ -7,7 +7,7 @@ from collections.abc import Callable
 
 import pytest
 
-from rearrangement_planner.robot import RobotModel
+from rearrangement_planner.model.robot import RobotModel
 
 
 @pytest.fixture(scope="session")
@@ -18,7 +18,7 @@ def panda() -> RobotModel:
 @pytest.fixture(scope="session")
 def default_scene(panda: RobotModel):
     """config/scenes/default.yaml (DESIGN §3 demo scene), sharing the session's Panda model."""
-    from rearrangement_planner.scene import load_scene
+    from rearrangement_planner.physics.validation import load_scene
 
     return load_scene("default", robot=panda)
 

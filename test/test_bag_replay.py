@@ -27,11 +27,13 @@ from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy  # noqa: E
 from sensor_msgs.msg import JointState  # noqa: E402
 
 from msg_adapters import msg_to_trajectory, pose_array_to_objects  # noqa: E402
-from rearrangement_planner.make_bags import BAGS as BAG_SPECS  # noqa: E402
-from rearrangement_planner.make_bags import write_bag  # noqa: E402
-from rearrangement_planner.physics import Physics  # noqa: E402
-from rearrangement_planner.propagation import replay  # noqa: E402
-from rearrangement_planner.replay import (  # noqa: E402
+from rearrangement_planner.model.state import wrap_angle  # noqa: E402
+from rearrangement_planner.physics.step import Physics  # noqa: E402
+from rearrangement_planner.physics.validation import parse_scene  # noqa: E402
+from rearrangement_planner.planning.propagation import replay  # noqa: E402
+from rearrangement_planner.ros.make_bags import BAGS as BAG_SPECS  # noqa: E402
+from rearrangement_planner.ros.make_bags import write_bag  # noqa: E402
+from rearrangement_planner.ros.replay import (  # noqa: E402
     BagError,
     BagPlayer,
     Session,
@@ -41,8 +43,6 @@ from rearrangement_planner.replay import (  # noqa: E402
     run_bag,
     wait_until,
 )
-from rearrangement_planner.scene import parse_scene  # noqa: E402
-from rearrangement_planner.state import wrap_angle  # noqa: E402
 
 BAGS_DIR = Path(__file__).resolve().parent.parent / "bags"
 BAG_PATHS = sorted(BAGS_DIR.glob("*.mcap"))
@@ -323,12 +323,12 @@ def test_reference_plan_replays_to_its_recorded_object_poses(path):
 
 
 def test_replay_cli(session, tmp_path, monkeypatch, capsys):
-    """`python -m rearrangement_planner.replay`: into a running planner node, and with its own
+    """`python -m rearrangement_planner.ros.replay`: into a running planner node, and with its own
     node and world_sim; bad arguments exit 2 with the problem named."""
     from rclpy.parameter import Parameter
 
-    from rearrangement_planner import replay as replay_module
-    from rearrangement_planner.node import PlannerNode
+    from rearrangement_planner.ros import replay as replay_module
+    from rearrangement_planner.ros.node import PlannerNode
 
     monkeypatch.setenv("ROS_DOMAIN_ID", str(DOMAIN_ID))
     bag = BAGS_DIR / "easy_push_1obj.mcap"
@@ -358,7 +358,7 @@ def test_replay_cli(session, tmp_path, monkeypatch, capsys):
 
 
 def test_make_bags_cli_writes_a_bag_and_its_reference_plan(tmp_path, monkeypatch, capsys):
-    from rearrangement_planner import make_bags
+    from rearrangement_planner.ros import make_bags
 
     monkeypatch.setenv("ROS_DOMAIN_ID", str(DOMAIN_ID))
     assert make_bags.main(["--only", "easy_push_1obj", "--out", str(tmp_path)]) == 0

@@ -7,12 +7,12 @@ from itertools import pairwise
 import numpy as np
 import pytest
 
-from rearrangement_planner.baselines import DARRT, StaticRRT
-from rearrangement_planner.physics import Invalid, Physics, PhysicsOptions
-from rearrangement_planner.planner import Outcome, PlannerOptions
-from rearrangement_planner.propagation import replay
-from rearrangement_planner.scene import load_scene
-from rearrangement_planner.state import State
+from rearrangement_planner.model.state import State
+from rearrangement_planner.physics.step import Invalid, Physics, PhysicsOptions
+from rearrangement_planner.physics.validation import load_scene
+from rearrangement_planner.planning.baselines import DARRT, StaticRRT
+from rearrangement_planner.planning.pcrrt import Outcome, PlannerOptions
+from rearrangement_planner.planning.propagation import replay
 
 STATIC_SEED = 1   # a seed for which the Static RRT solves the default scene quickly
 
@@ -46,7 +46,7 @@ def _moved(states, index):
 
 def test_static_objects_in_the_physics_are_obstacles(default):
     """A sweep that pushes the `can` in the normal physics is invalid when the can is static."""
-    from rearrangement_planner.manifold import ik_on_manifold
+    from rearrangement_planner.planning.manifold import ik_on_manifold
 
     can = default.object_index("can")
     x, y = default.object_poses[can, :2]
@@ -54,7 +54,7 @@ def test_static_objects_in_the_physics_are_obstacles(default):
                         default.robot.home, rng=np.random.default_rng(0))
     assert q0 is not None
     start = State(q0, default.object_poses)
-    from rearrangement_planner.manifold import project_step
+    from rearrangement_planner.planning.manifold import project_step
 
     def sweep(physics):
         x = start
@@ -97,8 +97,8 @@ def test_static_rrt_shortcuts_never_move_a_non_goal_object(panda):
     """Shortcutting re-simulates the pushes: for the Static RRT it must do so in the Static
     RRT's world. Benchmark scene n4_s1, seed 0: in the all-movable physics 20 shortcut
     attempts pushed cylinder1 and cylinder2 (found by `rearrangement-bench --quick`)."""
-    from rearrangement_planner.benchmark import scene_set_dir
-    from rearrangement_planner.pipeline import plan_scene
+    from rearrangement_planner.planning.pipeline import plan_scene
+    from rearrangement_planner.tools.benchmark import scene_set_dir
 
     scene = load_scene(scene_set_dir() / "n4_s1.yaml", robot=panda)
     output = plan_scene(scene, "static-rrt", PlannerOptions(time_limit=60.0), seed=0,
@@ -129,7 +129,7 @@ def test_darrt_solves_easy(easy, darrt_plan):
 def test_darrt_path_obeys_its_primitives(easy, darrt_plan):
     """Every step either moves no object (a transit: the arm clear of everything) or carries
     exactly one object rigidly: its pose relative to the tool is constant through the push."""
-    from rearrangement_planner.manifold import tool_planar_pose
+    from rearrangement_planner.planning.manifold import tool_planar_pose
 
     planner = DARRT(easy)
     robot = easy.robot
@@ -170,7 +170,7 @@ def test_darrt_rrt_connect_finds_a_way_around(easy):
     robot = easy.robot
     objects = easy.object_poses
     rng = np.random.default_rng(0)
-    from rearrangement_planner.manifold import ik_on_manifold
+    from rearrangement_planner.planning.manifold import ik_on_manifold
 
     target = objects[easy.goal_index]
     q_a = ik_on_manifold(robot, target[0], target[1] + 0.12, -np.pi / 2, 0.0, robot.home,

@@ -14,10 +14,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from rearrangement_planner import bench, benchmark
-from rearrangement_planner.benchmark import CSV_COLUMNS
-from rearrangement_planner.physics import Physics
-from rearrangement_planner.scene import load_scene
+from rearrangement_planner.physics.step import Physics
+from rearrangement_planner.physics.validation import load_scene
+from rearrangement_planner.tools import bench, benchmark
+from rearrangement_planner.tools.benchmark import CSV_COLUMNS
 
 SCENE_DIR = benchmark.scene_set_dir()
 TIMING = ("plan_time_s", "shortcut_time_s", "trial_wall_s")
@@ -65,8 +65,8 @@ def test_goal_region_and_goal_object_are_the_same_everywhere_and_its_start_rando
 
 
 def test_objects_are_varied_in_reach_on_the_table_and_apart(scene_set, panda):
-    from rearrangement_planner.collision import CollisionWorld
-    from rearrangement_planner.manifold import ik_on_manifold
+    from rearrangement_planner.physics.collision import CollisionWorld
+    from rearrangement_planner.planning.manifold import ik_on_manifold
 
     shapes, masses = set(), set()
     for name, scene in scene_set.items():
@@ -106,7 +106,7 @@ def test_generation_is_a_function_of_the_seed_and_each_scene_of_its_own_generato
 def test_generation_rejects_candidates_that_parse_scene_rejects(panda, monkeypatch):
     """Candidates are drawn until parse_scene accepts one: a start configuration in collision
     is never written."""
-    from rearrangement_planner.errors import SceneError
+    from rearrangement_planner.model.errors import SceneError
 
     calls = []
     real = benchmark.parse_scene
@@ -135,7 +135,7 @@ def test_generate_command_writes_the_set_and_removes_stale_files(tmp_path, capsy
 
 
 def test_a_benchmark_scene_runs_alone_with_rearrangement_plan(tmp_path):
-    from rearrangement_planner import cli
+    from rearrangement_planner.tools import cli
 
     out = tmp_path / "r.json"
     code = cli.main([str(SCENE_DIR / "n2_s1.yaml"), "--time-limit", "0.5", "--quiet",
@@ -357,7 +357,7 @@ def test_ctrl_c_keeps_complete_rows_stops_the_workers_and_says_how_to_resume(tmp
     args = ["run", "--scenes", "n1_s0", "n7_s0", "--planners", "pc-rrt", "--seeds", "0",
             "--time-limit", "30", "--shortcut", "0", "--workers", "1", "--out", str(out)]
     proc = subprocess.Popen(
-        [sys.executable, "-m", "rearrangement_planner.bench", *args], stdout=subprocess.PIPE,
+        [sys.executable, "-m", "rearrangement_planner.tools.bench", *args], stdout=subprocess.PIPE,
         stderr=subprocess.PIPE, text=True, start_new_session=True,
         # a shell's background job starts with SIGINT ignored; give the bench the default
         preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))

@@ -5,8 +5,8 @@ from itertools import pairwise
 
 import pytest
 
-from rearrangement_planner.cli import main
-from rearrangement_planner.resources import scenes_dir
+from rearrangement_planner.model.resources import scenes_dir
+from rearrangement_planner.tools.cli import main
 
 FIELDS = {"solved", "planner", "seed", "plan_time_s", "iterations", "tree_size",
           "propagation_steps", "path_length_rad", "ee_path_length_m", "object_displacement_m",

@@ -14,17 +14,17 @@ import numpy as np
 import pytest
 import yaml
 
-from rearrangement_planner import collision
-from rearrangement_planner.collision import (
+from rearrangement_planner.model.resources import robots_dir
+from rearrangement_planner.model.robot import RobotConfig, RobotModel
+from rearrangement_planner.model.scene import Goal, MovableObject, Obstacle, Scene, Table
+from rearrangement_planner.physics import collision
+from rearrangement_planner.physics.collision import (
     EPA_MIN_DEPTH,
     TABLE_THICKNESS,
     CollisionWorld,
     Contact,
     prism_penetration,
 )
-from rearrangement_planner.resources import robots_dir
-from rearrangement_planner.robot import RobotConfig, RobotModel
-from rearrangement_planner.scene import Goal, MovableObject, Obstacle, Scene, Table
 
 TABLE_TOP = 0.1      # a table top above the base, so that heights are really tested
 R_CAP, L_CAP = 0.03, 0.2
@@ -563,9 +563,9 @@ def test_touching_configurations_do_not_abort_the_process() -> None:
     finish normally."""
     script = textwrap.dedent("""
         import math, numpy as np
-        from rearrangement_planner.collision import CollisionWorld
-        from rearrangement_planner.robot import RobotModel
-        from rearrangement_planner.scene import Goal, MovableObject, Scene, Table
+        from rearrangement_planner.physics.collision import CollisionWorld
+        from rearrangement_planner.model.robot import RobotModel
+        from rearrangement_planner.model.scene import Goal, MovableObject, Scene, Table
         robot = RobotModel.load("panda")
         can = MovableObject.cylinder("can", 0.04, 0.12, (0.5, 0.0, 0.0))
         box = MovableObject.box("box", (0.06, 0.08, 0.12), (0.5, 0.3, 0.0))

@@ -13,9 +13,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from rearrangement_planner.pipeline import plan_scene
-from rearrangement_planner.planner import PlannerOptions
-from rearrangement_planner.scene import load_scene
+from rearrangement_planner.physics.validation import load_scene
+from rearrangement_planner.planning.pcrrt import PlannerOptions
+from rearrangement_planner.planning.pipeline import plan_scene
 
 GOLDEN = Path(__file__).parent / "data" / "golden_plans.npz"
 CASES = [("easy_push", "pc-rrt", 1), ("easy_push", "pc-rrt", 2), ("easy_push", "static-rrt", 1),

@@ -29,9 +29,9 @@ from msg_adapters import (
     status_to_diagnostics,
     trajectory_to_msg,
 )
-from rearrangement_planner.errors import InputError
-from rearrangement_planner.status import STATES, PlannerStatus
-from rearrangement_planner.trajectory import Trajectory
+from rearrangement_planner.model.errors import InputError
+from rearrangement_planner.planning.status import STATES, PlannerStatus
+from rearrangement_planner.planning.trajectory import Trajectory
 
 CASES = 200
 FRAME = "panda_link0"

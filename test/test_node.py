@@ -43,15 +43,15 @@ from msg_adapters import (  # noqa: E402
     msg_to_trajectory,
     objects_to_pose_array,
 )
-from rearrangement_planner import node as node_module  # noqa: E402
-from rearrangement_planner.node import DEFAULTS, EXECUTOR_THREADS, PARAMETERS, PlannerNode  # noqa: E402
-from rearrangement_planner.physics import Physics  # noqa: E402
-from rearrangement_planner.planner import PlannerOptions  # noqa: E402
-from rearrangement_planner.propagation import replay  # noqa: E402
-from rearrangement_planner.replay import wait_until  # noqa: E402
-from rearrangement_planner.resources import config_dir  # noqa: E402
-from rearrangement_planner.scene import load_scene  # noqa: E402
-from rearrangement_planner.state import State  # noqa: E402
+from rearrangement_planner.model.resources import config_dir  # noqa: E402
+from rearrangement_planner.model.state import State  # noqa: E402
+from rearrangement_planner.physics.step import Physics  # noqa: E402
+from rearrangement_planner.physics.validation import load_scene  # noqa: E402
+from rearrangement_planner.planning.pcrrt import PlannerOptions  # noqa: E402
+from rearrangement_planner.planning.propagation import replay  # noqa: E402
+from rearrangement_planner.ros import node as node_module  # noqa: E402
+from rearrangement_planner.ros.node import DEFAULTS, EXECUTOR_THREADS, PARAMETERS, PlannerNode  # noqa: E402
+from rearrangement_planner.ros.replay import wait_until  # noqa: E402
 
 FRAME = "panda_link0"
 NS = "/planner_node"

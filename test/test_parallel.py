@@ -9,10 +9,10 @@ import time
 import numpy as np
 import pytest
 
-from rearrangement_planner.parallel import plan_race, race_key, tree_seed
-from rearrangement_planner.pipeline import make_planner, plan_scene
-from rearrangement_planner.planner import Outcome, PlannerOptions
-from rearrangement_planner.scene import load_scene
+from rearrangement_planner.physics.validation import load_scene
+from rearrangement_planner.planning.parallel import plan_race, race_key, tree_seed
+from rearrangement_planner.planning.pcrrt import Outcome, PlannerOptions
+from rearrangement_planner.planning.pipeline import make_planner, plan_scene
 
 RACE_SEED = 5
 """On easy_push, tree 1 of this seed's race solves in fewer iterations than tree 0 (asserted
@@ -102,7 +102,7 @@ def test_a_failing_tree_stops_the_race(panda, easy, monkeypatch):
     """An exception in the calling process's tree propagates and cancels the workers (the
     worker's tree, on a scene it does not solve for a long while, would otherwise plan on to its
     deadline and hold up the next race), and the pool serves the next race."""
-    from rearrangement_planner import planner as planner_module
+    from rearrangement_planner.planning import pcrrt as planner_module
 
     clutter = load_scene("clutter", robot=panda)
 

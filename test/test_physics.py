@@ -7,11 +7,11 @@ import numpy as np
 import pytest
 import yaml
 
-from rearrangement_planner.manifold import default_push_configuration
-from rearrangement_planner.physics import Invalid, Physics, PhysicsOptions
-from rearrangement_planner.robot import RobotConfig, RobotModel
-from rearrangement_planner.scene import load_scene, parse_scene
-from rearrangement_planner.state import State
+from rearrangement_planner.model.robot import RobotConfig, RobotModel
+from rearrangement_planner.model.state import State
+from rearrangement_planner.physics.step import Invalid, Physics, PhysicsOptions
+from rearrangement_planner.physics.validation import load_scene, parse_scene
+from rearrangement_planner.planning.manifold import default_push_configuration
 
 TABLE = {"center": [0.55, 0.0], "size": [0.8, 1.2], "height": 0.0}
 # Arm folded low: the forearm (panda_link5) slopes down to 0.07 m and the wrist sits at object

@@ -7,11 +7,11 @@ from itertools import pairwise
 import numpy as np
 import pytest
 
-from rearrangement_planner.physics import Physics
-from rearrangement_planner.planner import PCRRT, Outcome, PlannerOptions
-from rearrangement_planner.propagation import replay
-from rearrangement_planner.resources import scenes_dir
-from rearrangement_planner.scene import load_scene
+from rearrangement_planner.model.resources import scenes_dir
+from rearrangement_planner.physics.step import Physics
+from rearrangement_planner.physics.validation import load_scene
+from rearrangement_planner.planning.pcrrt import PCRRT, Outcome, PlannerOptions
+from rearrangement_planner.planning.propagation import replay
 
 
 @pytest.fixture(scope="module")
@@ -83,10 +83,12 @@ def test_cancel_stops_within_0_2_s(panda, cancel_after):
 
 
 def test_progress_is_reported(easy):
+    # A period of 0 reports before every iteration: the count does not depend on the machine's
+    # speed (seed 2 takes 18 iterations; a 0.1 s period gave 2 reports on a loaded machine).
     reports = []
-    PCRRT(easy, PlannerOptions(time_limit=1.0, progress_period=0.1)).plan(
+    PCRRT(easy, PlannerOptions(time_limit=30.0, progress_period=0.0)).plan(
         seed=2, progress=reports.append)
-    assert len(reports) >= 3
+    assert len(reports) >= 10
     assert all(b.elapsed > a.elapsed for a, b in pairwise(reports))
     assert reports[-1].tree_size >= 1 and reports[-1].best_goal_distance > 0
 
@@ -108,7 +110,7 @@ def test_options_reject_nonsense():
 def test_timed_trajectory_replays_to_the_planned_final_poses(easy, easy_plan):
     """The controller-ready trajectory's joint motion, stepped through the physics from the
     start state, reproduces the planned final object poses."""
-    from rearrangement_planner.trajectory import TimingOptions, time_parameterize
+    from rearrangement_planner.planning.trajectory import TimingOptions, time_parameterize
 
     trajectory = time_parameterize(easy.robot, easy_plan.arm_path, TimingOptions())
     assert np.all(np.diff(trajectory.times) > 0)
@@ -122,9 +124,9 @@ def test_timed_trajectory_replays_to_the_planned_final_poses(easy, easy_plan):
 def test_push_policy_moves_the_object_towards_its_target(easy):
     """The push-bias action lines the tool up behind the object and pushes it along the line
     to the target; every step is a valid physics step (replays exactly)."""
-    from rearrangement_planner.manifold import ik_on_manifold
-    from rearrangement_planner.propagation import push_policy_prop
-    from rearrangement_planner.state import State
+    from rearrangement_planner.model.state import State
+    from rearrangement_planner.planning.manifold import ik_on_manifold
+    from rearrangement_planner.planning.propagation import push_policy_prop
 
     physics = Physics(easy)
     g = easy.goal_index
@@ -175,10 +177,10 @@ def test_clear_blockers_pushes_the_blocking_object_out_of_the_line(panda):
     """The goal object's push ran into `blocker`: `_clear_and_push` pushes the blocker (not the
     bystander) away from the line to the goal, and the whole action replays through the
     physics."""
-    from rearrangement_planner.approach import approach_path
-    from rearrangement_planner.physics import Invalid
-    from rearrangement_planner.propagation import Propagation
-    from rearrangement_planner.scene import parse_scene
+    from rearrangement_planner.physics.step import Invalid
+    from rearrangement_planner.physics.validation import parse_scene
+    from rearrangement_planner.planning.approach import approach_path
+    from rearrangement_planner.planning.propagation import Propagation
 
     data = load_scene("default", robot=panda).to_dict()
     data.pop("obstacles", None)

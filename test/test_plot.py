@@ -13,8 +13,7 @@ import pytest
 from matplotlib.colors import to_rgb
 from matplotlib.image import imread
 
-from rearrangement_planner.errors import RearrangementError
-from rearrangement_planner.plot import (
+from rearrangement_planner.io.plot import (
     DPI,
     FIGURE_SIZE,
     GOAL_COLOUR,
@@ -22,7 +21,8 @@ from rearrangement_planner.plot import (
     object_outline,
     plot_top_view,
 )
-from rearrangement_planner.scene import MovableObject, Obstacle
+from rearrangement_planner.model.errors import RearrangementError
+from rearrangement_planner.model.scene import MovableObject, Obstacle
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 WIDTH_PX, HEIGHT_PX = round(FIGURE_SIZE[0] * DPI), round(FIGURE_SIZE[1] * DPI)
@@ -89,8 +89,8 @@ def test_plot_accepts_an_empty_ee_path(default_scene, tmp_path):
 def test_plotting_leaves_pyplot_unloaded(tmp_path):
     """No global matplotlib state changes: pyplot (and so its backend) is never loaded."""
     code = ("import sys; import numpy as np; "
-            "from rearrangement_planner.scene import load_scene; "
-            "from rearrangement_planner.plot import plot_top_view; "
+            "from rearrangement_planner.physics.validation import load_scene; "
+            "from rearrangement_planner.io.plot import plot_top_view; "
             "s = load_scene('easy_push'); "
             "plot_top_view(s, s.object_poses[None], np.zeros((1, 2)), sys.argv[1]); "
             "assert 'matplotlib.pyplot' not in sys.modules, 'pyplot was imported'")

@@ -8,20 +8,20 @@ import numpy as np
 import pytest
 import yaml
 
-from rearrangement_planner.approach import approach_path
-from rearrangement_planner.manifold import tool_planar_pose
-from rearrangement_planner.physics import Invalid, Physics
-from rearrangement_planner.planner import PCRRT, PlannerOptions, _Tree
-from rearrangement_planner.propagation import (
+from rearrangement_planner.model.resources import scenes_dir
+from rearrangement_planner.model.state import State
+from rearrangement_planner.physics.step import Invalid, Physics
+from rearrangement_planner.physics.validation import load_scene, parse_scene
+from rearrangement_planner.planning.approach import approach_path
+from rearrangement_planner.planning.manifold import tool_planar_pose
+from rearrangement_planner.planning.pcrrt import PCRRT, PlannerOptions, _Tree
+from rearrangement_planner.planning.propagation import (
     Propagation,
     _around_others,
     push_policy_prop,
     pusher_footprint,
     replay,
 )
-from rearrangement_planner.resources import scenes_dir
-from rearrangement_planner.scene import load_scene, parse_scene
-from rearrangement_planner.state import State
 
 ALL_ON = {"push_yaw_rate": 1.0, "avoid_others": True, "detour": 1.0, "fail_penalty": 0.05}
 

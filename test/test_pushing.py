@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 from scipy import integrate, linalg, optimize
 
-from rearrangement_planner.errors import RearrangementError
-from rearrangement_planner.pushing import (
+from rearrangement_planner.model.errors import RearrangementError
+from rearrangement_planner.physics.pushing import (
     PushingError,
     apply_twist,
     build_contact_lcp,

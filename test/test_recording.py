@@ -31,16 +31,16 @@ from msg_adapters.conversions import (
 )
 from msg_adapters.markers import plan_markers
 from msg_adapters.plan_record import METADATA_NAME, TOPICS, record_plan
-from rearrangement_planner.errors import RearrangementError
-from rearrangement_planner.pipeline import plan_scene
-from rearrangement_planner.planner import PlannerOptions
-from rearrangement_planner.recording import (
+from rearrangement_planner.io.recording import (
     McapRecorder,
     RecordingError,
     message_definition,
     offered_qos_profiles,
 )
-from rearrangement_planner.scene import load_scene, parse_scene
+from rearrangement_planner.model.errors import RearrangementError
+from rearrangement_planner.physics.validation import load_scene, parse_scene
+from rearrangement_planner.planning.pcrrt import PlannerOptions
+from rearrangement_planner.planning.pipeline import plan_scene
 
 START_NS = 1_700_000_000_123_456_789
 FRAME = "world"
@@ -437,7 +437,7 @@ def test_full_disk_is_a_recording_error(solved):
 def test_core_recorder_needs_no_ros_python_packages(tmp_path):
     script = f"""
 import sys
-from rearrangement_planner.recording import McapRecorder
+from rearrangement_planner.io.recording import McapRecorder
 with McapRecorder({str(tmp_path / "core.mcap")!r}) as recorder:
     recorder.write("/js", "sensor_msgs/msg/JointState", {{"name": ["a"], "position": [1.0]}}, 1)
 ros = sorted(m for m in sys.modules if m.split(".")[0] in

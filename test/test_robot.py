@@ -6,8 +6,8 @@ import math
 import numpy as np
 import pytest
 
-from rearrangement_planner.errors import RobotModelError
-from rearrangement_planner.robot import RobotConfig, RobotModel
+from rearrangement_planner.model.errors import RobotModelError
+from rearrangement_planner.model.robot import RobotConfig, RobotModel
 
 # Franka Control Interface documentation, "Denavit-Hartenberg parameters" (Craig convention):
 # (a_{i-1}, d_i, alpha_{i-1}); flange d = 0.107; hand rotated -pi/4; finger tips 0.1034.

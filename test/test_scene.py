@@ -14,21 +14,19 @@ import numpy as np
 import pytest
 import yaml
 
-from rearrangement_planner.errors import RearrangementError, SceneError
-from rearrangement_planner.resources import robots_dir, scenes_dir
-from rearrangement_planner.robot import RobotModel
-from rearrangement_planner.scene import (
+from rearrangement_planner.model.errors import RearrangementError, SceneError
+from rearrangement_planner.model.resources import robots_dir, scenes_dir
+from rearrangement_planner.model.robot import RobotModel
+from rearrangement_planner.model.scene import (
     DEFAULT_GOAL_RADIUS,
     DEFAULT_MASS,
     DEFAULT_PUSHER_FRICTION,
     DEFAULT_SUPPORT_FRICTION,
     MovableObject,
     Scene,
-    check_scene,
-    load_scene,
-    parse_scene,
 )
-from rearrangement_planner.state import State
+from rearrangement_planner.model.state import State
+from rearrangement_planner.physics.validation import check_scene, load_scene, parse_scene
 
 # The example of DESIGN §3, verbatim.
 BASE = yaml.safe_load("""
@@ -94,7 +92,7 @@ def test_load_scene_by_name_loads_the_robot_itself() -> None:
 def test_clutter_blocks_the_straight_way(panda: RobotModel) -> None:
     """The straight push of the target to the goal point sweeps through the three blockers."""
     scene = load_scene("clutter", robot=panda)
-    from rearrangement_planner.collision import CollisionWorld
+    from rearrangement_planner.physics.collision import CollisionWorld
 
     world, poses, g = CollisionWorld(scene), scene.object_poses, scene.goal_index
     hit = set()

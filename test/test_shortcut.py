@@ -3,13 +3,13 @@
 import numpy as np
 import pytest
 
-from rearrangement_planner.manifold import manifold_error
-from rearrangement_planner.physics import Physics
-from rearrangement_planner.pipeline import PathMetrics, plan_scene
-from rearrangement_planner.planner import PCRRT, PlannerOptions
-from rearrangement_planner.propagation import replay
-from rearrangement_planner.scene import load_scene
-from rearrangement_planner.shortcut import connect, path_length, shortcut
+from rearrangement_planner.physics.step import Physics
+from rearrangement_planner.physics.validation import load_scene
+from rearrangement_planner.planning.manifold import manifold_error
+from rearrangement_planner.planning.pcrrt import PCRRT, PlannerOptions
+from rearrangement_planner.planning.pipeline import PathMetrics, plan_scene
+from rearrangement_planner.planning.propagation import replay
+from rearrangement_planner.planning.shortcut import connect, path_length, shortcut
 
 
 @pytest.fixture(scope="module")

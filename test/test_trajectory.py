@@ -5,8 +5,8 @@ Project step like the planner's."""
 import numpy as np
 import pytest
 
-from rearrangement_planner import manifold as mf
-from rearrangement_planner.trajectory import (
+from rearrangement_planner.planning import manifold as mf
+from rearrangement_planner.planning.trajectory import (
     TimingOptions,
     Trajectory,
     remove_duplicates,

@@ -37,16 +37,16 @@ from std_srvs.srv import Trigger  # noqa: E402
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint  # noqa: E402
 
 from msg_adapters import goal_to_pose_stamped, pose_array_to_objects  # noqa: E402
-from rearrangement_planner.errors import InputError, RearrangementError  # noqa: E402
-from rearrangement_planner.physics import Physics, PhysicsOptions  # noqa: E402
-from rearrangement_planner.replay import (  # noqa: E402
+from rearrangement_planner.model.errors import InputError, RearrangementError  # noqa: E402
+from rearrangement_planner.physics.step import Physics, PhysicsOptions  # noqa: E402
+from rearrangement_planner.physics.validation import load_scene  # noqa: E402
+from rearrangement_planner.ros.replay import (  # noqa: E402
     OutcomeListener,
     Session,
     read_bag,
     wait_until,
 )
-from rearrangement_planner.scene import load_scene  # noqa: E402
-from rearrangement_planner.world_sim import (  # noqa: E402
+from rearrangement_planner.ros.world_sim import (  # noqa: E402
     MAX_SUBSTEP,
     Command,
     OpenLoopExecution,
@@ -429,7 +429,7 @@ def test_bad_parameters_are_named(session, reference):
 def test_node_demo_exit_code_is_the_open_loop_outcome(tmp_path, monkeypatch, capsys):
     """The demo on the fast easy_push scene: exit 0 when the goal object ends in its region,
     1 when a perturbed world (pose noise) makes the same plan miss it, 2 for bad arguments."""
-    from rearrangement_planner import node_demo
+    from rearrangement_planner.ros import node_demo
 
     monkeypatch.setenv("ROS_DOMAIN_ID", str(DOMAIN_ID))
     common = ["--scene", "easy_push", "--seed", "1", "--time-limit", "20", "--time-scale", "20",

@@ -1,0 +1,44 @@
+"""Where the package's shipped data (config/: robots, scenes, parameters) lives.
+
+A source checkout keeps it beside the package; an installed package (pip or colcon) has it in
+``<prefix>/share/rearrangement_planner``.
+"""
+
+import os
+import sys
+from functools import cache
+from pathlib import Path
+
+PACKAGE = "rearrangement_planner"
+
+
+@cache
+def share_dir() -> Path:
+    """The folder holding `config/` (and `launch/`): env override, checkout, then install prefix."""
+    candidates = []
+    if os.environ.get("REARRANGEMENT_PLANNER_SHARE"):
+        candidates.append(Path(os.environ["REARRANGEMENT_PLANNER_SHARE"]))
+    candidates.append(Path(__file__).resolve().parents[2])
+    candidates.append(Path(sys.prefix) / "share" / PACKAGE)
+    for prefix in os.environ.get("AMENT_PREFIX_PATH", "").split(os.pathsep):
+        if prefix:
+            candidates.append(Path(prefix) / "share" / PACKAGE)
+    for candidate in candidates:
+        if (candidate / "config" / "robots").is_dir():
+            return candidate
+    raise FileNotFoundError(
+        f"cannot find the {PACKAGE} config folder; looked in: "
+        + ", ".join(str(c) for c in candidates)
+    )
+
+
+def config_dir() -> Path:
+    return share_dir() / "config"
+
+
+def robots_dir() -> Path:
+    return config_dir() / "robots"
+
+
+def scenes_dir() -> Path:
+    return config_dir() / "scenes"

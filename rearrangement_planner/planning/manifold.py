@@ -1,0 +1,422 @@
+"""The pushing manifold and the Jacobian projection onto it (DESIGN §6; King et al. §III-C, §V).
+
+The manifold is the set of arm configurations whose tool frame is held "parallel to the table"
+(the paper's constraint manifold, 8 cm above the table for HERB):
+
+    p_z(q) = table_height + push_posture.height
+    R(q)   = Rz(yaw) · R0,   R0 = push_posture.rotation = Ry(pitch) Rx(roll),  yaw free.
+
+Equivalently, the tool-frame direction u0 = R0ᵀ e_z ("the tool's view of world up") must map to
+world up: R(q) u0 = e_z. That is two orientation constraints (a unit vector on S²) plus one height
+constraint, so the manifold has 7 - 3 = 4 dimensions: the planar tool pose (x, y, yaw) plus the
+arm's one-dimensional self-motion.
+
+`project_step` is one step of the paper's Project (§V of King et al.):
+
+    q_new = q + Δt (J⁺(q) a + h(q)),
+
+extended, as in the constrained extension of Berenson et al. (ICRA 2009, CBiRRT, cited as [7]
+in King et al. §III-C), with correction rows that pull the tool back onto the manifold, and a
+nullspace term h projected into the nullspace of the task Jacobian.
+
+Frames and units: everything in the robot base frame (metres, radians, seconds). The tool
+Jacobian is `RobotModel.frame_jacobian` at the tool frame origin: 6 x 7, [linear; angular], in
+base-frame axes.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+import weakref
+
+import numpy as np
+import pinocchio as pin
+
+from rearrangement_planner.model.errors import RobotModelError
+from rearrangement_planner.model.robot import PushPosture, RobotModel
+
+# Largest correction twist `project_step` commands to return onto the manifold (the correction is
+# error / dt, which is huge for a large error and a short step).
+MAX_CORRECTION_SPEED = 0.25  # m/s, height row
+MAX_CORRECTION_RATE = 1.0  # rad/s, tilt rows
+
+# Adaptive damping of the pseudoinverse (Nakamura & Hanafusa 1986 / Maciejewski & Klein 1988):
+# below the singular value SINGULAR_THRESHOLD the damping grows smoothly to MAX_DAMPING.
+SINGULAR_THRESHOLD = 0.04
+MAX_DAMPING = 0.04
+RANK_TOLERANCE = 1e-9  # singular values below this are treated as zero (nullspace directions)
+
+# Where `default_push_configuration` puts the tool (base frame, m, m, rad).
+DEFAULT_PUSH_TARGET = (0.5, 0.0, 0.0)
+SETTLE_STEPS = 300  # nullspace steps (of 0.02 s) that move the default configuration off limits
+
+_default_cache: weakref.WeakKeyDictionary[RobotModel, dict[float, np.ndarray]] = (
+    weakref.WeakKeyDictionary())
+
+
+# -- the manifold ----------------------------------------------------------------------------
+
+
+def push_height(robot: RobotModel, table_height: float) -> float:
+    """Tool height on the manifold (base frame z, m)."""
+    return float(table_height) + robot.config.push_posture.height
+
+
+def target_rotation(robot: RobotModel, yaw: float) -> np.ndarray:
+    """Tool orientation on the manifold at `yaw`: Rz(yaw) · R0 (R0 = push_posture.rotation)."""
+    c, s = math.cos(yaw), math.sin(yaw)
+    rz = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+    return rz @ _posture_rotation(robot.config.push_posture)
+
+
+@functools.lru_cache(maxsize=32)
+def _posture_rotation(posture: PushPosture) -> np.ndarray:
+    rotation = posture.rotation
+    rotation.setflags(write=False)
+    return rotation
+
+
+@functools.lru_cache(maxsize=32)
+def _up_in_tool(posture: PushPosture) -> tuple[float, float, float]:
+    """u0 = R0ᵀ e_z: the tool-frame direction that points to world up on the manifold."""
+    row = posture.rotation[2, :]  # row 2 of R0 = R0ᵀ e_z
+    return float(row[0]), float(row[1]), float(row[2])
+
+
+def tool_planar_pose(robot: RobotModel, q: np.ndarray) -> np.ndarray:
+    """(x, y, yaw) of the tool: base-frame position and the yaw of R R0ᵀ (= Rz(yaw) on the
+    manifold; off the manifold the yaw of the nearest such rotation, to first order)."""
+    pose = robot.tool_pose(q)
+    m = pose[:3, :3] @ _posture_rotation(robot.config.push_posture).T
+    return np.array([pose[0, 3], pose[1, 3], math.atan2(m[1, 0], m[0, 0])])
+
+
+def _errors_from_pose(
+    robot: RobotModel, pose: np.ndarray, table_height: float
+) -> tuple[float, float, float]:
+    ux, uy, uz = pose[:3, :3] @ _up_in_tool(robot.config.push_posture)  # u = R u0 (world)
+    # Tilt: the rotation vector phi that turns e_z into u: axis e_z x u = (-u_y, u_x, 0),
+    # angle atan2(|e_z x u|, e_z . u).
+    sin_angle = math.hypot(ux, uy)
+    angle = math.atan2(sin_angle, uz)
+    if sin_angle > 1e-15:
+        scale = angle / sin_angle
+        tilt_x, tilt_y = -uy * scale, ux * scale
+    else:  # aligned (angle 0) or upside down (angle pi, about any horizontal axis)
+        tilt_x, tilt_y = angle, 0.0
+    return float(pose[2, 3]) - push_height(robot, table_height), tilt_x, tilt_y
+
+
+def manifold_error(robot: RobotModel, q: np.ndarray, table_height: float) -> np.ndarray:
+    """(3,) residual of the manifold constraints at q, zero on the manifold:
+
+    [0]    tool height error p_z - (table_height + push_posture.height)   (m)
+    [1:3]  tilt error: x, y components (base frame) of the rotation vector phi that turns world
+           up e_z into u = R(q) R0ᵀ e_z, the current direction of the tool axis that should point
+           up (rad; |phi| is the tilt angle). For a small tilt, d(phi)/dt = (w_x, w_y), the tool's
+           angular velocity about the base x and y axes — the rows `project_step` corrects with.
+    """
+    return np.array(_errors_from_pose(robot, robot.tool_pose(q), table_height))
+
+
+def on_manifold(
+    robot: RobotModel, q: np.ndarray, table_height: float, tol: float = 1e-3,
+    angle_tol: float | None = None,
+) -> bool:
+    """Whether |height error| <= tol (m) and tilt angle <= angle_tol (rad, default: tol)."""
+    dz, tilt_x, tilt_y = _errors_from_pose(robot, robot.tool_pose(q), table_height)
+    angle_tol = tol if angle_tol is None else angle_tol
+    return abs(dz) <= tol and math.hypot(tilt_x, tilt_y) <= angle_tol
+
+
+def lowest_point(robot: RobotModel, q: np.ndarray, moving_only: bool = True) -> tuple[float, int]:
+    """(z, index) of the lowest point of the robot's contact shapes at q (base frame, m) and the
+    index of the shape it belongs to (in `robot.contact_shapes` order). Exact for every shape
+    kind: a capsule's lowest point is the lower end of its axis segment minus the radius; a
+    cylinder's is the lower end of its axis minus r·sqrt(1 - a_z²) (its rim); a box's is its
+    centre minus the half extents projected on z.
+
+    moving_only: skip shapes on links no joint moves (the base, which stands on the floor or
+    the table top by construction)."""
+    poses = robot.shape_poses(q)
+    lowest, index = math.inf, -1
+    for i, (shape, pose) in enumerate(zip(robot.contact_shapes, poses, strict=True)):
+        if moving_only and robot.model.frames[robot.frame_id(shape.link)].parentJoint == 0:
+            continue
+        centre_z = pose[2, 3]
+        axis_z = pose[2, 2]  # z component of the shape's z axis
+        if shape.kind == "capsule":
+            z = centre_z - 0.5 * shape.dims[1] * abs(axis_z) - shape.dims[0]
+        elif shape.kind == "sphere":
+            z = centre_z - shape.dims[0]
+        elif shape.kind == "cylinder":
+            radius, length = shape.dims
+            z = (centre_z - 0.5 * length * abs(axis_z)
+                 - radius * math.sqrt(max(0.0, 1.0 - axis_z * axis_z)))
+        else:  # box
+            z = centre_z - 0.5 * float(np.abs(pose[2, :3]) @ np.asarray(shape.dims))
+        if z < lowest:
+            lowest, index = float(z), i
+    return lowest, index
+
+
+# -- Project: one Jacobian step along the manifold -------------------------------------------
+
+
+def build_task(
+    robot: RobotModel, q: np.ndarray, action: np.ndarray, dt: float, table_height: float,
+    correction_gain: float = 1.0,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The 6-row velocity task (J, xdot) of one Project step, both in the base frame.
+
+    Rows, in the order of the tool Jacobian [linear; angular] (all six rows of it):
+        v_x, v_y   = action[0:2]                      planar tool velocity (m/s)
+        v_z        = -k e_height / dt                 back to the push height (m/s)
+        w_x, w_y   = -k phi / dt                      undo the tilt (rad/s)
+        w_z        = action[2]                        yaw rate (rad/s)
+    with k = `correction_gain` (1 closes the error in one step to first order), the correction
+    clipped to MAX_CORRECTION_SPEED / MAX_CORRECTION_RATE. The first and last rows are the
+    paper's end-effector velocity a (King et al. §V); the middle three are the projection back
+    onto the constraint (King et al. §III-C, Alg. 2 line 5, after Berenson et al. 2009).
+    """
+    jac = robot.frame_jacobian(q, robot.tool_frame_id)
+    dz, tilt_x, tilt_y = _errors_from_pose(robot, robot.tool_pose(q), table_height)
+    k = -correction_gain / dt
+    v_z = min(max(k * dz, -MAX_CORRECTION_SPEED), MAX_CORRECTION_SPEED)
+    w_x, w_y = k * tilt_x, k * tilt_y
+    rate = math.hypot(w_x, w_y)
+    if rate > MAX_CORRECTION_RATE:
+        w_x, w_y = w_x * MAX_CORRECTION_RATE / rate, w_y * MAX_CORRECTION_RATE / rate
+    xdot = np.array([action[0], action[1], v_z, w_x, w_y, action[2]], dtype=float)
+    return jac, xdot
+
+
+def joint_limit_gradient(robot: RobotModel, q: np.ndarray, gain: float) -> np.ndarray:
+    """Joint-limit avoidance velocity (rad/s), the nullspace term h(q) of the Project equation:
+    the negative gradient of H(q) = gain · Σ w_i⁶ / 6 with w_i = (q_i - mid_i) / half_range_i
+    (per-joint gradient scaled by half_range_i so `gain` is in rad/s): h_i = -gain · w_i⁵.
+    Gradient projection after Liegeois (1977); the sixth power makes H a soft maximum, so the
+    joint nearest its limit dominates and mid-range joints are left alone (with the square, a
+    joint can sit on its limit while the others pull the self-motion the other way). `gain` is
+    the speed at which a joint at its limit is pulled back."""
+    mid = 0.5 * (robot.upper + robot.lower)
+    half_range = 0.5 * (robot.upper - robot.lower)
+    w = (np.asarray(q, dtype=float) - mid) / half_range
+    return -gain * w**5
+
+
+def solve_task(jac: np.ndarray, xdot: np.ndarray, h: np.ndarray) -> np.ndarray:
+    """qdot = J⁺ xdot + (I - J⁺J) h (King et al. §V, the Project equation).
+
+    J⁺ is the damped least-squares pseudoinverse from the SVD J = U S Vᵀ:
+    J⁺ = V diag(s / (s² + λ²)) Uᵀ, with λ² = (1 - (s_min/ε)²) λ_max² when s_min < ε and 0
+    otherwise (adaptive damping, Maciejewski & Klein 1988: exact away from singularities,
+    bounded near them). With more joints than rows it is the minimum-norm solution; with
+    fewer (joints locked at limits) the least-squares one. The nullspace projector is the
+    exact I - V_r V_rᵀ over the nonzero singular values, so J (I - J⁺J) h = 0: h never
+    changes the task-space motion (to first order).
+    """
+    if jac.shape[1] == 0:
+        return np.zeros(0)
+    u, s, vt = np.linalg.svd(jac)
+    k = s.size
+    damping2 = 0.0
+    if s[-1] < SINGULAR_THRESHOLD:
+        damping2 = (1.0 - (s[-1] / SINGULAR_THRESHOLD) ** 2) * MAX_DAMPING**2
+    if s[-1] > RANK_TOLERANCE:
+        rank, inv = k, s / (s * s + damping2)
+    else:
+        rank = int(np.count_nonzero(s > RANK_TOLERANCE))
+        inv = np.zeros(k)
+        inv[:rank] = s[:rank] / (s[:rank] ** 2 + damping2)
+    qdot = vt[:k].T @ (inv * (u[:, :k].T @ xdot))
+    null_basis = vt[rank:]  # rows: an orthonormal basis of the nullspace of J
+    if null_basis.shape[0]:
+        qdot += null_basis.T @ (null_basis @ h)
+    return qdot
+
+
+def project_step(
+    robot: RobotModel, q: np.ndarray, action: np.ndarray, dt: float, table_height: float,
+    nullspace_gain: float = 0.5, rng: np.random.Generator | None = None, *,
+    nullspace_noise: float = 0.1, nullspace_velocity: np.ndarray | None = None,
+    correction_gain: float = 1.0, velocity_scale: float = 1.0,
+) -> np.ndarray:
+    """One step of Project (King et al. §V): q_new = q + dt (J⁺(q) a + h(q)), held on the manifold.
+
+    action: (v_x, v_y, yaw_rate) planar tool velocity in the base frame (m/s, m/s, rad/s).
+    dt: step duration (s). nullspace_gain: rad/s pull back of a joint at its limit (see
+    `joint_limit_gradient`). rng: when given, h(q) also gets a random sample
+    N(0, nullspace_noise² I) (rad/s) — "h samples the nullspace" (§V); both parts of h are
+    projected into the task nullspace, so they move only the arm's self-motion.
+    Deterministic given the rng state (draws exactly nq normals per call when rng is given).
+    A fresh sample every step makes the self-motion a random walk (jittery joint paths); for
+    smooth self-motion draw one `nullspace_velocity` (rad/s, added to h) per action instead
+    and pass rng=None.
+    A q slightly outside the joint limits is clipped onto them first.
+
+    The step respects joint limits and joint velocity limits (scaled by `velocity_scale`):
+      1. joints whose step would cross a position limit are locked to land on it and the task
+         is re-solved with the other joints (an SNS-style saturation, Flacco et al. 2012), so a
+         joint at its limit does not drag the tool off the manifold;
+      2. if any |qdot_j| exceeds its limit, the whole qdot is scaled down uniformly, which keeps
+         its direction (the tool moves less but stays on the manifold to first order);
+      3. the result is clipped to the joint limits (a no-op up to rounding).
+    """
+    lower, upper = robot.lower, robot.upper
+    q = np.minimum(np.maximum(np.asarray(q, dtype=float), lower), upper)
+    if len(action) != 3:
+        raise ValueError(f"action has {len(action)} values, expected 3: (v_x, v_y, yaw_rate)")
+    if not dt > 0:
+        raise ValueError(f"dt must be positive, got {dt}")
+    jac, xdot = build_task(robot, q, action, dt, table_height, correction_gain)
+    h = joint_limit_gradient(robot, q, nullspace_gain)
+    if rng is not None:
+        h += nullspace_noise * rng.standard_normal(robot.nq)
+    if nullspace_velocity is not None:
+        h += nullspace_velocity
+    qdot = _solve_within_limits(jac, xdot, h, (lower - q) / dt, (upper - q) / dt)
+    ratio = float(np.max(np.abs(qdot) / robot.velocity_limits)) / velocity_scale
+    if ratio > 1.0:
+        qdot /= ratio
+    return np.minimum(np.maximum(q + dt * qdot, lower), upper)
+
+
+def _solve_within_limits(
+    jac: np.ndarray, xdot: np.ndarray, h: np.ndarray, lo: np.ndarray, hi: np.ndarray,
+) -> np.ndarray:
+    """`solve_task` with qdot kept in [lo, hi]: joints that leave it are locked at the bound and
+    the task is re-solved with the remaining joints (at most nq rounds)."""
+    qdot = solve_task(jac, xdot, h)
+    violating = (qdot > hi) | (qdot < lo)
+    if not violating.any():
+        return qdot
+    locked = np.zeros(qdot.size, dtype=bool)
+    for _ in range(qdot.size):
+        qdot[violating] = np.minimum(np.maximum(qdot[violating], lo[violating]), hi[violating])
+        locked |= violating
+        free = ~locked
+        qdot[free] = solve_task(jac[:, free], xdot - jac[:, locked] @ qdot[locked], h[free])
+        violating = free & ((qdot > hi) | (qdot < lo))
+        if not violating.any():
+            break
+    return np.minimum(np.maximum(qdot, lo), hi)
+
+
+# -- IK onto the manifold --------------------------------------------------------------------
+
+
+def ik_on_manifold(
+    robot: RobotModel, x: float, y: float, yaw: float, table_height: float, q_seed: np.ndarray,
+    rng: np.random.Generator | None = None, max_iters: int = 100, *, restarts: int = 20,
+    tol: float = 1e-6, min_clearance: float | None = None,
+) -> np.ndarray | None:
+    """A configuration within joint limits whose tool is at the planar pose (x, y, yaw) on the
+    manifold, or None if none is found.
+
+    Solves the 6-D pose (position x, y, push height; orientation Rz(yaw) R0) by Levenberg-
+    Marquardt with Sugihara's damping (IEEE T-RO 2011: (JᵀJ + (E + w̄) I) dq = -Jᵀe, E = ½|e|²),
+    each iterate clipped to the joint limits. The first attempt starts at `q_seed`; then up to
+    `restarts` attempts start at configurations drawn uniformly within the joint limits from
+    `rng` (default: a generator seeded with 0, so the answer is deterministic). Converged when
+    the position error (m) and the rotation error (rad) are both below `tol`.
+
+    min_clearance: when given, a solution is accepted only if the lowest point of every contact
+    shape is at least this far above the table top (m; see `lowest_point`).
+    """
+    if not all(math.isfinite(v) for v in (x, y, yaw, table_height)):
+        raise ValueError(f"IK target must be finite, got x={x}, y={y}, yaw={yaw}, "
+                         f"table_height={table_height}")
+    rng = np.random.default_rng(0) if rng is None else rng
+    p_target = np.array([x, y, push_height(robot, table_height)])
+    r_target = target_rotation(robot, yaw)
+    for attempt in range(restarts + 1):
+        seed = (np.clip(np.asarray(q_seed, dtype=float), robot.lower, robot.upper)
+                if attempt == 0 else rng.uniform(robot.lower, robot.upper))
+        q = _levenberg_marquardt(robot, seed, p_target, r_target, max_iters, tol)
+        if q is None:
+            continue
+        if min_clearance is not None and \
+                lowest_point(robot, q)[0] < table_height + min_clearance:
+            continue
+        return q
+    return None
+
+
+def _pose_error(robot: RobotModel, q: np.ndarray, p_target: np.ndarray,
+                r_target: np.ndarray) -> np.ndarray:
+    """[p - p*; log(R R*ᵀ)], base frame: for a small error its rate is the tool twist J qdot."""
+    pose = robot.tool_pose(q)
+    return np.concatenate([pose[:3, 3] - p_target, pin.log3(pose[:3, :3] @ r_target.T)])
+
+
+def _levenberg_marquardt(
+    robot: RobotModel, q: np.ndarray, p_target: np.ndarray, r_target: np.ndarray,
+    max_iters: int, tol: float, damping_floor: float = 1e-4, patience: int = 15,
+) -> np.ndarray | None:
+    """LM from q; joints at a limit whose step points outward are held there (their column
+    dropped) so the others still make full progress. Gives up after `patience` iterations
+    without a 1 % cost decrease (a local minimum: better spend the time on a restart)."""
+    err = _pose_error(robot, q, p_target, r_target)
+    cost = 0.5 * float(err @ err)
+    best, since_best = cost, 0
+    eye = np.eye(robot.nq)
+    for _ in range(max_iters):
+        if np.linalg.norm(err[:3]) < tol and np.linalg.norm(err[3:]) < tol:
+            return q
+        jac = robot.frame_jacobian(q, robot.tool_frame_id)
+        damping = (cost + damping_floor) * eye
+        step = -np.linalg.solve(jac.T @ jac + damping, jac.T @ err)
+        blocked = ((q <= robot.lower) & (step < 0)) | ((q >= robot.upper) & (step > 0))
+        if blocked.any():
+            jac = jac * ~blocked
+            step = -np.linalg.solve(jac.T @ jac + damping, jac.T @ err)
+            step[blocked] = 0.0
+        q = np.clip(q + step, robot.lower, robot.upper)
+        err = _pose_error(robot, q, p_target, r_target)
+        cost = 0.5 * float(err @ err)
+        if cost < 0.99 * best:
+            best, since_best = cost, 0
+        else:
+            since_best += 1
+            if since_best > patience:
+                return None
+    if np.linalg.norm(err[:3]) < tol and np.linalg.norm(err[3:]) < tol:
+        return q
+    return None
+
+
+def default_push_configuration(robot: RobotModel, table_height: float) -> np.ndarray:
+    """A pushing configuration: the tool on the manifold at DEFAULT_PUSH_TARGET (x 0.5 m, y 0,
+    yaw 0), no contact shape below the table top, away from the joint limits. The approach
+    target for starts off the manifold.
+
+    IK from the home configuration (seeded generator: deterministic), then SETTLE_STEPS
+    zero-action `project_step`s whose nullspace term moves the arm along its self-motion away
+    from the joint limits (the IK answer tends to sit on one) with the tool held still.
+    Cached per robot and table height; returned read-only."""
+    per_robot = _default_cache.setdefault(robot, {})
+    key = float(table_height)
+    if key not in per_robot:
+        x, y, yaw = DEFAULT_PUSH_TARGET
+        posture = robot.config.push_posture
+        q = ik_on_manifold(robot, x, y, yaw, key, robot.home, np.random.default_rng(0),
+                           max_iters=200, restarts=50, min_clearance=0.0)
+        if q is not None:
+            moved = q
+            for _ in range(SETTLE_STEPS):
+                moved = project_step(robot, moved, np.zeros(3), 0.02, key, nullspace_gain=1.0)
+            # The self-motion drifts the tool by second-order terms (~0.1 mm): re-solve from there.
+            settled = ik_on_manifold(robot, x, y, yaw, key, moved, restarts=0, min_clearance=0.0)
+            q = q if settled is None else settled
+        if q is None:
+            raise RobotModelError(
+                f"robot '{robot.name}': pushing posture (height {posture.height} m, roll "
+                f"{posture.roll}, pitch {posture.pitch}) is unreachable at x={x}, y={y}, "
+                f"yaw={yaw} above a table at height {key} m without a link below the table; "
+                f"choose another push_posture in the robot config")
+        q = np.array(q)
+        q.setflags(write=False)
+        per_robot[key] = q
+    return per_robot[key]

@@ -1,0 +1,304 @@
+"""OR-parallel planning: several independent trees race on separate processes.
+
+One tree of a sampling-based planner often needs many times the median time to solve (the
+clutter scene: 150 to 2800 PC-RRT iterations over seeds). Growing T independent trees at once
+and keeping the first plan found is the OR-parallel RRT of Carpin & Pagello ("On parallel RRTs
+for multi-robot systems", 2002); with a heavy-tailed solve time it cuts the long tail on a
+multi-core machine much more than it costs.
+
+Tree t plans with its own seed `tree_seed(seed, t)`; tree 0 uses `seed` itself and runs in the
+calling process, so one tree is exactly the single-process planner. Trees 1 .. T-1 run on
+persistent worker processes (spawned once, reused by later plans; a scene's robot model and
+physics are built once per worker).
+
+Reproducible: the winner is not the first plan in wall-clock time but the plan with the fewest
+iterations, ties going to the lower tree index. Every tree checks before each iteration whether
+it could still win (`key(iteration, t) < best key found`) and stops as soon as it cannot, so the
+race ends shortly after the first plan, and the same scene, options and seed give the same plan
+whatever the machine's speed. The one exception is the time limit: a plan found by one tree
+before the budget runs out is returned even if a tree that might have beaten it in iterations
+was cut off by the budget.
+
+    result = plan_race("pc-rrt", scene, PlannerOptions(trees=2), seed=0)
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import multiprocessing
+import pickle
+import threading
+import time
+import traceback
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+from rearrangement_planner.model.scene import Scene
+from rearrangement_planner.model.state import State
+from rearrangement_planner.physics.step import Physics, PhysicsOptions
+from rearrangement_planner.planning.pcrrt import Outcome, PlannerOptions, PlanResult, Progress
+
+NO_PLAN = 2 ** 62
+"""The race key before any tree has found a plan."""
+
+RESULT_GRACE = 5.0
+"""Seconds past the budget a worker tree gets to report (it stops within one propagation
+step of its deadline; this only bounds a wait on a hung worker)."""
+
+SCENE_CACHE = 4
+"""Scenes (robot model + physics) a worker keeps built."""
+
+
+def tree_seed(seed: int, tree: int) -> int:
+    """The seed of tree `tree` of a race planned with `seed`: `seed` itself for tree 0, else a
+    hash of (seed, tree) in [0, 2^31) (so `PCRRT(...).plan(seed=tree_seed(s, t))` replays any
+    tree on its own)."""
+    if tree == 0:
+        return seed
+    state = np.random.SeedSequence([seed & 0xFFFFFFFF, seed >> 32 & 0xFFFFFFFF, tree])
+    return int(state.generate_state(1, dtype=np.uint32)[0] >> 1)
+
+
+def race_key(iteration: int, tree: int, trees: int) -> int:
+    """Order of plans in a race: fewer iterations first, then the lower tree index."""
+    return iteration * trees + tree
+
+
+def _gate(best, tree: int, trees: int) -> Callable[[int], bool]:
+    """The planners' `iteration_gate`: may `tree` still start iteration `it` and win?"""
+    def gate(it: int) -> bool:
+        return race_key(it, tree, trees) < best.value
+    return gate
+
+
+def _claim(best, result: PlanResult, tree: int, trees: int) -> None:
+    if result.solved:
+        key = race_key(result.iterations, tree, trees)
+        with best.get_lock():
+            if key < best.value:
+                best.value = key
+
+
+# -- the worker processes ------------------------------------------------------------------------
+
+def _scene_payload(scene: Scene, physics_options: PhysicsOptions) -> tuple[str, bytes]:
+    """What a worker needs to rebuild the scene and its physics, and a key to cache it by."""
+    robot = scene.robot
+    data = scene.to_dict()
+    data.pop("robot")
+    blob = pickle.dumps((robot.config, robot.urdf_xml, data, scene.source, physics_options))
+    return hashlib.sha1(blob).hexdigest(), blob
+
+
+def _build(blob: bytes) -> tuple[Scene, Physics]:
+    from rearrangement_planner.model.robot import RobotModel
+    from rearrangement_planner.physics.validation import parse_scene
+
+    config, urdf_xml, data, source, physics_options = pickle.loads(blob)
+    scene = parse_scene(data, name=source, robot=RobotModel(config, urdf_xml=urdf_xml))
+    return scene, Physics(scene, physics_options)
+
+
+def _serve(conn, best, cancel) -> None:
+    """A worker process: plan one tree per task until the pipe closes."""
+    from rearrangement_planner.planning.pipeline import make_planner
+
+    built: dict[str, tuple[Scene, Physics]] = {}
+    while True:
+        try:
+            task = conn.recv()
+        except (EOFError, OSError):
+            return
+        try:
+            key, blob, planner, options, seed, tree, trees, start, deadline = task
+            if key not in built:
+                if len(built) >= SCENE_CACHE:
+                    built.pop(next(iter(built)))
+                built[key] = _build(blob)
+            scene, physics = built[key]
+            budget = max(deadline - time.monotonic(), 1e-3)
+            options = dataclasses.replace(options, time_limit=budget)
+            result = make_planner(planner, scene, options, physics).plan(
+                start=start, seed=tree_seed(seed, tree), cancel=cancel,
+                iteration_gate=_gate(best, tree, trees))
+            _claim(best, result, tree, trees)
+            reply: Any = result
+        except Exception:           # reported to the caller, which raises it
+            reply = traceback.format_exc()
+        try:
+            conn.send(reply)
+        except (BrokenPipeError, OSError):
+            return
+
+
+class _Worker:
+    def __init__(self, context, best, cancel):
+        self.conn, child = context.Pipe()
+        self.process = context.Process(target=_serve, args=(child, best, cancel), daemon=True,
+                                       name="rearrangement-tree")
+        self.process.start()
+        child.close()
+        self.busy = False
+
+    def collect(self, timeout: float | None) -> PlanResult | str | None:
+        """The reply of the running task; None if it does not come within `timeout`."""
+        if timeout is not None and not self.conn.poll(max(timeout, 0.0)):
+            return None
+        try:
+            reply = self.conn.recv()
+        except (EOFError, OSError):
+            reply = f"tree worker process {self.process.pid} died " \
+                    f"(exit code {self.process.exitcode})"
+            self.process.join(1.0)
+            self.busy = False
+            raise RuntimeError(reply) from None
+        self.busy = False
+        return reply
+
+
+class _Pool:
+    """Worker processes and the race's shared state: the best key and the cancel flag."""
+
+    def __init__(self):
+        self.context = multiprocessing.get_context("spawn")
+        self.best = self.context.Value("q", NO_PLAN)
+        self.cancel = self.context.Event()
+        self.workers: list[_Worker] = []
+        self.lock = threading.Lock()
+
+    def take(self, n: int) -> list[_Worker]:
+        """n idle workers (a worker still winding down a cancelled race is waited for)."""
+        self.workers = [w for w in self.workers if w.process.is_alive() or w.busy]
+        for w in self.workers:
+            if w.busy:
+                try:
+                    w.collect(None)
+                except RuntimeError:
+                    pass
+        self.workers = [w for w in self.workers if w.process.is_alive()]
+        while len(self.workers) < n:
+            self.workers.append(_Worker(self.context, self.best, self.cancel))
+        return self.workers[:n]
+
+
+_POOL: _Pool | None = None
+_POOL_LOCK = threading.Lock()
+
+
+def _pool() -> _Pool:
+    global _POOL
+    with _POOL_LOCK:
+        if _POOL is None:
+            _POOL = _Pool()
+        return _POOL
+
+
+def shutdown() -> None:
+    """Stop the worker processes (they also end with the interpreter)."""
+    global _POOL
+    with _POOL_LOCK:
+        pool, _POOL = _POOL, None
+    if pool is None:
+        return
+    for w in pool.workers:
+        w.conn.close()
+    for w in pool.workers:
+        w.process.join(2.0)
+        if w.process.is_alive():
+            w.process.terminate()
+
+
+# -- the race --------------------------------------------------------------------------------------
+
+def plan_race(planner: str, scene: Scene, options: PlannerOptions, seed: int = 0,
+              start: State | None = None, cancel: threading.Event | None = None,
+              progress: Callable[[Progress], None] | None = None,
+              physics: Physics | None = None) -> PlanResult:
+    """Plan with `options.trees` independent trees (module doc). Tree 0 runs here and reports
+    progress; the result is the winning tree's, with `plan_time` the race's wall time and the
+    winner named in `message`. Raises RuntimeError if a worker fails."""
+    from rearrangement_planner.planning.pipeline import make_planner
+
+    t0 = time.monotonic()
+    trees = options.trees
+    physics = physics or Physics(scene)
+    pool = _pool()
+    with pool.lock:
+        workers = pool.take(trees - 1)
+        pool.cancel.clear()
+        pool.best.value = NO_PLAN
+        deadline = t0 + options.time_limit
+        key, blob = _scene_payload(scene, physics.options)
+        for t, worker in enumerate(workers, start=1):
+            worker.conn.send((key, blob, planner, options, seed, t, trees, start, deadline))
+            worker.busy = True
+        user_cancelled = cancel.is_set if cancel is not None else (lambda: False)
+
+        def stop_all() -> bool:
+            if user_cancelled():
+                pool.cancel.set()
+                return True
+            return False
+
+        try:
+            own = make_planner(planner, scene, options, physics).plan(
+                start=start, seed=seed, cancel=_Flag(stop_all), progress=progress,
+                iteration_gate=_gate(pool.best, 0, trees))
+        except BaseException:
+            pool.cancel.set()       # do not leave the workers planning to their deadline
+            raise
+        _claim(pool.best, own, 0, trees)
+        if own.outcome is Outcome.CANCELLED and user_cancelled():
+            pool.cancel.set()       # the workers stop within a step; `take` waits for them
+            return dataclasses.replace(own, plan_time=time.monotonic() - t0)
+        results: list[PlanResult] = [own]
+        errors: list[str] = []
+        for worker in workers:
+            reply = worker.collect(deadline + RESULT_GRACE - time.monotonic())
+            if reply is None:
+                pool.cancel.set()
+                errors.append("a tree worker did not report within the budget")
+            elif isinstance(reply, str):
+                errors.append(reply)
+            else:   # states rebuilt here: read-only arrays, like every State
+                results.append(dataclasses.replace(
+                    reply, states=tuple(State(s.q, s.objects) for s in reply.states)))
+        if errors:
+            pool.cancel.set()
+            raise RuntimeError("parallel planning failed: " + "\n".join(errors))
+    return _outcome(results, seed, trees, time.monotonic() - t0)
+
+
+class _Flag:
+    """A cancel flag whose state is a function (the planners call `is_set()`)."""
+
+    def __init__(self, test: Callable[[], bool]):
+        self.is_set = test
+
+
+def _outcome(results: list[PlanResult], seed: int, trees: int, elapsed: float) -> PlanResult:
+    """The race's result: the winning plan, else tree 0's failure with the race's totals."""
+    solved = [(race_key(r.iterations, t, trees), t, r)
+              for t, r in enumerate(results) if r.solved]
+    best_distance = min(r.best_goal_distance for r in results)
+    total_steps = sum(r.propagation_steps for r in results)
+    if solved:
+        _, t, winner = min(solved, key=lambda s: s[0])
+        return dataclasses.replace(
+            winner, message=f"{winner.message} of tree {t} of {trees} (tree seed {winner.seed})",
+            seed=seed, plan_time=elapsed, propagation_steps=total_steps)
+    own = results[0]
+    if own.outcome in (Outcome.START_INVALID, Outcome.INVALID_INPUT):
+        return dataclasses.replace(own, plan_time=elapsed)
+    timeouts = [r for r in results if r.outcome is Outcome.TIMEOUT]
+    message = timeouts[0].message if timeouts else own.message
+    return dataclasses.replace(
+        own, outcome=Outcome.TIMEOUT if timeouts else own.outcome,
+        message=f"{message} ({trees} trees, {sum(r.iterations for r in results)} iterations "
+                f"in all)",
+        iterations=sum(r.iterations for r in results),
+        tree_size=sum(r.tree_size for r in results), propagation_steps=total_steps,
+        plan_time=elapsed, best_goal_distance=best_distance)

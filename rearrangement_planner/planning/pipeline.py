@@ -1,0 +1,191 @@
+"""One plan request end to end, shared by the CLI and the ROS node: planner -> (shortcutting) ->
+timed trajectory -> predicted object poses along it -> the result record of DESIGN §8.
+
+    output = plan_scene(scene, "pc-rrt", PlannerOptions(time_limit=30), seed=0)
+    output.result.outcome, output.trajectory, output.to_dict()
+"""
+
+from __future__ import annotations
+
+import threading
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from rearrangement_planner.model.scene import Scene
+from rearrangement_planner.model.state import State
+from rearrangement_planner.physics.step import Physics
+from rearrangement_planner.planning.pcrrt import PCRRT, PlannerOptions, PlanResult, Progress
+from rearrangement_planner.planning.trajectory import (
+    DUPLICATE_TOLERANCE,
+    TimingOptions,
+    Trajectory,
+    time_parameterize,
+)
+
+PLANNERS = ("pc-rrt", "static-rrt", "darrt")
+
+
+@dataclass(frozen=True)
+class PathMetrics:
+    """Arm path length in joint space (rad) and of the tool (m), total object displacement (m)."""
+
+    path_length_rad: float
+    ee_path_length_m: float
+    object_displacement_m: float
+
+    @classmethod
+    def of(cls, scene: Scene, states: tuple[State, ...] | list[State]) -> PathMetrics:
+        robot = scene.robot
+        arm = np.array([s.q for s in states])
+        tool = np.array([robot.tool_pose(q)[:3, 3] for q in arm])
+        objects = np.array([s.objects[:, :2] for s in states])
+        return cls(float(np.linalg.norm(np.diff(arm, axis=0), axis=1).sum()),
+                   float(np.linalg.norm(np.diff(tool, axis=0), axis=1).sum()),
+                   float(np.linalg.norm(np.diff(objects, axis=0), axis=2).sum()))
+
+    def to_dict(self) -> dict[str, float]:
+        return {"path_length_rad": self.path_length_rad,
+                "ee_path_length_m": self.ee_path_length_m,
+                "object_displacement_m": self.object_displacement_m}
+
+
+@dataclass(frozen=True)
+class PlanOutput:
+    """Everything one plan request produced."""
+
+    scene: Scene
+    planner: str
+    result: PlanResult
+    trajectory: Trajectory | None = None
+    """The timed trajectory (None unless solved)."""
+    trajectory_states: tuple[State, ...] = ()
+    """The predicted world state at every trajectory point (same length as the trajectory)."""
+    metrics: PathMetrics | None = None
+    """Of the returned path (after shortcutting, if any)."""
+    metrics_before_shortcut: PathMetrics | None = None
+    shortcut_time: float = 0.0
+    """Seconds spent shortcutting."""
+
+    @property
+    def solved(self) -> bool:
+        return self.result.solved
+
+    @property
+    def final_objects(self) -> np.ndarray:
+        states = self.result.states
+        return states[-1].objects if states else self.scene.object_poses
+
+    def to_dict(self) -> dict:
+        """The JSON result of DESIGN §8 (plus outcome, message and shortcut figures)."""
+        scene, result = self.scene, self.result
+        final = self.final_objects
+        record = {
+            "solved": result.solved,
+            "outcome": result.outcome.value,
+            "message": result.message,
+            "planner": self.planner,
+            "seed": result.seed,
+            "plan_time_s": result.plan_time,
+            "iterations": result.iterations,
+            "tree_size": result.tree_size,
+            "propagation_steps": result.propagation_steps,
+            "path_length_rad": None, "ee_path_length_m": None, "object_displacement_m": None,
+            "goal_distance_m": float(scene.goal.distance(final[scene.goal_index, :2])),
+            "final_object_poses": {o.name: [float(v) for v in final[i]]
+                                   for i, o in enumerate(scene.objects)},
+            "trajectory": trajectory_dict(self.trajectory) if self.trajectory else None,
+            "shortcut_time_s": self.shortcut_time,
+            "before_shortcut": (self.metrics_before_shortcut.to_dict()
+                                if self.metrics_before_shortcut else None),
+        }
+        if self.metrics is not None:
+            record.update(self.metrics.to_dict())
+        return record
+
+
+def trajectory_dict(trajectory: Trajectory) -> dict:
+    return {
+        "joint_names": list(trajectory.joint_names),
+        "points": [{"positions": p.tolist(), "velocities": v.tolist(), "time_from_start": t}
+                   for t, p, v in zip(trajectory.times.tolist(), trajectory.positions,
+                                      trajectory.velocities, strict=True)],
+    }
+
+
+def _states_at_points(states: tuple[State, ...], trajectory: Trajectory) -> tuple[State, ...]:
+    """The planned state at every trajectory point: time parameterisation drops repeated arm
+    configurations (`trajectory.remove_duplicates`); keep the last state of each run of
+    repeats (in a repeat the arm does not move, so neither do the objects)."""
+    kept: list[State] = []
+    last_q = None
+    for s in states:
+        if last_q is not None and np.max(np.abs(s.q - last_q)) <= DUPLICATE_TOLERANCE:
+            kept[-1] = s
+            continue
+        kept.append(s)
+        last_q = s.q
+    if len(kept) != len(trajectory):
+        raise RuntimeError(f"internal: {len(kept)} distinct states for {len(trajectory)} "
+                           f"trajectory points")
+    return tuple(kept)
+
+
+def make_planner(name: str, scene: Scene, options: PlannerOptions | None = None,
+                 physics: Physics | None = None):
+    """The planner called `name` (one of PLANNERS) on `scene`; all share the physics."""
+    if name == "pc-rrt":
+        return PCRRT(scene, options, physics)
+    if name in ("static-rrt", "darrt"):
+        from rearrangement_planner.planning import baselines
+        cls = baselines.StaticRRT if name == "static-rrt" else baselines.DARRT
+        return cls(scene, options, physics)
+    raise ValueError(f"unknown planner {name!r}; choose one of {', '.join(PLANNERS)}")
+
+
+def plan_scene(scene: Scene, planner: str = "pc-rrt", options: PlannerOptions | None = None,
+               seed: int = 0, start: State | None = None,
+               cancel: threading.Event | None = None,
+               progress: Callable[[Progress], None] | None = None,
+               shortcut_time: float = 0.0, timing: TimingOptions | None = None,
+               physics: Physics | None = None,
+               shortcut_attempts: int | None = None) -> PlanOutput:
+    """Plan `scene` (from `start`, default the scene's initial state) with `options.trees`
+    trees (`parallel.plan_race` when more than one), shortcut the path for up
+    to `shortcut_time` s or `shortcut_attempts` attempts (whichever ends first; an attempt
+    bound that ends first makes the result reproducible), time it, and predict the object
+    poses along the trajectory.
+
+    DARRT's Push primitive holds the object rigidly in the hand, a different world model from
+    the quasistatic physics, so its paths are not shortcut (shortcutting re-simulates pushes)."""
+    physics = physics or Physics(scene)
+    if options is not None and options.trees > 1:
+        from rearrangement_planner.planning.parallel import plan_race
+
+        result = plan_race(planner, scene, options, seed, start, cancel, progress, physics)
+    else:
+        result = make_planner(planner, scene, options, physics).plan(
+            start=start, seed=seed, cancel=cancel, progress=progress)
+    if not result.solved:
+        return PlanOutput(scene, planner, result)
+    before = PathMetrics.of(scene, result.states)
+    spent = 0.0
+    if shortcut_time > 0 and len(result.states) > 2 and planner != "darrt":
+        from rearrangement_planner.planning.shortcut import shortcut
+
+        # Shortcutting re-simulates the pushes in the planner's own world: the Static RRT's
+        # non-goal objects stay obstacles there, so a shortcut cannot push them either.
+        if planner == "static-rrt":
+            from rearrangement_planner.planning.baselines import static_physics
+
+            physics = static_physics(scene, physics)
+        short = shortcut(physics, result.states, shortcut_time, seed=seed, cancel=cancel,
+                         max_attempts=shortcut_attempts)
+        result = PlanResult(**{**result.__dict__, "states": tuple(short.states)})
+        spent = short.elapsed
+    trajectory = time_parameterize(scene.robot, result.arm_path, timing or TimingOptions())
+    states = _states_at_points(result.states, trajectory)
+    return PlanOutput(scene, planner, result, trajectory, states,
+                      PathMetrics.of(scene, result.states),
+                      before if shortcut_time > 0 else None, spent)

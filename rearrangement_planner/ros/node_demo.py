@@ -1,0 +1,188 @@
+"""`python -m rearrangement_planner.ros.node_demo` (`make demo`): the whole job, in one process.
+
+Starts `world_sim` (the simulated arm, objects and trajectory controller) and `planner_node`
+on a scene, each a real ROS 2 node on one executor. The planner receives the joint state and
+the object poses from world_sim, as from a robot and a perception system; the demo sends the
+goal (the scene's) on `/planner_node/goal`, calls `~/plan`, then `~/execute`, which sends the
+trajectory on `/joint_trajectory` to world_sim, which executes it open loop through the
+quasistatic physics, faster than real time (`--time-scale`). Prints the plan summary,
+world_sim's outcome (goal object distance, in the region or not, objects moved), the MCAP of
+the plan and a top view PNG of the execution (the objects' true paths and the tool path).
+
+The planner plans for the goal radius minus `--goal-margin`, world_sim judges the scene's
+radius: PC-RRT stops as soon as the goal object's centre enters its region, and open-loop
+execution at the controller's rate never reproduces the planner's physics steps exactly.
+
+Exit code 0 when the goal object ends inside its goal region, 1 otherwise, 2 for bad
+arguments. ROS_DOMAIN_ID is taken from the environment; discovery defaults to this machine
+(ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST) unless set.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="python -m rearrangement_planner.ros.node_demo",
+        description="Run world_sim and planner_node on a scene: plan from world_sim's state, "
+                    "execute the plan open loop in world_sim, print the outcome.")
+    parser.add_argument("--scene", default="default",
+                        help="shipped scene name or scene YAML path (default: default)")
+    parser.add_argument("--seed", type=int, default=0, help="planner seed (default 0)")
+    parser.add_argument("--time-limit", type=float, default=60.0, metavar="S",
+                        help="planning budget in seconds (default 60)")
+    parser.add_argument("--record-dir", type=Path, default=Path("out"),
+                        help="folder for the MCAP recording (default: out/)")
+    parser.add_argument("--plot", type=Path, default=None, metavar="OUT.png",
+                        help="top view PNG of the execution (default: out/<scene>.png)")
+    parser.add_argument("--time-scale", type=float, default=10.0, metavar="K",
+                        help="world_sim runs the trajectory K times faster than real time "
+                             "(default 10)")
+    parser.add_argument("--goal-margin", type=float, default=0.02, metavar="M",
+                        help="plan for the goal radius minus M metres (default 0.02)")
+    world = parser.add_argument_group(
+        "simulated world", "make world_sim differ from what the planner sees, to probe "
+                           "open-loop robustness")
+    world.add_argument("--pose-noise", type=float, default=0.0, metavar="M",
+                       help="std dev of the true objects' offset from their published poses, "
+                            "m (default 0)")
+    world.add_argument("--friction-scale", type=float, default=1.0, metavar="F",
+                       help="multiplies the simulated objects' frictions (default 1)")
+    world.add_argument("--world-seed", type=int, default=0, metavar="N",
+                       help="seed of the pose offsets (default 0)")
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+    # rclpy and the message packages only once the environment is set.
+    from rclpy.parameter import Parameter
+
+    from rearrangement_planner.model.errors import RearrangementError
+    from rearrangement_planner.physics.validation import load_scene
+    from rearrangement_planner.ros.node import PlannerNode
+    from rearrangement_planner.ros.replay import Session
+    from rearrangement_planner.ros.world_sim import WorldSim
+
+    try:
+        for flag, value in (("--time-limit", args.time_limit), ("--time-scale", args.time_scale)):
+            if not value > 0:
+                raise RearrangementError(f"{flag} must be positive, got {value}")
+        for flag, value, high in (("--pose-noise", args.pose_noise, 0.5),
+                                  ("--friction-scale", args.friction_scale, 100.0),
+                                  ("--world-seed", args.world_seed, 2**31 - 1)):
+            if not 0 <= value <= high:
+                raise RearrangementError(f"{flag} must be in [0, {high:g}], got {value}")
+        scene = load_scene(args.scene)
+        if not 0 <= args.goal_margin < scene.goal.radius:
+            raise RearrangementError(f"--goal-margin must be in [0, {scene.goal.radius:g}) "
+                                     f"(the goal radius), got {args.goal_margin}")
+        args.record_dir.mkdir(parents=True, exist_ok=True)
+    except (RearrangementError, OSError) as exc:
+        print(f"node_demo: {exc}", file=sys.stderr)
+        return 2
+    plot_path = args.plot or args.record_dir / f"{Path(scene.source).stem}.png"
+    planning_radius = scene.goal.radius - args.goal_margin
+
+    with Session(name="demo") as session:
+        try:
+            world = session.add(WorldSim(context=session.context, parameter_overrides=[
+                Parameter("scene", value=args.scene),
+                Parameter("time_scale", value=float(args.time_scale)),
+                Parameter("pose_noise", value=float(args.pose_noise)),
+                Parameter("friction_scale", value=float(args.friction_scale)),
+                Parameter("seed", value=args.world_seed)]))
+            planner = session.add(PlannerNode(context=session.context, parameter_overrides=[
+                Parameter("scene", value=args.scene), Parameter("seed", value=args.seed),
+                Parameter("time_limit", value=float(args.time_limit)),
+                Parameter("goal_radius", value=float(planning_radius)),
+                Parameter("record_dir", value=str(args.record_dir.resolve()))]))
+        except RearrangementError as exc:
+            print(f"node_demo: {exc}", file=sys.stderr)
+            return 2
+        return _run(session, world, planner, scene, args, planning_radius, plot_path)
+
+
+def _run(session, world, planner, scene, args, planning_radius: float, plot_path: Path) -> int:
+    from geometry_msgs.msg import PoseStamped
+
+    from msg_adapters import goal_to_pose_stamped
+    from rearrangement_planner.ros.replay import BagError, OutcomeListener, PlannerClient
+
+    node = session.node
+    frame = planner.get_parameter("planning_frame").value or scene.robot.config.base_frame
+    client = PlannerClient(node, "/planner_node")
+    outcomes = OutcomeListener(node, "/world_sim/outcome")
+    goal_pub = node.create_publisher(PoseStamped, "/planner_node/goal", 10)
+    try:
+        client.wait_ready()
+        ready = _wait(lambda: goal_pub.get_subscription_count() >= 2             # both nodes
+                      and node.count_subscribers("/joint_states") >= 1
+                      and world.command_publisher_count() >= 1, 10.0)
+        if not ready:
+            raise BagError("world_sim and planner_node did not connect in 10 s")
+        goal_pub.publish(goal_to_pose_stamped(scene.goal.position, frame, scene.table.height))
+        time.sleep(0.5)   # a few rounds of world_sim's joint states and object poses
+        perturbed = (f", pose noise {args.pose_noise:g} m (seed {args.world_seed}), friction "
+                     f"x{args.friction_scale:g}"
+                     if args.pose_noise > 0 or args.friction_scale != 1.0 else "")
+        print(f"world_sim: {scene.source}, {len(scene.objects)} objects, joint states 50 Hz, "
+              f"object poses 30 Hz, time scale {args.time_scale:g}{perturbed}", flush=True)
+        print(f"planning (seed {args.seed}, time limit {args.time_limit:g} s, goal "
+              f"'{scene.goal.object}' within {planning_radius:.3f} m of "
+              f"({scene.goal.position[0]:.2f}, {scene.goal.position[1]:.2f})) ...", flush=True)
+        reply = client.plan(timeout=args.time_limit + 120.0)
+        print(reply.message, flush=True)
+        print(f"recording: {reply.mcap or 'none'}")
+        if not reply.success:
+            return 1
+        duration = reply.trajectory.points[-1].time_from_start
+        seconds = duration.sec + duration.nanosec * 1e-9
+        seen = outcomes.count()
+        executed = client.execute()
+        print(f"executing open loop: {executed.message}; world_sim at time scale "
+              f"{args.time_scale:g} (~{seconds / args.time_scale:.1f} s)", flush=True)
+        if not executed.success:
+            return 1
+        outcome = outcomes.wait_next(seen, seconds / args.time_scale * 3 + 30.0)
+        print(f"outcome: {outcome['message']}")
+        _plot(world, outcome, plot_path,
+              f"{Path(scene.source).stem}: open loop in world_sim, {outcome['status']}")
+        print(f"top view: {plot_path}")
+        return 0 if outcome["status"] == "SUCCEEDED" else 1
+    except BagError as exc:
+        print(f"node_demo: {exc}", file=sys.stderr)
+        return 1
+    finally:
+        node.destroy_publisher(goal_pub)
+
+
+def _plot(world, outcome: dict, out_path: Path, title: str) -> None:
+    """Top view of the execution world_sim recorded: the objects' true paths, the tool."""
+    from rearrangement_planner.io.plot import plot_top_view
+
+    record = next(r for r in reversed(world.executions) if r.number == outcome["execution"])
+    plot_top_view(world.world, np.array(record.objects), np.array(record.tool), out_path,
+                  title=title)
+
+
+def _wait(predicate, timeout: float) -> bool:
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if predicate():
+            return True
+        time.sleep(0.02)
+    return bool(predicate())
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,415 @@
+"""`rearrangement-bench`: benchmarks.
+
+    rearrangement-bench [run] [--quick] [--scenes SCENE ...] [--planners P ...] [--seeds N ...]
+                        [--time-limit S] [--shortcut S] [--shortcut-attempts N]
+                        [--workers N] [--out DIR]
+    rearrangement-bench generate [--seed S] [--out DIR]
+    rearrangement-bench physics [--seconds S] [--json OUT]
+    rearrangement-bench scenes [--scenes NAME ...] [--planners P ...] [--seeds N ...]
+                               [--time-limit S] [--trees N] [--jsonl OUT]
+
+`run` (the default) is the benchmark of King et al. §V (DESIGN §9, `benchmark.py`): each
+planner on each of the 35 scenes of config/benchmark/scenes with each seed, one worker process
+per core; trials.csv, summary.json and the plots of Figs. 4, 7 and 8 (`bench_plots.py`) in
+--out. It resumes: trials already in trials.csv are skipped. Ctrl-C stops it, keeps every
+finished trial and prints the command that resumes (exit code 130). `--quick` is the reduced
+protocol (14 scenes, seed 0, 20 s budget; under 10 minutes on 2 cores). `generate` rewrites
+the scene set. Exit codes: 0 done, 1 some trials failed with an internal error, 2 bad input
+(one line naming the option), 130 interrupted.
+
+`scenes` runs each planner on the shipped demo scenes, one run at a time with 2 trees raced
+per run (`parallel`; `--trees 1` for one tree), one line of JSON per run. `run` grows one tree
+per trial and spreads the trials over the cores instead.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import platform
+import shlex
+import sys
+import time
+from pathlib import Path
+
+from rearrangement_planner.model.errors import RearrangementError
+from rearrangement_planner.model.resources import scenes_dir
+from rearrangement_planner.model.scene import Scene
+from rearrangement_planner.physics.step import Physics
+from rearrangement_planner.physics.validation import load_scene, parse_scene
+from rearrangement_planner.planning.pipeline import PLANNERS
+from rearrangement_planner.tools import benchmark
+
+COMMANDS = ("run", "generate", "physics", "scenes")
+
+PHYSICS_DOC = """`rearrangement-bench physics` measures the throughput of the quasistatic physics
+step (DESIGN §5) on the Panda at the default scene's table: the arm, folded low so that forearm and
+wrist sweep at object height, rotates about joint 1 through 1 and through 7 objects placed in
+its path, again and again. It prints a JSON record: physics steps per second (one
+`Physics.step` call moving joint 1 by `STEP_RAD`), substeps per second, the share of the time
+spent in contact and collision queries, and how many steps moved an object (so that the figure
+is measured in contact, not in free space).
+"""
+
+# Joint configuration with the forearm sloping down to 7 cm and the wrist at object height.
+LOW_ARM = (-0.7677, 1.7127, 1.0578, -1.7876, 1.2966, 0.8244, -0.8218)
+STEP_RAD = 0.005        # joint-1 motion per physics step: about 2.5 mm at the wrist
+SWEEP_STEPS = 150       # steps per sweep, then the sweep starts again from the start state
+
+# Objects in the sweep's path: (radius from the base, angle ahead of the arm), metres/radians.
+ONE_OBJECT = [(0.43, 0.45)]
+SEVEN_OBJECTS = [(0.43, 0.45), (0.56, 0.78), (0.36, 0.80), (0.50, 1.02), (0.65, 0.60),
+                 (0.42, 1.18), (0.64, 1.00)]
+
+
+def sweep_scene(placements: list[tuple[float, float]]) -> Scene:
+    """The default scene's robot and table with cylinders at the given polar placements."""
+    default = load_scene(scenes_dir() / "default.yaml")
+    data = default.to_dict()
+    data["start_configuration"] = list(LOW_ARM)
+    data.pop("obstacles", None)
+    data["objects"] = [
+        {"name": f"object{i}", "shape": "cylinder", "radius": 0.03, "height": 0.12,
+         "pose": [r * math.cos(a), r * math.sin(a), 0.0]}
+        for i, (r, a) in enumerate(placements)]
+    data["goal"] = {"object": "object0", "position": [0.5, 0.0], "radius": 0.1}
+    return parse_scene(data, name=f"physics sweep, {len(placements)} objects",
+                       robot=default.robot)
+
+
+class _Timed:
+    """Wraps a bound method and adds its run time to a shared counter."""
+
+    def __init__(self, fn, totals: dict, key: str):
+        self.fn, self.totals, self.key = fn, totals, key
+
+    def __call__(self, *args, **kwargs):
+        start = time.perf_counter()
+        try:
+            return self.fn(*args, **kwargs)
+        finally:
+            self.totals[self.key] += time.perf_counter() - start
+
+
+def measure_physics(scene: Scene, seconds: float) -> dict:
+    physics = Physics(scene)
+    totals = {"contact_queries": 0.0}
+    world = physics.world
+    for name in ("arm_object_contacts", "arm_static_collision", "object_overlaps",
+                 "object_obstacle_overlaps", "objects_off_table"):
+        setattr(world, name, _Timed(getattr(world, name), totals, "contact_queries"))
+    start_state = scene.initial_state()
+    steps = substeps = pushing_steps = invalid = 0
+    links: set[str] = set()
+    t0 = time.perf_counter()
+    while time.perf_counter() - t0 < seconds:
+        state = start_state
+        for _ in range(SWEEP_STEPS):
+            q = state.q.copy()
+            q[0] += STEP_RAD
+            result = physics.step(state, q)
+            steps += 1
+            substeps += result.substeps
+            if not result.valid:
+                invalid += 1
+                break
+            if result.moved_objects:
+                pushing_steps += 1
+                links |= result.pushing_links
+            state = result.state
+    elapsed = time.perf_counter() - t0
+    return {
+        "objects": len(scene.objects),
+        "steps": steps,
+        "steps_per_second": round(steps / elapsed, 1),
+        "substeps_per_second": round(substeps / elapsed, 1),
+        "steps_pushing_share": round(pushing_steps / steps, 3),
+        "contact_query_time_share": round(totals["contact_queries"] / elapsed, 3),
+        "invalid_steps": invalid,
+        "pushing_links": sorted(links),
+    }
+
+
+def physics_benchmark(seconds: float) -> dict:
+    return {
+        "benchmark": "physics",
+        "step": f"Physics.step moving joint 1 by {STEP_RAD} rad (arm folded low, sweeping)",
+        "python": platform.python_version(),
+        "machine": platform.machine(),
+        "results": [measure_physics(sweep_scene(ONE_OBJECT), seconds),
+                    measure_physics(sweep_scene(SEVEN_OBJECTS), seconds)],
+    }
+
+
+def scene_trial(scene_name: str, planner: str, seed: int, time_limit: float,
+                trees: int = 1) -> dict:
+    """One planner run on one shipped scene (`trees` raced trees): outcome, plan time and
+    which objects moved."""
+    from rearrangement_planner.planning.pcrrt import PlannerOptions
+    from rearrangement_planner.planning.pipeline import plan_scene
+
+    scene = load_scene(scene_name)
+    result = plan_scene(scene, planner, PlannerOptions(time_limit=time_limit, trees=trees),
+                        seed=seed).result
+    moved: list[str] = []
+    if result.states:
+        first = result.states[0].objects
+        moved = [o.name for i, o in enumerate(scene.objects)
+                 if any(not (s.objects[i] == first[i]).all() for s in result.states)]
+    return {"scene": scene_name, "planner": planner, "seed": seed, "trees": trees,
+            "outcome": result.outcome.value, "plan_time_s": round(result.plan_time, 2),
+            "iterations": result.iterations, "moved": moved,
+            "best_goal_distance_m": round(result.best_goal_distance, 3)}
+
+
+QUICK = {"seeds": [0], "time_limit": 20.0}
+"""--quick: 2 scenes per object count (14), seed 0, 20 s budget: 42 trials with the three
+planners, at most 42 x (20 s + 5 s shortcut + ~1 s) / 2 workers = 9.1 min on 2 cores."""
+DEFAULTS = {"seeds": [0, 1, 2], "time_limit": 60.0, "shortcut": 5.0, "shortcut_attempts": 100}
+"""The full protocol: the 35 scenes, the three planners, seeds 0-2, 60 s budget (315 trials;
+at most 315 x 66 s / 2 workers = 2.9 h on 2 cores). Shortcutting: 5 s or 100 attempts,
+whichever ends first (an attempt bound that ends first makes the shortened path
+reproducible)."""
+
+
+class _Parser(argparse.ArgumentParser):
+    """Usage errors as one line naming the option, exit code 2."""
+
+    def error(self, message: str):
+        self.exit(2, f"{self.prog}: {message}\n")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = _Parser(
+        prog="rearrangement-bench",
+        description="Benchmarks of the rearrangement planner. Without a command: `run`.",
+        formatter_class=argparse.RawDescriptionHelpFormatter, epilog=__doc__)
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    run = sub.add_parser(
+        "run", help="the benchmark of King et al. §V: planners x scenes x seeds (the default "
+                    "command)",
+        description="Run each planner on each benchmark scene with each seed under a time "
+                    "budget, one worker process per core; write trials.csv (one row per trial, "
+                    "appended as it finishes), summary.json and PNG plots into --out. Trials "
+                    "already in trials.csv are skipped, so an interrupted run resumes.")
+    run.add_argument("--quick", action="store_true",
+                     help="reduced protocol: 2 scenes per object count (14 scenes), seed 0, "
+                          "20 s budget (42 trials, under 10 min on 2 cores); options given "
+                          "explicitly override it")
+    run.add_argument("--scenes", nargs="+", metavar="SCENE",
+                     help="benchmark scene names (n3_s2 = 3 objects, third scene) or scene "
+                          ".yaml files (default: the 35 scenes of config/benchmark/scenes)")
+    run.add_argument("--planners", nargs="+", choices=PLANNERS, default=list(PLANNERS),
+                     metavar="PLANNER", help=f"any of {', '.join(PLANNERS)} (default: all)")
+    run.add_argument("--seeds", nargs="+", type=int, metavar="N",
+                     help="planner seeds (default 0 1 2; --quick: 0)")
+    run.add_argument("--time-limit", type=float, metavar="S",
+                     help="planning budget per trial, s (default 60; --quick: 20)")
+    run.add_argument("--shortcut", type=float, default=DEFAULTS["shortcut"], metavar="S",
+                     help="seconds of shortcutting per solved path (default 5; 0: none)")
+    run.add_argument("--shortcut-attempts", type=int, default=DEFAULTS["shortcut_attempts"],
+                     metavar="N", help="at most N shortcut attempts per path (default 100)")
+    run.add_argument("--workers", type=int, metavar="N",
+                     help=f"worker processes, at most the {benchmark.usable_cores()} cores "
+                          f"(default: one per core)")
+    run.add_argument("--out", type=Path, default=Path("out/benchmark"), metavar="DIR",
+                     help="output folder (default out/benchmark)")
+    gen = sub.add_parser(
+        "generate", help="(re)write the 35 benchmark scene files",
+        description="Draw the 35-scene set (5 scenes with each of 1..7 movable objects) from "
+                    "the seed and write it as scene files.")
+    gen.add_argument("--seed", type=int, default=benchmark.SCENE_SET_SEED, metavar="S",
+                     help=f"scene set seed (default {benchmark.SCENE_SET_SEED}: the committed "
+                          f"set)")
+    gen.add_argument("--out", type=Path, metavar="DIR",
+                     help="folder for the scene files (default config/benchmark/scenes)")
+    phys = sub.add_parser(
+        "physics", help="physics steps per second with 1 and 7 objects in contact range",
+        description=PHYSICS_DOC, formatter_class=argparse.RawDescriptionHelpFormatter)
+    phys.add_argument("--seconds", type=float, default=5.0,
+                      help="measuring time per scene, s (default 5)")
+    phys.add_argument("--json", type=Path, help="also write the JSON record to this file")
+    scenes = sub.add_parser(
+        "scenes", help="each planner on each shipped scene with several seeds (one line of "
+                       "JSON per run: outcome, plan time, objects moved)")
+    scenes.add_argument("--scenes", nargs="+", default=["easy_push", "default", "clutter",
+                                                        "seven_objects"],
+                        help="shipped scene names or scene files")
+    scenes.add_argument("--planners", nargs="+", default=list(PLANNERS), choices=PLANNERS)
+    scenes.add_argument("--seeds", nargs="+", type=int, default=[0, 1, 2])
+    scenes.add_argument("--time-limit", type=float, default=60.0, metavar="S",
+                        help="planning budget per run, s (default 60)")
+    scenes.add_argument("--trees", type=int, default=2, metavar="N",
+                        help="trees raced per run (OR-parallel, one process each; see "
+                             "rearrangement-plan --help; default 2, for a 2-core machine "
+                             "running one run at a time)")
+    scenes.add_argument("--jsonl", type=Path, help="also append the lines to this file")
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    argv = list(sys.argv[1:] if argv is None else argv)
+    if not argv or argv[0] not in COMMANDS + ("-h", "--help"):
+        argv = ["run", *argv]
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        if args.command == "run":
+            return run_command(args, argv)
+        if args.command == "generate":
+            out = args.out or benchmark.scene_set_dir()
+            paths = benchmark.write_scene_set(out, args.seed)
+            print(f"wrote {len(paths)} scenes to {out}")
+            return 0
+        if args.command == "scenes":
+            return scenes_command(args)
+        return physics_command(args)
+    except benchmark.BenchmarkError as exc:
+        print(f"rearrangement-bench: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("\nrearrangement-bench: interrupted", file=sys.stderr)
+        return 130
+
+
+def physics_command(args: argparse.Namespace) -> int:
+    if not args.seconds > 0:
+        raise benchmark.BenchmarkError("--seconds", f"must be positive, got {args.seconds}")
+    record = physics_benchmark(args.seconds)
+    text = json.dumps(record, indent=2)
+    print(text)
+    if args.json:
+        args.json.write_text(text + "\n")
+    return 0
+
+
+def scenes_command(args: argparse.Namespace) -> int:
+    if not args.time_limit > 0:
+        raise benchmark.BenchmarkError("--time-limit", f"must be positive, got "
+                                                       f"{args.time_limit}")
+    if not 1 <= args.trees <= 64:
+        raise benchmark.BenchmarkError("--trees", f"must be between 1 and 64, got {args.trees}")
+    for scene_name in args.scenes:
+        for planner in args.planners:
+            for seed in args.seeds:
+                line = json.dumps(scene_trial(scene_name, planner, seed, args.time_limit,
+                                              args.trees))
+                print(line, flush=True)
+                if args.jsonl:
+                    with args.jsonl.open("a") as f:
+                        f.write(line + "\n")
+    return 0
+
+
+def _resolve_scenes(names: list[str]) -> list[tuple[Path, Scene]]:
+    """The scene files of --scenes (names in config/benchmark/scenes, or .yaml paths), loaded
+    and validated."""
+    out: list[tuple[Path, Scene]] = []
+    seen: dict[str, Path] = {}
+    for name in names:
+        path = Path(name)
+        if path.suffix not in (".yaml", ".yml"):
+            path = benchmark.scene_set_dir() / f"{name}.yaml"
+            if not path.is_file():
+                raise benchmark.BenchmarkError(
+                    "--scenes", f"no benchmark scene {name!r}; names are n<objects>_s<index> "
+                                f"(n1_s0 ... n7_s4) or give a scene .yaml file")
+        if path.stem in seen and seen[path.stem] != path:
+            raise benchmark.BenchmarkError(
+                "--scenes", f"two scenes are called {path.stem!r} ({seen[path.stem]} and "
+                            f"{path}); trials are keyed by the scene's file name")
+        if path.stem in seen:
+            continue
+        seen[path.stem] = path
+        try:
+            out.append((path, load_scene(path)))
+        except RearrangementError as exc:
+            raise benchmark.BenchmarkError("--scenes", str(exc)) from None
+    return out
+
+
+def _check_run_options(args: argparse.Namespace) -> None:
+    cores = benchmark.usable_cores()
+    if not args.time_limit > 0 or not math.isfinite(args.time_limit):
+        raise benchmark.BenchmarkError("--time-limit", f"must be a positive number of seconds, "
+                                                       f"got {args.time_limit}")
+    if not args.shortcut >= 0 or not math.isfinite(args.shortcut):
+        raise benchmark.BenchmarkError("--shortcut", f"must be >= 0 s, got {args.shortcut}")
+    if args.shortcut_attempts < 1:
+        raise benchmark.BenchmarkError("--shortcut-attempts", f"must be >= 1, got "
+                                                              f"{args.shortcut_attempts}")
+    if not 1 <= args.workers <= cores:
+        raise benchmark.BenchmarkError("--workers", f"must be between 1 and the {cores} "
+                                                    f"cores of this machine, got {args.workers}")
+    if any(seed < 0 for seed in args.seeds):
+        raise benchmark.BenchmarkError("--seeds", f"seeds must be >= 0, got {args.seeds}")
+    if args.out.exists() and not args.out.is_dir():
+        raise benchmark.BenchmarkError("--out", f"{args.out} exists and is not a folder")
+
+
+def _count(n: int, noun: str) -> str:
+    return f"{n} {noun}{'' if n == 1 else 's'}"
+
+
+def resolve_run(args: argparse.Namespace) -> tuple[list[tuple[Path, Scene]],
+                                                    list[benchmark.Trial]]:
+    """The scenes and trials of a `run`: --quick's protocol or the full one, with the options
+    given explicitly on top. Raises `BenchmarkError` naming a bad option."""
+    base = QUICK if args.quick else DEFAULTS
+    args.seeds = list(dict.fromkeys(args.seeds if args.seeds is not None else base["seeds"]))
+    if args.time_limit is None:
+        args.time_limit = base["time_limit"]
+    if args.workers is None:
+        args.workers = benchmark.usable_cores()
+    args.planners = list(dict.fromkeys(args.planners))
+    _check_run_options(args)
+    scenes = _resolve_scenes(args.scenes or benchmark.set_scene_names(quick=args.quick))
+    objects = {path.stem: len(scene.objects) for path, scene in scenes}
+    trials = benchmark.make_trials([p for p, _ in scenes], args.planners, args.seeds,
+                                   args.time_limit, objects)
+    return scenes, trials
+
+
+def run_command(args: argparse.Namespace, argv: list[str]) -> int:
+    scenes, trials = resolve_run(args)
+    try:
+        args.out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise benchmark.BenchmarkError("--out", f"cannot create {args.out} ({exc.strerror})") \
+            from None
+    csv_path = args.out / "trials.csv"
+    print(f"benchmark: {_count(len(scenes), 'scene')} x {_count(len(args.planners), 'planner')}"
+          f" x {_count(len(args.seeds), 'seed')} = {_count(len(trials), 'trial')}, "
+          f"{args.time_limit:g} s budget, {_count(args.workers, 'worker')} -> {csv_path}",
+          file=sys.stderr, flush=True)
+    report = benchmark.run_trials(trials, csv_path, args.workers, args.shortcut,
+                                  args.shortcut_attempts)
+    if report.interrupted:
+        print(f"interrupted: {csv_path} holds every finished trial ({report.finished} new). "
+              f"Resume with: rearrangement-bench {shlex.join(argv)}", file=sys.stderr)
+        return 130
+    wanted = {t.key for t in trials}
+    rows = [r for r in benchmark.read_trials(csv_path) if benchmark.row_key(r) in wanted]
+    protocol = {"scenes": [p.stem for p, _ in scenes], "planners": args.planners,
+                "seeds": args.seeds, "time_limit": args.time_limit,
+                "shortcut_time_s": args.shortcut, "shortcut_attempts": args.shortcut_attempts,
+                "quick": args.quick}
+    summary = benchmark.summarize(rows, protocol,
+                                  benchmark.end_effector_links(scenes[0][1].robot))
+    (args.out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
+    from rearrangement_planner.tools.bench_plots import plot_all  # matplotlib only here
+
+    plots = plot_all(rows, summary, args.out)
+    print(benchmark.summary_table(summary))
+    print(f"wrote {csv_path}, {args.out / 'summary.json'}, "
+          + ", ".join(str(p) for p in plots), file=sys.stderr)
+    if report.failed:
+        print(f"rearrangement-bench: {report.failed} trials failed with an internal error "
+              f"(not in the CSV; run again to retry them)", file=sys.stderr)
+        return 1
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

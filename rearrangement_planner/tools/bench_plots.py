@@ -1,0 +1,194 @@
+"""The benchmark's figures (matplotlib, Agg backend), after King et al. §V, from trials.csv rows
+(`benchmark.CSV_COLUMNS`) and the summary (`benchmark.summarize`):
+
+- success_vs_budget.png (Fig. 7): for each time budget t, the share of trials solved with a
+  plan time of at most t, per planner;
+- plan_time.png (Fig. 4): (a) share of trials solved, (b) plan times of the solved trials;
+- shortcut.png (Fig. 8): (a) arm path length and (b) total object displacement before and
+  after shortcutting (the planners whose paths are shortcut);
+- by_objects.png: share solved per number of movable objects.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from rearrangement_planner.tools.benchmark import PAPER, SHORTCUT_PLANNERS, success_at  # noqa: E402
+
+COLORS = {"pc-rrt": "#2ca02c", "static-rrt": "#9467bd", "darrt": "#ff7f0e"}
+LABELS = {"pc-rrt": "PC-RRT", "static-rrt": "Static RRT", "darrt": "DARRT"}
+DPI = 110
+
+
+def _color(planner: str) -> str:
+    return COLORS.get(planner, "#7f7f7f")
+
+
+def _label(planner: str) -> str:
+    return LABELS.get(planner, planner)
+
+
+def _of(rows: Sequence[dict], planner: str) -> list[dict]:
+    return [r for r in rows if r["planner"] == planner]
+
+
+def _solved(rows: Sequence[dict]) -> list[dict]:
+    return [r for r in rows if r["solved"] == "1"]
+
+
+def _save(fig, path: Path) -> Path:
+    fig.tight_layout()
+    fig.savefig(path, dpi=DPI)
+    plt.close(fig)
+    return path
+
+
+def plot_success_vs_budget(rows: Sequence[dict], planners: Sequence[str], time_limit: float,
+                           path: Path) -> Path:
+    """Fig. 7 of King et al.: expected success given a time budget."""
+    fig, ax = plt.subplots(figsize=(6.4, 4.2))
+    grid = np.linspace(0.0, time_limit, 801)
+    for planner in planners:
+        group = _of(rows, planner)
+        if not group:
+            continue
+        share = [100 * success_at(group, t) for t in grid]
+        ax.step(grid, share, where="post", color=_color(planner), lw=2,
+                label=f"{_label(planner)} ({len(group)} trials)")
+    paper = PAPER["solved_share_at_300s"]
+    ax.text(0.02, 0.97, "King et al. at 300 s: " + ", ".join(
+        f"{_label(p)} {100 * v:.0f} %" for p, v in paper.items()), transform=ax.transAxes,
+        va="top", fontsize=8, color="0.35")
+    ax.axvline(5.0, color="0.8", lw=1, ls=":", zorder=0)
+    ax.set_xlim(0, time_limit)
+    ax.set_ylim(-2, 102)
+    ax.set_xlabel("time budget (s)")
+    ax.set_ylabel("trials solved within the budget (%)")
+    ax.set_title("Success rate vs time budget (cf. Fig. 7)")
+    ax.grid(alpha=0.3)
+    ax.legend(loc="upper left", bbox_to_anchor=(0.0, 0.93), fontsize=9)
+    return _save(fig, path)
+
+
+def plot_plan_times(rows: Sequence[dict], planners: Sequence[str], path: Path) -> Path:
+    """Fig. 4 of King et al.: (a) success rate, (b) plan time of the solved trials."""
+    planners = [p for p in planners if _of(rows, p)]
+    fig, (ax_a, ax_b) = plt.subplots(1, 2, figsize=(9.0, 4.0),
+                                     gridspec_kw={"width_ratios": [1, 1.6]})
+    x = np.arange(len(planners))
+    shares = [100 * len(_solved(_of(rows, p))) / len(_of(rows, p)) for p in planners]
+    ax_a.bar(x, shares, color=[_color(p) for p in planners], width=0.6)
+    for xi, p, share in zip(x, planners, shares, strict=True):
+        ax_a.text(xi, share + 1.5, f"{len(_solved(_of(rows, p)))}/{len(_of(rows, p))}",
+                  ha="center", fontsize=9)
+    ax_a.set_xticks(x, [_label(p) for p in planners])
+    ax_a.set_ylim(0, 110)
+    ax_a.set_ylabel("trials solved (%)")
+    ax_a.set_title("(a) success rate")
+    rng = np.random.default_rng(0)   # jitter of the strip plot, the same every time
+    times = [[float(r["plan_time_s"]) for r in _solved(_of(rows, p))] for p in planners]
+    if any(times):
+        ax_b.boxplot([t if t else [np.nan] for t in times], positions=x, widths=0.5,
+                     showfliers=False, medianprops={"color": "black"})
+    for xi, p, t in zip(x, planners, times, strict=True):
+        ax_b.scatter(xi + rng.uniform(-0.18, 0.18, len(t)), t, s=14, color=_color(p),
+                     alpha=0.7, zorder=3)
+        if t:
+            ax_b.text(xi, 1.02, f"median {np.median(t):.1f} s", ha="center", fontsize=8,
+                      transform=ax_b.get_xaxis_transform())
+        else:
+            ax_b.text(xi, 0.5, "none solved", ha="center", fontsize=8,
+                      transform=ax_b.get_xaxis_transform())
+    ax_b.set_xticks(x, [_label(p) for p in planners])
+    ax_b.set_xlim(-0.6, len(planners) - 0.4)
+    ax_b.set_ylim(bottom=0)
+    ax_b.set_ylabel("plan time of solved trials (s)")
+    ax_b.set_title("(b) plan time", pad=16)
+    ax_b.grid(axis="y", alpha=0.3)
+    fig.suptitle("Success rate and plan time per planner (cf. Fig. 4)")
+    return _save(fig, path)
+
+
+def plot_shortcut(rows: Sequence[dict], planners: Sequence[str], path: Path) -> Path:
+    """Fig. 8 of King et al.: (a) manipulator path length, (b) total object displacement,
+    before and after shortcutting; bars are means, dots single trials, lines join the two
+    values of one trial."""
+    planners = [p for p in planners if p in SHORTCUT_PLANNERS and _solved(_of(rows, p))]
+    fig, axes = plt.subplots(1, 2, figsize=(9.0, 4.0))
+    panels = (("path_length_rad", "arm path length (rad)", "(a) manipulator path length"),
+              ("object_displacement_m", "total object displacement (m)",
+               "(b) object displacement"))
+    for ax, (field, ylabel, title) in zip(axes, panels, strict=True):
+        ax.set_title(title, pad=16)
+        ax.set_ylabel(ylabel)
+        if not planners:
+            ax.text(0.5, 0.5, "no solved trial of a shortcut planner", ha="center",
+                    transform=ax.transAxes)
+            ax.set_xticks([])
+            continue
+        ticks, names = [], []
+        for k, planner in enumerate(planners):
+            solved = _solved(_of(rows, planner))
+            before = np.array([float(r[f"{field}_before"]) for r in solved])
+            after = np.array([float(r[f"{field}_after"]) for r in solved])
+            xb, xa = 3 * k, 3 * k + 1
+            ax.bar([xb, xa], [before.mean(), after.mean()], width=0.8,
+                   color=[_color(planner), _color(planner)], alpha=0.45,
+                   edgecolor=_color(planner), hatch=["", "//"])
+            for b, a in zip(before, after, strict=True):
+                ax.plot([xb, xa], [b, a], color="0.5", lw=0.6, alpha=0.6)
+            ax.scatter(np.full(len(before), xb), before, s=10, color="0.25", zorder=3)
+            ax.scatter(np.full(len(after), xa), after, s=10, color="0.25", zorder=3)
+            change = 100 * (after.mean() / before.mean() - 1) if before.mean() > 0 else 0.0
+            ax.text(xb + 0.5, 1.01, f"{change:+.0f} %", ha="center", fontsize=9,
+                    transform=ax.get_xaxis_transform())
+            ticks += [xb, xa]
+            names += [f"{_label(planner)}\nbefore", "after"]
+        ax.set_xticks(ticks, names, fontsize=8)
+        ax.set_ylim(bottom=0)
+        ax.grid(axis="y", alpha=0.3)
+    fig.suptitle(f"Shortcutting (cf. Fig. 8; King et al.: "
+                 f"{-100 * PAPER['shortcut_arm_path_reduction']:.0f} % arm path length)")
+    return _save(fig, path)
+
+
+def plot_by_objects(rows: Sequence[dict], planners: Sequence[str], path: Path) -> Path:
+    """Share of trials solved per number of movable objects, per planner."""
+    fig, ax = plt.subplots(figsize=(6.4, 4.0))
+    counts = sorted({int(r["objects"]) for r in rows})
+    for planner in planners:
+        group = _of(rows, planner)
+        if not group:
+            continue
+        shares = [100 * len(_solved([r for r in group if int(r["objects"]) == n]))
+                  / max(1, len([r for r in group if int(r["objects"]) == n])) for n in counts]
+        ax.plot(counts, shares, "o-", color=_color(planner), label=_label(planner))
+    ax.set_xticks(counts)
+    ax.set_ylim(-5, 105)
+    ax.set_xlabel("movable objects in the scene")
+    ax.set_ylabel("trials solved (%)")
+    ax.set_title("Success rate per number of objects")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=9)
+    return _save(fig, path)
+
+
+def plot_all(rows: Sequence[dict], summary: dict, out: Path) -> list[Path]:
+    """Write the four figures into `out`; returns their paths."""
+    protocol = summary["protocol"]
+    planners = list(protocol["planners"])
+    return [
+        plot_success_vs_budget(rows, planners, float(protocol["time_limit"]),
+                               out / "success_vs_budget.png"),
+        plot_plan_times(rows, planners, out / "plan_time.png"),
+        plot_shortcut(rows, planners, out / "shortcut.png"),
+        plot_by_objects(rows, planners, out / "by_objects.png"),
+    ]

@@ -1,0 +1,862 @@
+"""The benchmark of King et al. §V (DESIGN §9): a fixed, seeded set of 35 random scenes, each
+planner run on each scene with several seeds under a time budget, one worker process per core.
+
+The scene set (§V: "35 randomly generated scenes ... between 1 and 7 movable objects in the
+robot's reachable workspace ... the same goal object ... the starting pose of the goal object
+is randomly selected. The goal region is placed in the same location across all scenes"):
+5 scenes for each number of movable objects 1 ... 7. Every scene has the table and start
+configuration of ``config/scenes/default.yaml``, the same goal object (`GOAL_OBJECT`, a box)
+and the same goal region (`GOAL_POSITION`, `GOAL_RADIUS`). The goal object starts at a random
+pose at least `MIN_GOAL_OFFSET` from the goal point; the other objects are boxes and cylinders
+of random size, mass and frictions (`BOX_SIDE`, `CYLINDER_RADIUS`, `HEIGHT`, `MASS`, ...) at
+random poses. Every object lies in the arm's reach (`in_workspace`: an annulus about the base
+that the tool reaches on the pushing plane, wholly on the table); scenes are drawn by rejection
+until `scene.parse_scene` accepts them (no overlaps, start configuration collision-free).
+`generate_scene_set(seed)` is a pure function of the seed: scene ``n<M>_s<i>`` draws from its
+own generator seeded with (seed, M, i), so the scenes do not depend on each other. The files
+are committed in ``config/benchmark/scenes/`` and a test checks they equal a fresh generation.
+
+A trial is one (scene, planner, seed, time limit): `pipeline.plan_scene`, then shortcutting of
+a solved path (not DARRT's, see `pipeline.plan_scene`), then a replay of the path through the
+physics to find which arm links pushed objects (DESIGN §6). `run` runs the trials in a process
+pool, appends one CSV row per finished trial (complete rows only, flushed at once), skips
+trials already in the CSV (resumable), and `summarize` turns the rows into the JSON summary.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import logging
+import math
+import multiprocessing
+import os
+import signal
+import sys
+import textwrap
+import threading
+import time
+import traceback
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from rearrangement_planner.model.errors import RearrangementError
+from rearrangement_planner.model.resources import config_dir
+from rearrangement_planner.model.robot import RobotModel
+from rearrangement_planner.physics.validation import parse_scene
+
+log = logging.getLogger(__name__)
+
+# --------------------------------------------------------------------------------------------
+# The scene set
+# --------------------------------------------------------------------------------------------
+
+SCENE_SET_SEED = 0
+OBJECT_COUNTS = tuple(range(1, 8))          # movable objects per scene, goal object included
+SCENES_PER_COUNT = 5
+
+# The table and start configuration of config/scenes/default.yaml (a test keeps them equal).
+ROBOT = "panda"
+START_CONFIGURATION = (0.0, -0.3, 0.0, -2.2, 0.0, 2.0, 0.785)   # rad
+TABLE = {"center": (0.55, 0.0), "size": (0.8, 1.2), "height": 0.0}  # m
+
+GOAL_POSITION = (0.55, -0.20)   # m, the goal point of every scene
+GOAL_RADIUS = 0.10              # m (King et al. §V: "a goal region of radius 0.1m")
+MIN_GOAL_OFFSET = 0.25          # m, least distance of the goal object's start from the goal point
+GOAL_OBJECT = {"name": "target", "shape": "box", "size": (0.06, 0.08, 0.12), "mass": 0.4,
+               "support_friction": 0.4, "pusher_friction": 0.3}   # the same in every scene
+
+# The workspace: object centres at a distance from the base (the z axis of the base frame) in
+# [REACH_MIN, REACH_MAX] and at least WORKSPACE_MIN_X in front of it, and the whole footprint on
+# the table. The Panda's tool reaches the pushing plane (hand horizontal, 7 cm above the table)
+# out to about 0.88 m; REACH_MAX leaves room for the hand to get behind an object and push it
+# back towards the base. A test checks the tool reaches every object's centre by IK.
+REACH_MIN = 0.30                # m
+REACH_MAX = 0.72                # m
+WORKSPACE_MIN_X = 0.25          # m
+
+# Clutter objects: uniform in these ranges (m, kg, dimensionless friction coefficients).
+BOX_SIDE = (0.04, 0.10)
+CYLINDER_RADIUS = (0.025, 0.05)
+HEIGHT = (0.09, 0.16)           # taller than the hand's underside, so the arm pushes, not presses
+MASS = (0.2, 0.8)
+SUPPORT_FRICTION = (0.3, 0.6)   # object-table mu_s
+PUSHER_FRICTION = (0.2, 0.5)    # arm-object mu_c
+MIN_GAP = 0.01                  # m, least gap between the footprint circles of two objects
+MAX_DRAWS = 1000                # draws per scene before giving up (never reached in practice)
+DECIMALS = 3                    # values are written rounded to mm / mrad
+
+
+def scene_name(objects: int, index: int) -> str:
+    """``n3_s2``: the scene with 3 movable objects, third of its group."""
+    return f"n{objects}_s{index}"
+
+
+def scene_set_dir() -> Path:
+    """``config/benchmark/scenes`` of the checkout or the installed package."""
+    return config_dir() / "benchmark" / "scenes"
+
+
+def _round(value: float) -> float:
+    return float(round(float(value), DECIMALS)) + 0.0   # + 0.0 turns -0.0 into 0.0
+
+
+def _footprint_radius(entry: dict) -> float:
+    if entry["shape"] == "cylinder":
+        return float(entry["radius"])
+    return 0.5 * math.hypot(entry["size"][0], entry["size"][1])
+
+
+def in_workspace(x: float, y: float, footprint_radius: float) -> bool:
+    """Whether an object centred at (x, y) (m, base frame) with this footprint radius lies in
+    the benchmark workspace: within reach of the arm and wholly on the table."""
+    r = math.hypot(x, y)
+    lo = np.asarray(TABLE["center"]) - 0.5 * np.asarray(TABLE["size"]) + footprint_radius
+    hi = np.asarray(TABLE["center"]) + 0.5 * np.asarray(TABLE["size"]) - footprint_radius
+    return (REACH_MIN <= r <= REACH_MAX and x >= WORKSPACE_MIN_X
+            and bool(lo[0] <= x <= hi[0]) and bool(lo[1] <= y <= hi[1]))
+
+
+def _draw_position(rng: np.random.Generator, footprint_radius: float,
+                   accept: Callable[[float, float], bool]) -> tuple[float, float] | None:
+    """A position (rounded) uniform over the workspace and accepted by `accept`, by rejection
+    from the workspace's bounding box; None after MAX_DRAWS draws."""
+    for _ in range(MAX_DRAWS):
+        x = _round(rng.uniform(WORKSPACE_MIN_X, REACH_MAX))
+        y = _round(rng.uniform(-REACH_MAX, REACH_MAX))
+        if in_workspace(x, y, footprint_radius) and accept(x, y):
+            return x, y
+    return None
+
+
+def _draw_clutter(rng: np.random.Generator, k: int) -> dict:
+    """Object k: a box or cylinder (equally likely; named ``box<k>`` / ``cylinder<k>``) of
+    random size, mass and frictions; no pose yet."""
+    if rng.random() < 0.5:
+        entry: dict[str, Any] = {"name": f"box{k}", "shape": "box",
+                                 "size": [_round(rng.uniform(*BOX_SIDE)),
+                                          _round(rng.uniform(*BOX_SIDE)),
+                                          _round(rng.uniform(*HEIGHT))]}
+    else:
+        entry = {"name": f"cylinder{k}", "shape": "cylinder",
+                 "radius": _round(rng.uniform(*CYLINDER_RADIUS)),
+                 "height": _round(rng.uniform(*HEIGHT))}
+    entry["mass"] = _round(rng.uniform(*MASS))
+    entry["support_friction"] = _round(rng.uniform(*SUPPORT_FRICTION))
+    entry["pusher_friction"] = _round(rng.uniform(*PUSHER_FRICTION))
+    return entry
+
+
+def _draw_scene(rng: np.random.Generator, objects: int) -> dict | None:
+    """One candidate scene mapping (DESIGN §3), or None if the objects did not fit."""
+    goal = np.asarray(GOAL_POSITION)
+    entries: list[dict] = []
+    placed: list[tuple[float, float, float]] = []   # x, y, footprint radius
+
+    def clear(x: float, y: float, radius: float) -> bool:
+        return all(math.hypot(x - px, y - py) >= radius + pr + MIN_GAP for px, py, pr in placed)
+
+    for k in range(objects):
+        if k == 0:
+            entry = {key: (list(v) if isinstance(v, tuple) else v)
+                     for key, v in GOAL_OBJECT.items()}
+        else:
+            entry = _draw_clutter(rng, k)
+        radius = _footprint_radius(entry)
+        if k == 0:
+            xy = _draw_position(rng, radius, lambda x, y: math.hypot(x - goal[0], y - goal[1])
+                                >= MIN_GOAL_OFFSET)
+        else:
+            xy = _draw_position(rng, radius, lambda x, y, r=radius: clear(x, y, r))
+        if xy is None:
+            return None
+        yaw = _round(rng.uniform(-math.pi, math.pi))
+        pose = {"pose": [xy[0], xy[1], yaw]}
+        # keys in the order of the scene format: name, shape, dimensions, pose, mass, frictions
+        dims = ("size",) if entry["shape"] == "box" else ("radius", "height")
+        entries.append({"name": entry["name"], "shape": entry["shape"],
+                        **{d: entry[d] for d in dims}, **pose,
+                        **{key: entry[key] for key in ("mass", "support_friction",
+                                                       "pusher_friction")}})
+        placed.append((xy[0], xy[1], radius))
+    return {
+        "robot": ROBOT,
+        "start_configuration": list(START_CONFIGURATION),
+        "table": {key: (list(v) if isinstance(v, tuple) else v) for key, v in TABLE.items()},
+        "objects": entries,
+        "goal": {"object": GOAL_OBJECT["name"], "position": list(GOAL_POSITION),
+                 "radius": GOAL_RADIUS},
+    }
+
+
+def generate_scene(objects: int, index: int, seed: int = SCENE_SET_SEED,
+                   robot: RobotModel | None = None) -> dict:
+    """The scene mapping of scene ``n<objects>_s<index>`` of the set drawn with `seed`:
+    candidates are drawn until `parse_scene` accepts one (rejection sampling)."""
+    if objects < 1:
+        raise ValueError(f"a scene needs at least the goal object, got objects={objects}")
+    rng = np.random.default_rng([seed, objects, index])
+    robot = robot or RobotModel.load(ROBOT)
+    for _ in range(MAX_DRAWS):
+        data = _draw_scene(rng, objects)
+        if data is None:
+            continue
+        try:
+            parse_scene(data, name=scene_name(objects, index), robot=robot)
+        except RearrangementError:
+            continue
+        return data
+    raise RuntimeError(f"no valid scene with {objects} objects in {MAX_DRAWS} draws; the "
+                       f"workspace is too small for them")
+
+
+def _number(value: float) -> str:
+    return repr(float(value))
+
+
+def _flow(value: Any) -> str:
+    """A value in YAML flow style: numbers as Python reprs, lists in brackets."""
+    if isinstance(value, list | tuple):
+        return "[" + ", ".join(_flow(v) for v in value) + "]"
+    if isinstance(value, float | int) and not isinstance(value, bool):
+        return _number(value)
+    return str(value)
+
+
+def scene_file_text(name: str, data: dict, seed: int = SCENE_SET_SEED) -> str:
+    """The scene file of `data`: a header comment saying how it was made, then the scene in
+    the style of config/scenes/ (one flow mapping per object)."""
+    objects = data["objects"]
+    others = len(objects) - 1
+    about = (f"Benchmark scene {name} of the 35-scene set (King et al. §V, DESIGN §9): "
+             f"{len(objects)} movable object{'s' if len(objects) > 1 else ''}. The goal object "
+             f"`{GOAL_OBJECT['name']}` (the same box in every scene) starts at random, at least "
+             f"{MIN_GOAL_OFFSET:g} m from the goal point; the goal region is the same in every "
+             f"scene." + (" The other objects are boxes and cylinders of random size, mass and "
+                          "frictions." if others else "")
+             + " Every object stands in the arm's reach, clear of the others. Generated by "
+             f"`rearrangement-bench generate --seed {seed}` (rearrangement_planner/"
+             "benchmark.py); do not edit: test/test_benchmark.py checks that the files equal a "
+             "fresh generation.")
+    lines = [
+        *textwrap.wrap(about, width=98, initial_indent="# ", subsequent_indent="# ",
+                       break_on_hyphens=False),
+        f"robot: {data['robot']}",
+        f"start_configuration: {_flow(data['start_configuration'])}",
+        "table: {" + ", ".join(f"{k}: {_flow(v)}" for k, v in data["table"].items()) + "}",
+        "objects:",
+    ]
+    for entry in objects:
+        head = ", ".join(f"{k}: {_flow(entry[k])}" for k in entry
+                         if k not in ("mass", "support_friction", "pusher_friction"))
+        tail = ", ".join(f"{k}: {_flow(entry[k])}" for k in ("mass", "support_friction",
+                                                              "pusher_friction"))
+        lines += [f"  - {{{head},", f"     {tail}}}"]
+    goal = data["goal"]
+    lines.append(f"goal: {{object: {goal['object']}, position: {_flow(goal['position'])}, "
+                 f"radius: {_flow(goal['radius'])}}}")
+    return "\n".join(lines) + "\n"
+
+
+def generate_scene_set(seed: int = SCENE_SET_SEED) -> dict[str, str]:
+    """{scene name: scene file text} of the 35-scene set drawn with `seed`, in set order."""
+    robot = RobotModel.load(ROBOT)
+    texts = {}
+    for objects in OBJECT_COUNTS:
+        for index in range(SCENES_PER_COUNT):
+            name = scene_name(objects, index)
+            texts[name] = scene_file_text(name, generate_scene(objects, index, seed, robot),
+                                          seed)
+    return texts
+
+
+def write_scene_set(out: Path, seed: int = SCENE_SET_SEED) -> list[Path]:
+    """Write the scene set drawn with `seed` into `out` (created if needed); returns the files.
+    Earlier scene files of the set's naming scheme that are not in the set are removed."""
+    out.mkdir(parents=True, exist_ok=True)
+    texts = generate_scene_set(seed)
+    for stale in out.glob("n*_s*.yaml"):
+        if stale.stem not in texts:
+            stale.unlink()
+    paths = []
+    for name, text in texts.items():
+        path = out / f"{name}.yaml"
+        path.write_text(text)
+        paths.append(path)
+    return paths
+
+
+def set_scene_names(quick: bool = False) -> list[str]:
+    """Scene names of the set in set order; `quick`: the first two of each object count."""
+    per_count = 2 if quick else SCENES_PER_COUNT
+    return [scene_name(n, i) for n in OBJECT_COUNTS for i in range(per_count)]
+
+
+# --------------------------------------------------------------------------------------------
+# Trials
+# --------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Trial:
+    """One planner run: `scene` is the scene's name (file stem), `path` its file."""
+
+    scene: str
+    path: str
+    objects: int
+    planner: str
+    seed: int
+    time_limit: float
+
+    @property
+    def key(self) -> tuple[str, str, int, float]:
+        """What identifies a trial in the CSV (resume skips trials whose key is there)."""
+        return self.scene, self.planner, self.seed, self.time_limit
+
+
+def make_trials(scene_files: Sequence[Path], planners: Sequence[str], seeds: Sequence[int],
+                time_limit: float, objects: dict[str, int]) -> list[Trial]:
+    """Every (scene, planner, seed) at `time_limit`, scene-major; `objects` maps a scene name
+    to its number of movable objects."""
+    return [Trial(p.stem, str(p), objects[p.stem], planner, seed, float(time_limit))
+            for p in scene_files for planner in planners for seed in seeds]
+
+
+CSV_COLUMNS = (
+    "scene", "objects", "planner", "seed", "time_limit", "solved", "outcome", "plan_time_s",
+    "iterations", "tree_size", "propagation_steps", "goal_distance_m",
+    "path_length_rad_before", "path_length_rad_after",
+    "ee_path_length_m_before", "ee_path_length_m_after",
+    "object_displacement_m_before", "object_displacement_m_after",
+    "shortcut_time_s", "pushing_links", "non_goal_objects_moved", "trial_wall_s",
+)
+"""trials.csv: one row per trial. goal_distance_m: the goal object's final distance from the
+goal point (solved) or the least distance reached (not solved). *_before / *_after: of the path
+before and after shortcutting (equal when not shortcut; empty when not solved). pushing_links:
+the arm links that moved objects along the final path, ';'-separated (DESIGN §6).
+non_goal_objects_moved: how many objects other than the goal object the path moves (> 1 mm).
+trial_wall_s: the whole trial (planning, shortcutting, timing, replay) on the wall clock."""
+
+MOVED_TOLERANCE = 1e-3   # m, an object counts as moved beyond this distance from its start
+
+
+def pushing_links(physics, states) -> set[str]:
+    """Arm links that push an object somewhere along `states` (consecutive states one physics
+    step apart): each step is replayed from its planned state with `Physics.step`, and the links
+    of the steps that moved an object are collected (`StepResult.pushing_links`).
+
+    DARRT's Push primitive carries the object rigidly at the tool instead; for its paths the
+    replay names the links that meet the object as the arm moves on from each planned state
+    (the hand, as the primitive intends)."""
+    links: set[str] = set()
+    for a, b in zip(states[:-1], states[1:], strict=True):
+        if np.array_equal(a.objects, b.objects):
+            continue   # nothing moved in this step
+        result = physics.step(a, b.q)
+        if result.moved_objects:
+            links |= result.pushing_links
+    return links
+
+
+def objects_moved(scene, states, skip: int | None = None) -> list[str]:
+    """Names of the objects (except object index `skip`) that leave their start by more than
+    MOVED_TOLERANCE somewhere along `states`."""
+    start = states[0].objects[:, :2]
+    far = np.zeros(len(scene.objects), dtype=bool)
+    for s in states:
+        far |= np.hypot(*(s.objects[:, :2] - start).T) > MOVED_TOLERANCE
+    return [o.name for i, o in enumerate(scene.objects) if far[i] and i != skip]
+
+
+def _num(value: float | None, digits: int = 6) -> str:
+    return "" if value is None else repr(round(float(value), digits))
+
+
+def run_trial(trial: Trial, shortcut_time: float, shortcut_attempts: int | None) -> dict:
+    """Plan one trial and measure it: the CSV row (column -> text) of `CSV_COLUMNS`."""
+    from rearrangement_planner.physics.validation import load_scene
+    from rearrangement_planner.planning.pcrrt import PlannerOptions
+    from rearrangement_planner.planning.pipeline import plan_scene
+
+    t0 = time.monotonic()
+    scene = load_scene(trial.path)
+    output = plan_scene(scene, trial.planner, PlannerOptions(time_limit=trial.time_limit),
+                        seed=trial.seed, shortcut_time=shortcut_time,
+                        shortcut_attempts=shortcut_attempts)
+    result = output.result
+    row = {"scene": trial.scene, "objects": str(trial.objects), "planner": trial.planner,
+           "seed": str(trial.seed), "time_limit": repr(trial.time_limit),
+           "solved": str(int(result.solved)), "outcome": result.outcome.value,
+           "plan_time_s": _num(result.plan_time, 3), "iterations": str(result.iterations),
+           "tree_size": str(result.tree_size), "propagation_steps": str(result.propagation_steps)}
+    before = after = None
+    links: set[str] = set()
+    moved: list[str] = []
+    if result.solved:
+        final = result.states[-1].objects[scene.goal_index, :2]
+        row["goal_distance_m"] = _num(scene.goal.distance(final))
+        after = output.metrics
+        before = output.metrics_before_shortcut or after
+        links = pushing_links(_replay_physics(scene), result.states)
+        moved = objects_moved(scene, result.states, skip=scene.goal_index)
+    else:
+        row["goal_distance_m"] = _num(result.best_goal_distance)
+    for field in ("path_length_rad", "ee_path_length_m", "object_displacement_m"):
+        row[f"{field}_before"] = _num(getattr(before, field) if before else None)
+        row[f"{field}_after"] = _num(getattr(after, field) if after else None)
+    row["shortcut_time_s"] = _num(output.shortcut_time, 3)
+    row["pushing_links"] = ";".join(sorted(links))
+    row["non_goal_objects_moved"] = str(len(moved)) if result.solved else ""
+    row["trial_wall_s"] = _num(time.monotonic() - t0, 3)
+    return row
+
+
+def _replay_physics(scene):
+    """The physics the pushing links are replayed in: the scene's own, every object movable
+    (Static RRT's paths never touch its static objects, so the replay is the same)."""
+    from rearrangement_planner.physics.step import Physics
+
+    return Physics(scene)
+
+
+# --------------------------------------------------------------------------------------------
+# The CSV
+# --------------------------------------------------------------------------------------------
+
+
+class BenchmarkError(RearrangementError):
+    """A benchmark input is unusable; `option` names the command-line option it came from."""
+
+    def __init__(self, option: str, problem: str):
+        self.option = option
+        self.problem = problem
+        super().__init__(f"{option}: {problem}")
+
+
+def read_trials(path: Path) -> list[dict]:
+    """The rows of an existing trials.csv ([] if there is none). Raises `BenchmarkError` (for
+    ``--out``) if it cannot be read, has other columns than `CSV_COLUMNS`, or a row is
+    incomplete."""
+    if not path.exists():
+        return []
+    try:
+        text = path.read_text()
+    except (OSError, UnicodeDecodeError) as exc:
+        raise BenchmarkError("--out", f"cannot read {path} to resume ({exc}); move it away or "
+                                      f"choose another --out") from None
+    if not text:
+        return []
+    reader = csv.reader(io.StringIO(text))
+    header = next(reader, None)
+    if header is None or tuple(header) != CSV_COLUMNS:
+        raise BenchmarkError("--out", f"{path} is not a trials CSV of this benchmark (its "
+                                      f"columns differ from {', '.join(CSV_COLUMNS)}); move it "
+                                      f"away or choose another --out")
+    rows = []
+    for line, values in enumerate(reader, start=2):
+        if len(values) != len(CSV_COLUMNS):
+            raise BenchmarkError("--out", f"{path} line {line} has {len(values)} fields, not "
+                                          f"{len(CSV_COLUMNS)}; fix or remove that row")
+        rows.append(dict(zip(CSV_COLUMNS, values, strict=True)))
+    if not text.endswith("\n"):
+        raise BenchmarkError("--out", f"{path} ends in an incomplete row; remove the last "
+                                      f"line and run again")
+    return rows
+
+
+def row_key(row: dict) -> tuple[str, str, int, float]:
+    """The `Trial.key` of a CSV row."""
+    try:
+        return row["scene"], row["planner"], int(row["seed"]), float(row["time_limit"])
+    except ValueError:
+        raise BenchmarkError("--out", f"trials CSV row {row} has a seed or time limit that is "
+                                      f"not a number") from None
+
+
+class TrialWriter:
+    """Appends rows to trials.csv, each written whole and flushed at once, so that the file
+    only ever holds complete rows however the run ends."""
+
+    def __init__(self, path: Path):
+        self.path = path
+        new = not path.exists() or path.stat().st_size == 0
+        self._file = path.open("a", newline="")
+        if new:
+            self._write(CSV_COLUMNS)
+
+    def _write(self, values: Iterable[str]) -> None:
+        buffer = io.StringIO()
+        csv.writer(buffer, lineterminator="\n").writerow(values)
+        self._file.write(buffer.getvalue())
+        self._file.flush()
+        os.fsync(self._file.fileno())
+
+    def write(self, row: dict) -> None:
+        self._write(row[c] for c in CSV_COLUMNS)
+
+    def close(self) -> None:
+        self._file.close()
+
+
+# --------------------------------------------------------------------------------------------
+# The runner
+# --------------------------------------------------------------------------------------------
+
+
+def usable_cores() -> int:
+    """Cores this process may run on."""
+    if hasattr(os, "sched_getaffinity"):
+        return len(os.sched_getaffinity(0))
+    return os.cpu_count() or 1
+
+
+def _worker_init() -> None:
+    # Ctrl-C reaches the whole process group: the parent alone handles it and terminates us.
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    logging.basicConfig(level=logging.WARNING)
+
+
+def _worker(task: tuple[Trial, float, int | None]) -> tuple[Trial, dict | None, str]:
+    trial, shortcut_time, shortcut_attempts = task
+    try:
+        return trial, run_trial(trial, shortcut_time, shortcut_attempts), ""
+    except Exception:   # reported by the parent; the trial is not written, a rerun retries it
+        return trial, None, traceback.format_exc()
+
+
+def _start_pool(workers: int):
+    """A pool of `workers` fresh interpreters (spawn: no state copied from the parent, the same
+    on every platform). They start with SIGINT ignored (an ignored signal stays ignored across
+    exec), so that a Ctrl-C while they import does not print their tracebacks; the parent
+    alone handles it."""
+    context = multiprocessing.get_context("spawn")
+    if threading.current_thread() is not threading.main_thread():
+        return context.Pool(workers, initializer=_worker_init)
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        return context.Pool(workers, initializer=_worker_init)
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
+class ProgressBar:
+    """A text progress bar on a stream (stderr): redrawn in place on a terminal, one line per
+    finished trial otherwise."""
+
+    WIDTH = 30
+
+    def __init__(self, total: int, stream=None):
+        self.total = total
+        self.done = self.solved = 0
+        self.stream = stream or sys.stderr
+        self.tty = bool(getattr(self.stream, "isatty", lambda: False)())
+        self.t0 = time.monotonic()
+
+    def line(self) -> str:
+        share = self.done / self.total if self.total else 1.0
+        filled = int(round(self.WIDTH * share))
+        elapsed = time.monotonic() - self.t0
+        text = (f"[{'#' * filled}{'-' * (self.WIDTH - filled)}] {self.done}/{self.total} "
+                f"trials, {self.solved} solved, {_duration(elapsed)}")
+        if 0 < self.done < self.total:
+            text += f", ~{_duration(elapsed / self.done * (self.total - self.done))} left"
+        return text
+
+    def advance(self, solved: bool, label: str) -> None:
+        self.done += 1
+        self.solved += int(solved)
+        if self.tty:
+            self.redraw()
+        else:
+            print(f"{self.line()}  {label}", file=self.stream, flush=True)
+
+    def redraw(self) -> None:
+        if self.tty:
+            print(f"\r{self.line()}\x1b[K", end="", file=self.stream, flush=True)
+
+    def finish(self) -> None:
+        if self.tty:
+            print(file=self.stream, flush=True)
+
+
+def _duration(seconds: float) -> str:
+    seconds = int(seconds)
+    if seconds < 60:
+        return f"{seconds}s"
+    if seconds < 3600:
+        return f"{seconds // 60}m{seconds % 60:02d}s"
+    return f"{seconds // 3600}h{seconds // 60 % 60:02d}m"
+
+
+@dataclass(frozen=True)
+class RunReport:
+    """What `run_trials` did: trials finished now, skipped (already in the CSV), failed with an
+    internal error (not written), and whether Ctrl-C stopped it."""
+
+    finished: int
+    skipped: int
+    failed: int
+    interrupted: bool
+
+
+def run_trials(trials: Sequence[Trial], csv_path: Path, workers: int, shortcut_time: float,
+               shortcut_attempts: int | None, stream=None) -> RunReport:
+    """Run the trials not yet in `csv_path` on `workers` processes, appending a row per
+    finished trial. Ctrl-C (KeyboardInterrupt) terminates the workers and returns with
+    `interrupted` set; the CSV then holds every trial finished so far."""
+    stream = stream or sys.stderr
+    done = {row_key(r) for r in read_trials(csv_path)}
+    todo = [t for t in trials if t.key not in done]
+    skipped = len(trials) - len(todo)
+    if skipped:
+        print(f"resuming: {skipped} of {len(trials)} trials already in {csv_path}",
+              file=stream, flush=True)
+    if not todo:
+        return RunReport(0, skipped, 0, False)
+    try:
+        writer = TrialWriter(csv_path)
+    except OSError as exc:
+        raise BenchmarkError("--out", f"cannot write {csv_path} ({exc.strerror})") from None
+    bar = ProgressBar(len(todo), stream)
+    finished = failed = 0
+    interrupted = False
+    try:
+        pool = _start_pool(min(workers, len(todo)))
+    except BaseException:
+        writer.close()
+        raise
+    try:
+        results = pool.imap_unordered(_worker, [(t, shortcut_time, shortcut_attempts)
+                                                for t in todo], chunksize=1)
+        bar.redraw()
+        while finished + failed < len(todo):
+            try:
+                trial, row, error = results.next(timeout=1.0)
+            except multiprocessing.TimeoutError:
+                bar.redraw()
+                continue
+            label = f"{trial.scene} {trial.planner} seed {trial.seed}"
+            if row is None:
+                failed += 1
+                bar.finish()
+                print(f"trial {label} failed with an internal error (not written; a rerun "
+                      f"retries it):\n{error}", file=stream, flush=True)
+                bar.advance(False, label + " ERROR")
+                continue
+            writer.write(row)
+            finished += 1
+            bar.advance(row["solved"] == "1", f"{label}: {row['outcome']} "
+                                              f"{row['plan_time_s']} s")
+        pool.close()
+    except KeyboardInterrupt:
+        interrupted = True
+    finally:
+        pool.terminate()
+        pool.join()
+        writer.close()
+        bar.finish()
+    return RunReport(finished, skipped, failed, interrupted)
+
+
+# --------------------------------------------------------------------------------------------
+# The summary
+# --------------------------------------------------------------------------------------------
+
+SHORTCUT_PLANNERS = ("pc-rrt", "static-rrt")
+"""Planners whose paths are shortcut (`pipeline.plan_scene` leaves DARRT's paths alone: its
+Push primitive follows a different world model than the physics the shortcut re-simulates)."""
+
+TARGETS = {"solved_share_at_60s": 0.95, "median_plan_time_s": 5.0,
+           "shortcut_arm_path_reduction": 0.25, "shortcut_time_s": 5.0}
+"""Issue #7's targets for PC-RRT."""
+
+PAPER = {"solved_share_at_300s": {"pc-rrt": 0.75, "darrt": 0.39},
+         "shortcut_arm_path_reduction": 0.14}
+"""King et al. §V: PC-RRT 75 % and DARRT 39 % solved at 300 s (Fig. 7), Static RRT below
+PC-RRT (Fig. 4), shortcutting -14 % manipulator path length (Fig. 8a)."""
+
+
+def budgets(time_limit: float) -> list[float]:
+    """The budgets the summary reports success at: 1, 2, 5, 10, 20, 30, 60, 120, 300 s up to
+    the time limit, and the time limit itself."""
+    grid = [b for b in (1.0, 2.0, 5.0, 10.0, 20.0, 30.0, 60.0, 120.0, 300.0) if b < time_limit]
+    return grid + [float(time_limit)]
+
+
+def success_at(rows: Sequence[dict], budget: float) -> float:
+    """Share of the trials solved with a plan time of at most `budget` s (Fig. 7 of King et
+    al.: the success to expect at that budget)."""
+    if not rows:
+        return float("nan")
+    return sum(1 for r in rows if r["solved"] == "1" and float(r["plan_time_s"]) <= budget) \
+        / len(rows)
+
+
+def _median(values: Sequence[float]) -> float | None:
+    return float(np.median(values)) if len(values) else None
+
+
+def _rounded(value: float | None, digits: int = 4) -> float | None:
+    return None if value is None or not math.isfinite(value) else round(float(value), digits)
+
+
+def _shortcut_summary(solved: Sequence[dict], budget: float) -> dict:
+    """Means before/after shortcutting over the solved trials (Fig. 8 of King et al. shows the
+    means) and the reduction of the means, 1 - mean(after) / mean(before). `budget` is the
+    shortcut time (s): a shortcut that ran that long ended by time, not by its attempt bound,
+    so it is not reproducible (the count says how many)."""
+    out: dict[str, Any] = {"trials": len(solved)}
+    for field in ("path_length_rad", "ee_path_length_m", "object_displacement_m"):
+        before = [float(r[f"{field}_before"]) for r in solved]
+        after = [float(r[f"{field}_after"]) for r in solved]
+        mean_before = float(np.mean(before)) if before else None
+        mean_after = float(np.mean(after)) if after else None
+        out[field] = {
+            "mean_before": _rounded(mean_before), "mean_after": _rounded(mean_after),
+            "reduction": _rounded(1.0 - mean_after / mean_before)
+            if mean_before else None,
+            "median_trial_reduction": _rounded(_median(
+                [1.0 - a / b for a, b in zip(after, before, strict=True) if b > 0])),
+        }
+    times = [float(r["shortcut_time_s"]) for r in solved]
+    out["shortcut_time_s"] = {"median": _rounded(_median(times), 3),
+                              "max": _rounded(max(times), 3) if times else None,
+                              "ended_by_time_limit": sum(t >= budget for t in times)}
+    return out
+
+
+def _planner_summary(rows: Sequence[dict], planner: str, protocol: dict,
+                     end_effector: frozenset[str]) -> dict:
+    time_limit = float(protocol["time_limit"])
+    solved = [r for r in rows if r["solved"] == "1"]
+    times = [float(r["plan_time_s"]) for r in solved]
+    by_objects: dict[str, dict] = {}
+    for n in sorted({int(r["objects"]) for r in rows}):
+        group = [r for r in rows if int(r["objects"]) == n]
+        group_solved = [float(r["plan_time_s"]) for r in group if r["solved"] == "1"]
+        by_objects[str(n)] = {"trials": len(group),
+                              "solved_share": _rounded(len(group_solved) / len(group)),
+                              "median_plan_time_s": _rounded(_median(group_solved), 3)}
+    link_counts: dict[str, int] = {}
+    pushed = whole_arm = 0
+    for r in solved:
+        links = [name for name in r["pushing_links"].split(";") if name]
+        for name in links:
+            link_counts[name] = link_counts.get(name, 0) + 1
+        pushed += bool(links)
+        whole_arm += any(name not in end_effector for name in links)
+    summary: dict[str, Any] = {
+        "trials": len(rows),
+        "solved": len(solved),
+        "solved_share": _rounded(len(solved) / len(rows)) if rows else None,
+        # a plan found by an iteration that began within the budget but ended after it: solved
+        # for the planner, not within the budget for success_at_budget
+        "solved_after_time_limit": sum(float(r["plan_time_s"]) > time_limit for r in solved),
+        "plan_time_s": {"median": _rounded(_median(times), 3),
+                        "mean": _rounded(float(np.mean(times)), 3) if times else None,
+                        "max": _rounded(max(times), 3) if times else None},
+        "iterations_median": _rounded(_median([float(r["iterations"]) for r in solved]), 1),
+        "success_at_budget": {f"{b:g}": _rounded(success_at(rows, b))
+                              for b in budgets(time_limit)},
+        "by_objects": by_objects,
+        "non_goal_objects_moved_mean": _rounded(float(np.mean(
+            [int(r["non_goal_objects_moved"]) for r in solved]))) if solved else None,
+        "pushing_links": {
+            "trials_pushing": pushed,
+            "beyond_end_effector": whole_arm,
+            "per_link": dict(sorted(link_counts.items())),
+        },
+        "shortcut": (_shortcut_summary(solved, float(protocol["shortcut_time_s"]))
+                     if planner in SHORTCUT_PLANNERS
+                     else "not shortcut"),
+    }
+    return summary
+
+
+def _beats(a: dict, b: dict) -> dict[str, bool]:
+    """Per budget: planner a solves a larger share than b."""
+    return {k: a["success_at_budget"][k] > b["success_at_budget"][k]
+            for k in a["success_at_budget"] if float(k) >= 5.0}
+
+
+def summarize(rows: Sequence[dict], protocol: dict, end_effector: Iterable[str] = ()) -> dict:
+    """The JSON summary of the trial rows of one protocol (one time limit): per planner the
+    solved share, plan times, success at budgets, per object count, pushing links and the
+    shortcut figures; PC-RRT against the others and against the targets of issue #7 and the
+    paper's figures. `end_effector`: links that count as the hand (moved only by the last
+    joint); a push by any other link is a whole-arm push."""
+    time_limit = float(protocol["time_limit"])
+    end_effector = frozenset(end_effector)
+    planners = {p: _planner_summary([r for r in rows if r["planner"] == p], p, protocol,
+                                    end_effector)
+                for p in protocol["planners"] if any(r["planner"] == p for r in rows)}
+    summary: dict[str, Any] = {"protocol": protocol, "trials": len(rows),
+                               "end_effector_links": sorted(end_effector),
+                               "planners": planners}
+    pc = planners.get("pc-rrt")
+    if pc is not None:
+        comparison = {other: {"solves_more_at_budget": _beats(pc, planners[other]),
+                              "lower_median_plan_time": (
+                                  pc["plan_time_s"]["median"] is not None
+                                  and (planners[other]["plan_time_s"]["median"] is None
+                                       or pc["plan_time_s"]["median"]
+                                       < planners[other]["plan_time_s"]["median"]))}
+                      for other in planners if other != "pc-rrt"}
+        shortcut = pc["shortcut"]["path_length_rad"]["reduction"] if pc["solved"] else None
+        at_60 = success_at([r for r in rows if r["planner"] == "pc-rrt"], 60.0)
+        summary["pc_rrt_vs"] = comparison
+        summary["targets"] = {
+            "solved_share_at_60s": {"target": TARGETS["solved_share_at_60s"],
+                                    "measured": _rounded(at_60) if time_limit >= 60 else None,
+                                    "note": None if time_limit >= 60 else
+                                    f"time limit {time_limit:g} s < 60 s: not measured"},
+            "median_plan_time_s": {"target": TARGETS["median_plan_time_s"],
+                                   "measured": pc["plan_time_s"]["median"]},
+            "shortcut_arm_path_reduction": {"target": TARGETS["shortcut_arm_path_reduction"],
+                                            "measured": shortcut,
+                                            "shortcut_time_s": protocol["shortcut_time_s"]},
+        }
+    summary["paper"] = PAPER
+    return summary
+
+
+def end_effector_links(robot: RobotModel) -> frozenset[str]:
+    """Contact-shape links moved by the same joint as the tool frame (the Panda's hand and
+    flange, panda_hand and panda_link7): a push by any other link is a whole-arm push
+    (DESIGN §6: pushes by the hand alone would mean the whole-arm part is missing)."""
+    model = robot.model
+    tool_joint = model.frames[robot.tool_frame_id].parentJoint
+    return frozenset(s.link for s in robot.contact_shapes
+                     if model.frames[robot.frame_id(s.link)].parentJoint == tool_joint)
+
+
+def summary_table(summary: dict) -> str:
+    """The summary as a Markdown table, one row per planner."""
+    protocol = summary["protocol"]
+    marks = [b for b in budgets(float(protocol["time_limit"])) if b in (5.0, 10.0, 20.0, 60.0,
+                                                                         300.0)]
+    head = (["planner", "solved", "median plan time"] + [f"solved ≤ {b:g} s" for b in marks]
+            + ["arm path before → after shortcut", "objects moved", "pushes beyond the hand"])
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for name, p in summary["planners"].items():
+        median = p["plan_time_s"]["median"]
+        cells = [name, f"{p['solved']}/{p['trials']} ({100 * p['solved_share']:.0f} %)",
+                 "–" if median is None else f"{median:.1f} s"]
+        cells += [f"{100 * p['success_at_budget'][f'{b:g}']:.0f} %" for b in marks]
+        shortcut = p["shortcut"]
+        if isinstance(shortcut, dict) and shortcut["trials"]:
+            arm = shortcut["path_length_rad"]
+            cells.append(f"{arm['mean_before']:.1f} → {arm['mean_after']:.1f} rad "
+                         f"({-100 * arm['reduction']:+.0f} %)")
+        else:
+            cells.append("–" if isinstance(shortcut, dict) else shortcut)
+        moved = p["non_goal_objects_moved_mean"]
+        cells.append("–" if moved is None else f"{moved:.1f}")
+        links = p["pushing_links"]
+        cells.append(f"{links['beyond_end_effector']}/{links['trials_pushing']}")
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines)

@@ -1,0 +1,164 @@
+"""`rearrangement-plan SCENE.yaml`: plan one scene from the command line (DESIGN §8).
+
+Exit codes: 0 solved, 1 not solved (timeout, start invalid, ...), 2 bad input (one line naming
+the problem). The JSON result holds the fields of DESIGN §8; `--plot` writes a top view.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from rearrangement_planner.model.errors import RearrangementError
+from rearrangement_planner.physics.validation import load_scene
+from rearrangement_planner.planning.pcrrt import PlannerOptions, Progress
+from rearrangement_planner.planning.pipeline import PLANNERS, PlanOutput, plan_scene
+
+DEFAULT_TREES = 2
+"""Trees raced by default (`parallel`): the 2 cores of the reference machine."""
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="rearrangement-plan",
+        description="Plan a nonprehensile whole-arm rearrangement for one scene: the arm pushes "
+                    "objects (any link, several at once) until the goal object is inside its "
+                    "goal region. Exit code 0 = solved, 1 = not solved, 2 = bad input.")
+    parser.add_argument("scene", type=Path, help="scene YAML file (DESIGN §3 format)")
+    parser.add_argument("--planner", choices=PLANNERS, default="pc-rrt",
+                        help="planning algorithm: pc-rrt (default; the physics-constrained "
+                             "kinodynamic RRT of King et al.: any link may push any object), "
+                             "static-rrt (the same, but only the goal object may move; the "
+                             "others are obstacles) or darrt (primitives: transit, RRT-Connect "
+                             "transit, straight-line push with the object held in the hand)")
+    parser.add_argument("--time-limit", type=float, default=60.0, metavar="S",
+                        help="planning budget in seconds; running out is a failure (default 60)")
+    parser.add_argument("--seed", type=int, default=0, metavar="N",
+                        help="random seed: the same scene, options and seed give the same plan "
+                             "(default 0)")
+    parser.add_argument("--trees", type=int, default=DEFAULT_TREES, metavar="N",
+                        help="independent trees grown at once, one process each; the plan "
+                             "found in the fewest iterations wins, so the result does not "
+                             "depend on the machine's speed (OR-parallel RRT; default "
+                             f"{DEFAULT_TREES}; 1 = a single tree in this process)")
+    parser.add_argument("--shortcut", type=float, default=0.0, metavar="S",
+                        help="seconds of path shortcutting (King et al. §IV) after a plan is "
+                             "found (default 0: none). The JSON then also holds the path "
+                             "lengths before shortcutting")
+    parser.add_argument("--shortcut-attempts", type=int, default=None, metavar="N",
+                        help="stop shortcutting after N attempts even if time is left; a "
+                             "bound that ends first makes the shortcut path reproducible "
+                             "(default: time only)")
+    parser.add_argument("--json", type=Path, metavar="OUT",
+                        help="write the result as JSON to OUT ('-' for standard output)")
+    parser.add_argument("--record", type=Path, metavar="OUT.mcap",
+                        help="record the inputs, trajectory, predicted object poses, markers "
+                             "and a metadata record to a rosbag2-compatible MCAP file")
+    parser.add_argument("--plot", type=Path, metavar="OUT.png",
+                        help="write a top view PNG: table, objects at start and end, their "
+                             "paths, the end-effector path and the goal region")
+    parser.add_argument("--quiet", action="store_true", help="no progress line on stderr")
+    return parser
+
+
+def _progress_printer(quiet: bool):
+    if quiet:
+        return None
+
+    def show(p: Progress) -> None:
+        print(f"\rplanning: {p.elapsed:5.1f} s, {p.iterations} iterations, tree {p.tree_size}, "
+              f"best goal distance {p.best_goal_distance:.3f} m", end="", file=sys.stderr,
+              flush=True)
+
+    return show
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    logging.basicConfig(level=logging.WARNING, format="%(message)s")
+    try:
+        if not args.time_limit > 0:
+            raise RearrangementError(f"--time-limit must be positive, got {args.time_limit}")
+        if not 1 <= args.trees <= 64:
+            raise RearrangementError(f"--trees must be between 1 and 64, got {args.trees}")
+        if not args.shortcut >= 0:
+            raise RearrangementError(f"--shortcut must be >= 0 s, got {args.shortcut}")
+        if args.shortcut_attempts is not None and args.shortcut_attempts < 1:
+            raise RearrangementError(f"--shortcut-attempts must be >= 1, got "
+                                     f"{args.shortcut_attempts}")
+        scene = load_scene(args.scene)
+    except RearrangementError as exc:
+        print(f"rearrangement-plan: {exc}", file=sys.stderr)
+        return 2
+    started = time.monotonic()
+    options = PlannerOptions(time_limit=args.time_limit, trees=args.trees)
+    output = plan_scene(scene, args.planner, options,
+                        seed=args.seed, progress=_progress_printer(args.quiet),
+                        shortcut_time=args.shortcut, shortcut_attempts=args.shortcut_attempts)
+    result = output.result
+    if not args.quiet:
+        print(f"\r{result.outcome.value}: {result.message} "
+              f"({time.monotonic() - started:.1f} s)", file=sys.stderr)
+    record = output.to_dict()
+    text = json.dumps(record, indent=2)
+    if args.json is not None:
+        if str(args.json) == "-":
+            print(text)
+        else:
+            args.json.write_text(text + "\n")
+    if args.plot is not None:
+        _plot(output, args.plot, args.seed)
+    if args.record is not None:
+        _record(output, args)
+    if not args.quiet:
+        summary = {k: record[k] for k in ("solved", "plan_time_s", "iterations",
+                                          "goal_distance_m")}
+        print(json.dumps(summary), file=sys.stderr)
+    return 0 if result.solved else 1
+
+
+def _plot(output: PlanOutput, path: Path, seed: int) -> None:
+    from rearrangement_planner.io.plot import plot_top_view  # matplotlib only when asked for
+
+    scene, result = output.scene, output.result
+    robot = scene.robot
+    states = result.states or (scene.initial_state(),)
+    ee = np.array([robot.tool_pose(s.q)[:2, 3] for s in states]) if result.states \
+        else np.zeros((0, 2))
+    plot_top_view(scene, np.array([s.objects for s in states]), ee, path,
+                  title=f"{scene.source}: {output.planner}, {result.outcome.value.lower()}, "
+                        f"seed {seed}",
+                  start_states_only=not result.solved)
+
+
+def _record(output: PlanOutput, args: argparse.Namespace) -> None:
+    """Write the MCAP (the same recorder as the ROS node). A recording failure is reported on
+    stderr and changes nothing else: the exit code still says whether the scene was solved, and
+    the JSON and plot are already written."""
+    from msg_adapters.plan_record import record_plan  # ROS message types only when asked for
+    from rearrangement_planner.io.recording import RecordingError
+
+    parameters = {"planner": output.planner, "time_limit": args.time_limit, "seed": args.seed,
+                  "trees": args.trees,
+                  "shortcut": args.shortcut, "shortcut_attempts": args.shortcut_attempts,
+                  "scene": str(args.scene)}
+    try:
+        path = record_plan(args.record, output, plan_id=f"cli-{args.seed}",
+                           parameters=parameters,
+                           planning_frame=output.scene.robot.config.base_frame)
+    except RecordingError as exc:
+        print(f"rearrangement-plan: recording failed: {exc}", file=sys.stderr)
+        return
+    if not args.quiet:
+        print(f"recorded {path}", file=sys.stderr)
+
+
+if __name__ == "__main__":
+    sys.exit(main())
