@@ -10,8 +10,7 @@ import pytest
 from rearrangement_planner.model.state import State
 from rearrangement_planner.physics.step import Invalid, Physics, PhysicsOptions
 from rearrangement_planner.physics.validation import load_scene
-from rearrangement_planner.planning.baselines import DARRT, StaticRRT
-from rearrangement_planner.planning.pcrrt import Outcome, PlannerOptions
+from rearrangement_planner.planning import DARRT, Outcome, PCRRTOptions, StaticRRT
 from rearrangement_planner.planning.propagation import replay
 
 STATIC_SEED = 1   # a seed for which the Static RRT solves the default scene quickly
@@ -29,12 +28,12 @@ def default(panda):
 
 @pytest.fixture(scope="module")
 def static_plan(default):
-    return StaticRRT(default, PlannerOptions(time_limit=60.0)).plan(seed=STATIC_SEED)
+    return StaticRRT(default, PCRRTOptions(time_limit=60.0)).plan(seed=STATIC_SEED)
 
 
 @pytest.fixture(scope="module")
 def darrt_plan(easy):
-    return DARRT(easy, PlannerOptions(time_limit=30.0)).plan(seed=0)
+    return DARRT(easy, PCRRTOptions(time_limit=30.0)).plan(seed=0)
 
 
 def _moved(states, index):
@@ -79,7 +78,7 @@ def test_static_objects_must_be_scene_objects(default):
 
 
 def test_static_rrt_solves_easy(easy):
-    result = StaticRRT(easy, PlannerOptions(time_limit=30.0)).plan(seed=1)
+    result = StaticRRT(easy, PCRRTOptions(time_limit=30.0)).plan(seed=1)
     assert result.solved and easy.goal.reached(result.states[-1].objects[easy.goal_index, :2])
 
 
@@ -97,11 +96,11 @@ def test_static_rrt_shortcuts_never_move_a_non_goal_object(panda):
     """Shortcutting re-simulates the pushes: for the Static RRT it must do so in the Static
     RRT's world. Benchmark scene n4_s1, seed 0: in the all-movable physics 20 shortcut
     attempts pushed cylinder1 and cylinder2 (found by `rearrangement-bench --quick`)."""
-    from rearrangement_planner.planning.pipeline import plan_scene
+    from rearrangement_planner.planning import plan_scene
     from rearrangement_planner.tools.benchmark import scene_set_dir
 
     scene = load_scene(scene_set_dir() / "n4_s1.yaml", robot=panda)
-    output = plan_scene(scene, "static-rrt", PlannerOptions(time_limit=60.0), seed=0,
+    output = plan_scene(scene, "static-rrt", PCRRTOptions(time_limit=60.0), seed=0,
                         shortcut_time=60.0, shortcut_attempts=20)
     assert output.result.solved, output.result.message
     assert output.metrics.path_length_rad < output.metrics_before_shortcut.path_length_rad
@@ -113,8 +112,8 @@ def test_static_rrt_shortcuts_never_move_a_non_goal_object(panda):
 
 
 def test_static_rrt_is_reproducible(easy):
-    a = StaticRRT(easy, PlannerOptions(time_limit=30.0)).plan(seed=3)
-    b = StaticRRT(easy, PlannerOptions(time_limit=30.0)).plan(seed=3)
+    a = StaticRRT(easy, PCRRTOptions(time_limit=30.0)).plan(seed=3)
+    b = StaticRRT(easy, PCRRTOptions(time_limit=30.0)).plan(seed=3)
     assert a.solved and np.array_equal(a.arm_path, b.arm_path)
 
 
@@ -159,7 +158,7 @@ def test_darrt_path_obeys_its_primitives(easy, darrt_plan):
 
 
 def test_darrt_is_reproducible(easy, darrt_plan):
-    again = DARRT(easy, PlannerOptions(time_limit=30.0)).plan(seed=0)
+    again = DARRT(easy, PCRRTOptions(time_limit=30.0)).plan(seed=0)
     assert np.array_equal(again.arm_path, darrt_plan.arm_path)
 
 
@@ -188,12 +187,12 @@ def test_darrt_rrt_connect_finds_a_way_around(easy):
 
 @pytest.mark.parametrize("cls", [DARRT, StaticRRT])
 def test_baselines_cancel_within_0_2_s(default, cls, cancel_after):
-    planner = cls(default, PlannerOptions(time_limit=30.0))
+    planner = cls(default, PCRRTOptions(time_limit=30.0))
     result, _, latency = cancel_after(lambda cancel: planner.plan(seed=5, cancel=cancel), 1.0)
     assert latency < 0.2
     assert result.outcome in (Outcome.CANCELLED, Outcome.SUCCEEDED)
 
 
 def test_darrt_timeout_is_a_failure(default):
-    result = DARRT(default, PlannerOptions(time_limit=0.2)).plan(seed=1)
+    result = DARRT(default, PCRRTOptions(time_limit=0.2)).plan(seed=1)
     assert result.outcome is Outcome.TIMEOUT and not result.states

@@ -14,8 +14,7 @@ import numpy as np
 import pytest
 
 from rearrangement_planner.physics.validation import load_scene
-from rearrangement_planner.planning.pcrrt import PlannerOptions
-from rearrangement_planner.planning.pipeline import plan_scene
+from rearrangement_planner.planning import PCRRTOptions, plan_scene
 
 GOLDEN = Path(__file__).parent / "data" / "golden_plans.npz"
 CASES = [("easy_push", "pc-rrt", 1), ("easy_push", "pc-rrt", 2), ("easy_push", "static-rrt", 1),
@@ -25,7 +24,7 @@ CASES = [("easy_push", "pc-rrt", 1), ("easy_push", "pc-rrt", 2), ("easy_push", "
 
 def _plan(scene_name: str, planner: str, seed: int) -> dict[str, np.ndarray]:
     output = plan_scene(load_scene(scene_name), planner,
-                        PlannerOptions(time_limit=1000, max_iterations=600), seed,
+                        PCRRTOptions(time_limit=1000, max_iterations=600), seed,
                         shortcut_time=1000.0, shortcut_attempts=10)
     r = output.result
     key = f"{scene_name}/{planner}/{seed}"

@@ -47,10 +47,11 @@ from rearrangement_planner.model.resources import config_dir  # noqa: E402
 from rearrangement_planner.model.state import State  # noqa: E402
 from rearrangement_planner.physics.step import Physics  # noqa: E402
 from rearrangement_planner.physics.validation import load_scene  # noqa: E402
-from rearrangement_planner.planning.pcrrt import PlannerOptions  # noqa: E402
+from rearrangement_planner.planning import DARRTOptions, PCRRTOptions  # noqa: E402
 from rearrangement_planner.planning.propagation import replay  # noqa: E402
 from rearrangement_planner.ros import node as node_module  # noqa: E402
-from rearrangement_planner.ros.node import DEFAULTS, EXECUTOR_THREADS, PARAMETERS, PlannerNode  # noqa: E402
+from rearrangement_planner.ros.node import EXECUTOR_THREADS, PlannerNode  # noqa: E402
+from rearrangement_planner.ros.parameters import DEFAULTS, PARAMETERS  # noqa: E402
 from rearrangement_planner.ros.replay import wait_until  # noqa: E402
 
 FRAME = "panda_link0"
@@ -225,11 +226,11 @@ def test_parameters_declared_once_with_descriptions_and_yaml_defaults(ros):
         numeric = isinstance(spec.default, (int, float)) and not isinstance(spec.default, bool)
         assert bool(descriptor.floating_point_range or descriptor.integer_range) == numeric
         assert descriptor.read_only == (spec.name in ("scene", "robot_description"))
-    for field in dataclasses.fields(PlannerOptions):       # every planner option, same default
-        assert field.name in DEFAULTS, f"PlannerOptions.{field.name} is no node parameter"
+    for field in dataclasses.fields(PCRRTOptions) + dataclasses.fields(DARRTOptions):
+        assert field.name in DEFAULTS, f"{field.name} is no node parameter"
         if field.name == "trees":       # the node races a tree per core of a 2-core machine
             assert (DEFAULTS["trees"], field.default) == (2, 1)
-        elif field.name != "progress_period":              # the node reports at 4 Hz
+        else:
             assert DEFAULTS[field.name] == field.default, field.name
     data = yaml.safe_load((config_dir() / "planner.yaml").read_text())
     file_defaults = data["planner_node"]["ros__parameters"]

@@ -10,9 +10,8 @@ import numpy as np
 import pytest
 
 from rearrangement_planner.physics.validation import load_scene
+from rearrangement_planner.planning import Outcome, PCRRTOptions, make_planner, plan_scene
 from rearrangement_planner.planning.parallel import plan_race, race_key, tree_seed
-from rearrangement_planner.planning.pcrrt import Outcome, PlannerOptions
-from rearrangement_planner.planning.pipeline import make_planner, plan_scene
 
 RACE_SEED = 5
 """On easy_push, tree 1 of this seed's race solves in fewer iterations than tree 0 (asserted
@@ -40,7 +39,7 @@ def test_tree_seeds():
 
 @pytest.mark.parametrize("planner", ["pc-rrt", "darrt"])
 def test_race_returns_the_fewest_iteration_plan_of_its_trees(easy, planner):
-    options = PlannerOptions(time_limit=60.0)
+    options = PCRRTOptions(time_limit=60.0)
     singles = [make_planner(planner, easy, options).plan(seed=tree_seed(RACE_SEED, t))
                for t in range(2)]
     assert all(s.solved for s in singles)
@@ -58,8 +57,8 @@ def test_race_returns_the_fewest_iteration_plan_of_its_trees(easy, planner):
 
 
 def test_plan_scene_races_when_asked(easy):
-    one = plan_scene(easy, "pc-rrt", PlannerOptions(time_limit=60.0), seed=RACE_SEED).result
-    two = plan_scene(easy, "pc-rrt", PlannerOptions(time_limit=60.0, trees=2),
+    one = plan_scene(easy, "pc-rrt", PCRRTOptions(time_limit=60.0), seed=RACE_SEED).result
+    two = plan_scene(easy, "pc-rrt", PCRRTOptions(time_limit=60.0, trees=2),
                      seed=RACE_SEED).result
     assert one.solved and two.solved
     assert "tree" not in one.message and "tree 1 of 2" in two.message
@@ -68,7 +67,7 @@ def test_plan_scene_races_when_asked(easy):
 
 def test_race_timeout_is_a_failure_without_a_path(panda):
     scene = load_scene("seven_objects", robot=panda)
-    result = plan_race("pc-rrt", scene, PlannerOptions(time_limit=1.0, trees=2), seed=1)
+    result = plan_race("pc-rrt", scene, PCRRTOptions(time_limit=1.0, trees=2), seed=1)
     assert result.outcome is Outcome.TIMEOUT and result.states == ()
     assert "2 trees" in result.message
     assert result.plan_time < 2.0
@@ -77,25 +76,25 @@ def test_race_timeout_is_a_failure_without_a_path(panda):
 def test_race_cancel_stops_within_0_2_s_and_the_pool_recovers(panda, easy, cancel_after):
     clutter = load_scene("clutter", robot=panda)            # not solved in 1 s
     result, running, latency = cancel_after(lambda cancel: plan_race(
-        "pc-rrt", clutter, PlannerOptions(time_limit=60.0, goal_bias=0.0, trees=2), seed=3,
+        "pc-rrt", clutter, PCRRTOptions(time_limit=60.0, goal_bias=0.0, trees=2), seed=3,
         cancel=cancel), 1.5)
     assert running
     assert result.outcome is Outcome.CANCELLED and result.states == ()
     assert latency < 0.2
     # The worker that was cut off is waited for; the next race works as usual.
-    after = plan_race("pc-rrt", easy, PlannerOptions(time_limit=60.0, trees=2), seed=RACE_SEED)
+    after = plan_race("pc-rrt", easy, PCRRTOptions(time_limit=60.0, trees=2), seed=RACE_SEED)
     assert after.solved and "tree 1 of 2" in after.message
 
 
 def test_start_invalid_is_reported_once(easy):
     bad = easy.initial_state().with_q(np.array([0.0, 1.7, 0.0, -0.5, 0.0, 0.5, 0.0]))
-    result = plan_race("pc-rrt", easy, PlannerOptions(time_limit=5.0, trees=2), start=bad)
+    result = plan_race("pc-rrt", easy, PCRRTOptions(time_limit=5.0, trees=2), start=bad)
     assert result.outcome is Outcome.START_INVALID and "table" in result.message
 
 
 def test_options_reject_a_bad_tree_count():
     with pytest.raises(ValueError, match="trees"):
-        PlannerOptions(trees=0)
+        PCRRTOptions(trees=0)
 
 
 def test_a_failing_tree_stops_the_race(panda, easy, monkeypatch):
@@ -113,8 +112,8 @@ def test_a_failing_tree_stops_the_race(panda, easy, monkeypatch):
         patch.setattr(planner_module.PCRRT, "_sample", broken)
         t0 = time.monotonic()
         with pytest.raises(RuntimeError, match="broken sampler"):
-            plan_race("pc-rrt", clutter, PlannerOptions(time_limit=60.0, goal_bias=0.0,
+            plan_race("pc-rrt", clutter, PCRRTOptions(time_limit=60.0, goal_bias=0.0,
                                                          trees=2), seed=3)
-    after = plan_race("pc-rrt", easy, PlannerOptions(time_limit=60.0, trees=2), seed=RACE_SEED)
+    after = plan_race("pc-rrt", easy, PCRRTOptions(time_limit=60.0, trees=2), seed=RACE_SEED)
     assert after.solved and "tree 1 of 2" in after.message
     assert time.monotonic() - t0 < 30.0          # not the 60 s the cut-off worker had left

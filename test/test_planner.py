@@ -10,7 +10,7 @@ import pytest
 from rearrangement_planner.model.resources import scenes_dir
 from rearrangement_planner.physics.step import Physics
 from rearrangement_planner.physics.validation import load_scene
-from rearrangement_planner.planning.pcrrt import PCRRT, Outcome, PlannerOptions
+from rearrangement_planner.planning import PCRRT, Outcome, PCRRTOptions
 from rearrangement_planner.planning.propagation import replay
 
 
@@ -21,7 +21,7 @@ def easy(panda):
 
 @pytest.fixture(scope="module")
 def easy_plan(easy):
-    return PCRRT(easy, PlannerOptions(time_limit=60.0)).plan(seed=0)
+    return PCRRT(easy, PCRRTOptions(time_limit=60.0)).plan(seed=0)
 
 
 def test_easy_scene_is_solved_and_ends_in_the_goal(easy, easy_plan):
@@ -32,7 +32,7 @@ def test_easy_scene_is_solved_and_ends_in_the_goal(easy, easy_plan):
 
 
 def test_same_seed_same_plan(easy, easy_plan):
-    again = PCRRT(easy, PlannerOptions(time_limit=60.0)).plan(seed=0)
+    again = PCRRT(easy, PCRRTOptions(time_limit=60.0)).plan(seed=0)
     assert again.solved and len(again.states) == len(easy_plan.states)
     assert np.array_equal(again.arm_path, easy_plan.arm_path)
     assert all(np.array_equal(a.objects, b.objects)
@@ -60,13 +60,13 @@ def test_no_plan_time_past_the_budget(seed):
     success ends later than a step after the time limit (a benchmark counts plans found
     within the budget)."""
     scene = load_scene("clutter")
-    result = PCRRT(scene, PlannerOptions(time_limit=1.0)).plan(seed=seed)
+    result = PCRRT(scene, PCRRTOptions(time_limit=1.0)).plan(seed=seed)
     assert result.plan_time <= 1.1, (result.outcome, result.plan_time)
 
 
 def test_timeout_is_a_failure_without_a_path(panda):
     scene = load_scene("seven_objects", robot=panda)
-    result = PCRRT(scene, PlannerOptions(time_limit=0.3)).plan(seed=1)
+    result = PCRRT(scene, PCRRTOptions(time_limit=0.3)).plan(seed=1)
     assert result.outcome is Outcome.TIMEOUT and not result.solved
     assert result.states == ()
     assert result.plan_time < 2.0
@@ -74,7 +74,7 @@ def test_timeout_is_a_failure_without_a_path(panda):
 
 def test_cancel_stops_within_0_2_s(panda, cancel_after):
     clutter = load_scene(scenes_dir() / "clutter.yaml", robot=panda)  # not solved in 1 s
-    planner = PCRRT(clutter, PlannerOptions(time_limit=60.0, goal_bias=0.0))
+    planner = PCRRT(clutter, PCRRTOptions(time_limit=60.0, goal_bias=0.0))
     result, running, latency = cancel_after(lambda cancel: planner.plan(seed=3, cancel=cancel),
                                             1.0)
     assert running
@@ -86,7 +86,7 @@ def test_progress_is_reported(easy):
     # A period of 0 reports before every iteration: the count does not depend on the machine's
     # speed (seed 2 takes 18 iterations; a 0.1 s period gave 2 reports on a loaded machine).
     reports = []
-    PCRRT(easy, PlannerOptions(time_limit=30.0, progress_period=0.0)).plan(
+    PCRRT(easy, PCRRTOptions(time_limit=30.0, progress_period=0.0)).plan(
         seed=2, progress=reports.append)
     assert len(reports) >= 10
     assert all(b.elapsed > a.elapsed for a, b in pairwise(reports))
@@ -96,15 +96,15 @@ def test_progress_is_reported(easy):
 def test_start_in_collision_is_start_invalid(easy):
     start = easy.initial_state()
     bad = start.with_q(np.array([0.0, 1.7, 0.0, -0.5, 0.0, 0.5, 0.0]))  # arm in the table
-    result = PCRRT(easy, PlannerOptions(time_limit=5.0)).plan(bad, seed=0)
+    result = PCRRT(easy, PCRRTOptions(time_limit=5.0)).plan(bad, seed=0)
     assert result.outcome is Outcome.START_INVALID and "table" in result.message
 
 
 def test_options_reject_nonsense():
     with pytest.raises(ValueError, match="sampler"):
-        PlannerOptions(sampler="magic")
+        PCRRTOptions(sampler="magic")
     with pytest.raises(ValueError, match="goal_bias"):
-        PlannerOptions(goal_bias=1.5)
+        PCRRTOptions(goal_bias=1.5)
 
 
 def test_timed_trajectory_replays_to_the_planned_final_poses(easy, easy_plan):
@@ -126,7 +126,7 @@ def test_push_policy_moves_the_object_towards_its_target(easy):
     to the target; every step is a valid physics step (replays exactly)."""
     from rearrangement_planner.model.state import State
     from rearrangement_planner.planning.manifold import ik_on_manifold
-    from rearrangement_planner.planning.propagation import push_policy_prop
+    from rearrangement_planner.planning.push_policy import push_policy_prop
 
     physics = Physics(easy)
     g = easy.goal_index
@@ -149,21 +149,23 @@ def test_push_policy_moves_the_object_towards_its_target(easy):
 
 @pytest.mark.parametrize("push_bias", [0.0, 1.0])
 def test_push_bias_is_switchable(easy, push_bias):
-    result = PCRRT(easy, PlannerOptions(time_limit=60.0, push_bias=push_bias)).plan(seed=2)
+    result = PCRRT(easy, PCRRTOptions(time_limit=60.0, push_bias=push_bias)).plan(seed=2)
     assert result.solved
 
 
 @pytest.mark.parametrize("greedy", [True, False])
 def test_greedy_goal_push_runs_only_when_switched_on(easy, monkeypatch, greedy):
+    from rearrangement_planner.planning.push_policy import PushPolicy
+
     calls = []
-    original = PCRRT._goal_push
+    original = PushPolicy.goal_push
 
     def counting(self, x, rng, stop):
-        calls.append(self._goal_distance(x))
+        calls.append(float(np.linalg.norm(x.objects[easy.goal_index, :2] - self.goal_xy)))
         return original(self, x, rng, stop)
 
-    monkeypatch.setattr(PCRRT, "_goal_push", counting)
-    result = PCRRT(easy, PlannerOptions(time_limit=60.0, max_iterations=40,
+    monkeypatch.setattr(PushPolicy, "goal_push", counting)
+    result = PCRRT(easy, PCRRTOptions(time_limit=60.0, max_iterations=40,
                                         greedy_goal=greedy)).plan(seed=0)
     if greedy:
         # Each greedy push starts from a new best: strictly decreasing goal distances.
@@ -174,13 +176,14 @@ def test_greedy_goal_push_runs_only_when_switched_on(easy, monkeypatch, greedy):
 
 
 def test_clear_blockers_pushes_the_blocking_object_out_of_the_line(panda):
-    """The goal object's push ran into `blocker`: `_clear_and_push` pushes the blocker (not the
+    """The goal object's push ran into `blocker`: `clear_and_push` pushes the blocker (not the
     bystander) away from the line to the goal, and the whole action replays through the
     physics."""
     from rearrangement_planner.physics.step import Invalid
     from rearrangement_planner.physics.validation import parse_scene
     from rearrangement_planner.planning.approach import approach_path
     from rearrangement_planner.planning.propagation import Propagation
+    from rearrangement_planner.planning.push_policy import PushPolicy
 
     data = load_scene("default", robot=panda).to_dict()
     data.pop("obstacles", None)
@@ -192,12 +195,13 @@ def test_clear_blockers_pushes_the_blocking_object_out_of_the_line(panda):
          "pose": [0.3, -0.3, 0.0]}]
     data["goal"] = {"object": "target", "position": [0.5, -0.2], "radius": 0.06}
     scene = parse_scene(data, robot=panda)
-    planner = PCRRT(scene, PlannerOptions())
+    planner = PCRRT(scene, PCRRTOptions())
     start = approach_path(planner.physics, scene.initial_state(), np.random.default_rng(0))[0][-1]
     blocked = Propagation((), 0.0, Invalid.OBJECT_OVERLAP, frozenset())
-    stop = planner._stop_check(lambda: False, math.inf)
+    stop = planner.stop_check(lambda: False, math.inf)
+    policy = PushPolicy(planner.physics, planner.options, np.arange(3))
     for seed in range(3):
-        result = planner._clear_and_push(start, blocked, np.array([0.5, -0.2]), np.zeros(7),
+        result = policy.clear_and_push(start, blocked, np.array([0.5, -0.2]), np.zeros(7),
                                          np.random.default_rng(seed), stop)
         end = result.states[-1].objects
         assert abs(end[1, 0] - 0.5) > abs(start.objects[1, 0] - 0.5) + 0.005, end[1]

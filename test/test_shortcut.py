@@ -5,9 +5,8 @@ import pytest
 
 from rearrangement_planner.physics.step import Physics
 from rearrangement_planner.physics.validation import load_scene
+from rearrangement_planner.planning import PCRRT, PathMetrics, PCRRTOptions, plan_scene
 from rearrangement_planner.planning.manifold import manifold_error
-from rearrangement_planner.planning.pcrrt import PCRRT, PlannerOptions
-from rearrangement_planner.planning.pipeline import PathMetrics, plan_scene
 from rearrangement_planner.planning.propagation import replay
 from rearrangement_planner.planning.shortcut import connect, path_length, shortcut
 
@@ -24,7 +23,7 @@ def physics(easy):
 
 @pytest.fixture(scope="module")
 def plan(easy, physics):
-    result = PCRRT(easy, PlannerOptions(time_limit=60.0), physics).plan(seed=1)
+    result = PCRRT(easy, PCRRTOptions(time_limit=60.0), physics).plan(seed=1)
     assert result.solved
     return result
 
@@ -88,7 +87,7 @@ def test_connect_lands_exactly_and_stays_on_the_plane(easy, physics, plan):
 
 
 def test_pipeline_reports_lengths_before_and_after(easy):
-    out = plan_scene(easy, "pc-rrt", PlannerOptions(time_limit=60.0), seed=1,
+    out = plan_scene(easy, "pc-rrt", PCRRTOptions(time_limit=60.0), seed=1,
                      shortcut_time=60.0, shortcut_attempts=30)
     record = out.to_dict()
     assert record["before_shortcut"]["path_length_rad"] >= record["path_length_rad"]

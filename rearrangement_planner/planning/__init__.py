@@ -1,0 +1,20 @@
+"""Planning on the pushing manifold: PC-RRT, its baselines, shortcutting, trajectory timing and
+the request pipeline. The public names, for `from rearrangement_planner.planning import ...`."""
+
+from rearrangement_planner.planning.darrt import DARRT, DARRTOptions
+from rearrangement_planner.planning.interface import (
+    Outcome,
+    Planner,
+    PlannerOptions,
+    PlanResult,
+    Progress,
+    StopReason,
+)
+from rearrangement_planner.planning.pcrrt import PCRRT, PCRRTOptions
+from rearrangement_planner.planning.pipeline import PathMetrics, PlanOutput, plan_scene
+from rearrangement_planner.planning.registry import PLANNER_NAMES, PLANNERS, make_planner
+from rearrangement_planner.planning.static_rrt import StaticRRT
+
+__all__ = ["DARRT", "PCRRT", "PLANNERS", "PLANNER_NAMES", "DARRTOptions", "Outcome",
+           "PCRRTOptions", "PathMetrics", "PlanOutput", "PlanResult", "Planner", "PlannerOptions",
+           "Progress", "StaticRRT", "StopReason", "make_planner", "plan_scene"]

@@ -39,7 +39,13 @@ import numpy as np
 from rearrangement_planner.model.scene import Scene
 from rearrangement_planner.model.state import State
 from rearrangement_planner.physics.step import Physics, PhysicsOptions
-from rearrangement_planner.planning.pcrrt import Outcome, PlannerOptions, PlanResult, Progress
+from rearrangement_planner.planning.interface import (
+    Outcome,
+    PlannerOptions,
+    PlanResult,
+    ProgressCallback,
+)
+from rearrangement_planner.planning.registry import make_planner
 
 NO_PLAN = 2 ** 62
 """The race key before any tree has found a plan."""
@@ -104,8 +110,6 @@ def _build(blob: bytes) -> tuple[Scene, Physics]:
 
 def _serve(conn, best, cancel) -> None:
     """A worker process: plan one tree per task until the pipe closes."""
-    from rearrangement_planner.planning.pipeline import make_planner
-
     built: dict[str, tuple[Scene, Physics]] = {}
     while True:
         try:
@@ -215,13 +219,11 @@ def shutdown() -> None:
 
 def plan_race(planner: str, scene: Scene, options: PlannerOptions, seed: int = 0,
               start: State | None = None, cancel: threading.Event | None = None,
-              progress: Callable[[Progress], None] | None = None,
+              progress: ProgressCallback | None = None,
               physics: Physics | None = None) -> PlanResult:
     """Plan with `options.trees` independent trees (module doc). Tree 0 runs here and reports
     progress; the result is the winning tree's, with `plan_time` the race's wall time and the
     winner named in `message`. Raises RuntimeError if a worker fails."""
-    from rearrangement_planner.planning.pipeline import make_planner
-
     t0 = time.monotonic()
     trees = options.trees
     physics = physics or Physics(scene)

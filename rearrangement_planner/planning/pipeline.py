@@ -7,8 +7,8 @@ timed trajectory -> predicted object poses along it -> the result record of DESI
 
 from __future__ import annotations
 
+import dataclasses
 import threading
-from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -16,7 +16,11 @@ import numpy as np
 from rearrangement_planner.model.scene import Scene
 from rearrangement_planner.model.state import State
 from rearrangement_planner.physics.step import Physics
-from rearrangement_planner.planning.pcrrt import PCRRT, PlannerOptions, PlanResult, Progress
+from rearrangement_planner.planning.interface import PlannerOptions, PlanResult, ProgressCallback
+from rearrangement_planner.planning.parallel import plan_race
+from rearrangement_planner.planning.registry import make_planner, planner_spec
+from rearrangement_planner.planning.settings import Settings, setting
+from rearrangement_planner.planning.shortcut import shortcut
 from rearrangement_planner.planning.trajectory import (
     DUPLICATE_TOLERANCE,
     TimingOptions,
@@ -24,7 +28,29 @@ from rearrangement_planner.planning.trajectory import (
     time_parameterize,
 )
 
-PLANNERS = ("pc-rrt", "static-rrt", "darrt")
+
+@dataclass(frozen=True)
+class PipelineOptions(Settings):
+    """What happens to a plan after the search: shortcutting and trajectory timing."""
+
+    shortcut_time: float = setting(10.0, low=0.0, high=600.0)
+    """Longest path shortcutting (King et al. §IV) after a plan is found, s; 0 = none."""
+    shortcut_attempts: int = setting(40, low=0, high=100000)
+    """Shortcut attempts (about 50 ms each); the attempt bound, when it ends shortcutting
+    before shortcut_time, keeps plans reproducible. 0 = until shortcut_time."""
+    velocity_scale: float = setting(0.5, low=0.01, high=1.0)
+    """Fraction of each joint's velocity limit the trajectory may use."""
+    max_tool_speed: float = setting(0.1, low=0.001, high=1.0)
+    """Largest end-effector speed of the trajectory, m/s (slow enough for quasistatic
+    pushing)."""
+    max_joint_acceleration: float = setting(0.0, low=0.0, high=100.0)
+    """Joint acceleration limit of the trajectory, rad/s^2; 0 = none."""
+
+    @property
+    def timing(self) -> TimingOptions:
+        acceleration = self.max_joint_acceleration
+        return TimingOptions(self.velocity_scale, self.max_tool_speed,
+                             acceleration if acceleration > 0 else None)
 
 
 @dataclass(frozen=True)
@@ -132,22 +158,10 @@ def _states_at_points(states: tuple[State, ...], trajectory: Trajectory) -> tupl
     return tuple(kept)
 
 
-def make_planner(name: str, scene: Scene, options: PlannerOptions | None = None,
-                 physics: Physics | None = None):
-    """The planner called `name` (one of PLANNERS) on `scene`; all share the physics."""
-    if name == "pc-rrt":
-        return PCRRT(scene, options, physics)
-    if name in ("static-rrt", "darrt"):
-        from rearrangement_planner.planning import baselines
-        cls = baselines.StaticRRT if name == "static-rrt" else baselines.DARRT
-        return cls(scene, options, physics)
-    raise ValueError(f"unknown planner {name!r}; choose one of {', '.join(PLANNERS)}")
-
-
 def plan_scene(scene: Scene, planner: str = "pc-rrt", options: PlannerOptions | None = None,
                seed: int = 0, start: State | None = None,
                cancel: threading.Event | None = None,
-               progress: Callable[[Progress], None] | None = None,
+               progress: ProgressCallback | None = None,
                shortcut_time: float = 0.0, timing: TimingOptions | None = None,
                physics: Physics | None = None,
                shortcut_attempts: int | None = None) -> PlanOutput:
@@ -157,12 +171,12 @@ def plan_scene(scene: Scene, planner: str = "pc-rrt", options: PlannerOptions | 
     bound that ends first makes the result reproducible), time it, and predict the object
     poses along the trajectory.
 
-    DARRT's Push primitive holds the object rigidly in the hand, a different world model from
-    the quasistatic physics, so its paths are not shortcut (shortcutting re-simulates pushes)."""
+    Planners whose registry entry says so are not shortcut (DARRT: its Push primitive holds
+    the object rigidly, a different world model from the quasistatic physics that
+    shortcutting re-simulates)."""
+    spec = planner_spec(planner)
     physics = physics or Physics(scene)
     if options is not None and options.trees > 1:
-        from rearrangement_planner.planning.parallel import plan_race
-
         result = plan_race(planner, scene, options, seed, start, cancel, progress, physics)
     else:
         result = make_planner(planner, scene, options, physics).plan(
@@ -171,18 +185,12 @@ def plan_scene(scene: Scene, planner: str = "pc-rrt", options: PlannerOptions | 
         return PlanOutput(scene, planner, result)
     before = PathMetrics.of(scene, result.states)
     spent = 0.0
-    if shortcut_time > 0 and len(result.states) > 2 and planner != "darrt":
-        from rearrangement_planner.planning.shortcut import shortcut
-
-        # Shortcutting re-simulates the pushes in the planner's own world: the Static RRT's
-        # non-goal objects stay obstacles there, so a shortcut cannot push them either.
-        if planner == "static-rrt":
-            from rearrangement_planner.planning.baselines import static_physics
-
-            physics = static_physics(scene, physics)
-        short = shortcut(physics, result.states, shortcut_time, seed=seed, cancel=cancel,
-                         max_attempts=shortcut_attempts)
-        result = PlanResult(**{**result.__dict__, "states": tuple(short.states)})
+    if shortcut_time > 0 and len(result.states) > 2 and spec.shortcut:
+        # Shortcutting re-simulates the pushes in the planner's own world (the Static RRT's
+        # non-goal objects stay obstacles there, so a shortcut cannot push them either).
+        short = shortcut(spec.physics(scene, physics), result.states, shortcut_time, seed=seed,
+                         cancel=cancel, max_attempts=shortcut_attempts)
+        result = dataclasses.replace(result, states=tuple(short.states))
         spent = short.elapsed
     trajectory = time_parameterize(scene.robot, result.arm_path, timing or TimingOptions())
     states = _states_at_points(result.states, trajectory)

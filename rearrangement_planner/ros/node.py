@@ -34,7 +34,6 @@ import rclpy
 from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PoseArray, PoseStamped
-from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
 from rclpy.callback_groups import MutuallyExclusiveCallbackGroup, ReentrantCallbackGroup
 from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor
 from rclpy.logging import get_logger
@@ -65,10 +64,12 @@ from rearrangement_planner.model.errors import InputError, RearrangementError, S
 from rearrangement_planner.model.robot import RobotModel
 from rearrangement_planner.model.scene import Scene
 from rearrangement_planner.physics.validation import load_scene, parse_scene
-from rearrangement_planner.planning.pcrrt import Outcome, PlannerOptions, PlanResult, Progress
-from rearrangement_planner.planning.pipeline import PLANNERS, PlanOutput, plan_scene
+from rearrangement_planner.planning.interface import Outcome, PlannerOptions, PlanResult, Progress
+from rearrangement_planner.planning.pipeline import PipelineOptions, PlanOutput, plan_scene
+from rearrangement_planner.planning.registry import options_from, planner_spec
 from rearrangement_planner.planning.status import PlannerStatus
 from rearrangement_planner.planning.trajectory import TimingOptions
+from rearrangement_planner.ros.parameters import PARAMETERS
 
 NODE_NAME = "planner_node"
 NO_STATE = "NO_STATE"
@@ -80,120 +81,6 @@ CANCEL_WAIT = 1.0
 """Seconds `~/cancel` waits for the planner to stop before answering."""
 INPUT_ERROR_REPEAT = 1.0
 """Seconds before the same input error is published on `~/status` again (flood guard)."""
-
-
-# --------------------------------------------------------------------------------------------
-# Parameters (declared once, with descriptions and ranges; config/planner.yaml mirrors them)
-# --------------------------------------------------------------------------------------------
-
-
-@dataclass(frozen=True)
-class ParameterSpec:
-    name: str
-    default: bool | int | float | str | tuple[str, ...]
-    description: str
-    low: float | None = None
-    high: float | None = None
-    read_only: bool = False
-
-    def descriptor(self) -> ParameterDescriptor:
-        descriptor = ParameterDescriptor(description=self.description, read_only=self.read_only)
-        if self.low is not None and isinstance(self.default, bool):
-            raise TypeError(f"parameter {self.name}: a bool has no range")
-        if self.low is not None and isinstance(self.default, int):
-            descriptor.integer_range = [IntegerRange(from_value=int(self.low),
-                                                     to_value=int(self.high), step=1)]
-        elif self.low is not None:
-            descriptor.floating_point_range = [FloatingPointRange(
-                from_value=float(self.low), to_value=float(self.high), step=0.0)]
-        return descriptor
-
-
-_INT32_MAX = 2**31 - 1
-PARAMETERS: tuple[ParameterSpec, ...] = (
-    ParameterSpec("scene", "default", "Scene: a shipped scene name (config/scenes) or a scene "
-                  "YAML path (DESIGN §3). Table, obstacles, object shapes and the default goal.",
-                  read_only=True),
-    ParameterSpec("robot_description", "", "URDF of the robot (XML string); '' = the URDF of "
-                  "the robot config the scene names.", read_only=True),
-    ParameterSpec("object_ids", (), "Scene object names in the order of the poses on "
-                  "~/object_poses; [] = scene order. Must list every scene object once."),
-    ParameterSpec("goal_object", "", "Object to bring into the goal region; '' = the scene's."),
-    ParameterSpec("goal_radius", 0.0, "Goal region radius, m; 0 = the scene's.", 0.0, 10.0),
-    ParameterSpec("planning_frame", "", "Frame of all inputs and outputs; '' = the robot base "
-                  "frame. Inputs in another frame are rejected (no tf here)."),
-    ParameterSpec("max_object_tilt", 0.05, "Largest tilt from upright of a received object "
-                  "pose, rad; objects must stand on the table.", 0.0, 1.5),
-    ParameterSpec("state_timeout", 1.0, "Joint states and object poses older than this (receive "
-                  "time, s) are stale (NO_STATE); 0 = never stale.", 0.0, 86400.0),
-    ParameterSpec("planner", "pc-rrt", f"Planning algorithm: {', '.join(PLANNERS)}."),
-    ParameterSpec("seed", 0, "Random seed: same scene, inputs, parameters and seed give the "
-                  "same plan.", 0, _INT32_MAX),
-    ParameterSpec("time_limit", 30.0, "Planning budget, s; running out is a TIMEOUT failure.",
-                  0.01, 86400.0),
-    ParameterSpec("max_iterations", 1_000_000, "Iteration budget (a TIMEOUT when exhausted).",
-                  1, _INT32_MAX),
-    ParameterSpec("k_actions", 3, "Actions sampled and propagated per iteration (k).", 1, 100),
-    ParameterSpec("dt", 0.1, "Propagation step, s.", 0.001, 1.0),
-    ParameterSpec("max_speed", 0.10, "Bound on each planar tool velocity component of an "
-                  "action, m/s.", 0.001, 1.0),
-    ParameterSpec("max_yaw_rate", 0.5, "Bound on the tool yaw rate of an action, rad/s.",
-                  0.0, 10.0),
-    ParameterSpec("min_duration", 0.5, "Shortest action duration, s (<= max_duration).",
-                  0.001, 60.0),
-    ParameterSpec("max_duration", 2.0, "Longest action duration, s.", 0.001, 60.0),
-    ParameterSpec("nullspace_speed", 0.3, "Bound on each nullspace joint velocity component of "
-                  "an action, rad/s.", 0.0, 10.0),
-    ParameterSpec("sampler", "tool", "State sampler: 'tool' (tool position over the table) or "
-                  "'uniform' (joint configurations, as in the paper)."),
-    ParameterSpec("goal_bias", 0.2, "Probability of sampling the goal object in the goal "
-                  "region.", 0.0, 1.0),
-    ParameterSpec("arm_weight", 0.5, "Metric weight of the arm (per rad, or per m of tool "
-                  "distance with the 'tool' sampler).", 0.0, 1000.0),
-    ParameterSpec("object_weight", 1.0, "Metric weight of each non-goal object, per m.",
-                  0.0, 1000.0),
-    ParameterSpec("goal_weight", 5.0, "Metric weight of the goal object, per m.", 0.0, 1000.0),
-    ParameterSpec("push_bias", 0.6, "Probability that an iteration replaces one random action "
-                  "by a closed-loop push of one object; 0 = the paper's PC-RRT.", 0.0, 1.0),
-    ParameterSpec("push_goal_share", 0.5, "Share of the push_bias pushes aimed at the goal "
-                  "object.", 0.0, 1.0),
-    ParameterSpec("push_steps", 30, "Longest closed-loop push, in steps of dt.", 1, 10000),
-    ParameterSpec("greedy_goal", True, "On every new best goal distance, push the goal object "
-                  "from that node straight for the goal (greedy extension)."),
-    ParameterSpec("clear_blockers", True, "When a push of the goal object runs into another "
-                  "object, push that one out of the way and push on."),
-    ParameterSpec("push_yaw_rate", 0.0, "Yaw rate at which closed-loop pushes turn the hand to "
-                  "push finger first, rad/s; 0 = the hand keeps its yaw.", 0.0, 10.0),
-    ParameterSpec("avoid_others", False, "Closed-loop pushes approach their object sliding "
-                  "round the other objects instead of running into them."),
-    ParameterSpec("detour", 0.0, "When a push of the goal object runs into another object, "
-                  "probability of going round it instead of clearing it away.", 0.0, 1.0),
-    ParameterSpec("fail_penalty", 0.0, "Added to a node's distance in Nearest per extension "
-                  "from it that made no progress; 0 = plain Voronoi bias.", 0.0, 1000.0),
-    ParameterSpec("trees", 2, "Independent trees grown at once, one process each; the plan "
-                  "found in the fewest iterations wins (reproducible); 1 = one tree in the "
-                  "node's process.", 1, 64),
-    ParameterSpec("progress_period", 0.25, "Seconds between planner progress reports "
-                  "(~/status shows them at 4 Hz).", 0.01, 0.5),
-    ParameterSpec("shortcut_time", 10.0, "Longest path shortcutting (King et al. §IV) after a "
-                  "plan is found, s; 0 = none.", 0.0, 600.0),
-    ParameterSpec("shortcut_attempts", 40, "Shortcut attempts (about 50 ms each); the attempt "
-                  "bound, when it ends shortcutting before shortcut_time, keeps plans "
-                  "reproducible. 0 = until shortcut_time.", 0, 100000),
-    ParameterSpec("velocity_scale", 0.5, "Fraction of each joint's velocity limit the "
-                  "trajectory may use.", 0.01, 1.0),
-    ParameterSpec("max_tool_speed", 0.1, "Largest end-effector speed of the trajectory, m/s "
-                  "(slow enough for quasistatic pushing).", 0.001, 1.0),
-    ParameterSpec("max_joint_acceleration", 0.0, "Joint acceleration limit of the trajectory, "
-                  "rad/s^2; 0 = none.", 0.0, 100.0),
-    ParameterSpec("record_dir", "~/.ros/rearrangement_plans", "Folder of the MCAP recordings "
-                  "(<plan id>.mcap); '~' is expanded."),
-    ParameterSpec("record", True, "Record every plan (success or failure) to MCAP."),
-    ParameterSpec("auto_execute", False, "Publish every successful plan on joint_trajectory "
-                  "right away."),
-    ParameterSpec("plan_on_goal", False, "Start planning when a goal arrives on ~/goal."),
-)
-DEFAULTS: dict[str, Any] = {p.name: p.default for p in PARAMETERS}
 
 
 @dataclass(frozen=True)
@@ -211,27 +98,17 @@ class PlanSettings:
 def plan_settings(params: dict[str, Any]) -> PlanSettings:
     """Check and assemble the planner settings; InputError names the parameter at fault
     (the ranges are already enforced by the parameter descriptors)."""
-    if params["planner"] not in PLANNERS:
-        raise InputError("parameter planner", f"is {params['planner']!r}; choose one of "
-                                              f"{', '.join(PLANNERS)}")
-    if params["sampler"] not in ("tool", "uniform"):
-        raise InputError("parameter sampler", f"is {params['sampler']!r}; choose 'tool' or "
-                                              f"'uniform'")
-    if params["min_duration"] > params["max_duration"]:
-        raise InputError("parameter min_duration",
-                         f"is {params['min_duration']:g} s, more than max_duration "
-                         f"({params['max_duration']:g} s)")
-    names = [f.name for f in dataclasses.fields(PlannerOptions) if f.name in params]
     try:
-        options = PlannerOptions(**{name: params[name] for name in names})
-        acceleration = params["max_joint_acceleration"]
-        timing = TimingOptions(params["velocity_scale"], params["max_tool_speed"],
-                               acceleration if acceleration > 0 else None)
+        planner_spec(params["planner"])
     except ValueError as exc:
-        raise InputError("parameters", str(exc)) from None
-    return PlanSettings(params["planner"], options, timing, int(params["seed"]),
-                        float(params["shortcut_time"]),
-                        int(params["shortcut_attempts"]) or None)
+        raise InputError("parameter planner", str(exc)) from None
+    try:
+        options = options_from(params["planner"], params)
+        pipeline = PipelineOptions(**{s.name: params[s.name] for s in PipelineOptions.describe()})
+    except ValueError as exc:
+        raise InputError(f"parameter {str(exc).split()[0]}", str(exc)) from None
+    return PlanSettings(params["planner"], options, pipeline.timing, int(params["seed"]),
+                        pipeline.shortcut_time, pipeline.shortcut_attempts or None)
 
 
 # --------------------------------------------------------------------------------------------

@@ -82,7 +82,7 @@ from rearrangement_planner.model.scene import Scene
 from rearrangement_planner.model.state import State, wrap_angle
 from rearrangement_planner.physics.step import Physics, PhysicsOptions
 from rearrangement_planner.physics.validation import load_scene, parse_scene
-from rearrangement_planner.ros.node import ParameterSpec
+from rearrangement_planner.ros.parameters import ParameterSpec
 
 NODE_NAME = "world_sim"
 MAX_SUBSTEP = 0.001

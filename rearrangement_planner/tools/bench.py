@@ -38,7 +38,7 @@ from rearrangement_planner.model.resources import scenes_dir
 from rearrangement_planner.model.scene import Scene
 from rearrangement_planner.physics.step import Physics
 from rearrangement_planner.physics.validation import load_scene, parse_scene
-from rearrangement_planner.planning.pipeline import PLANNERS
+from rearrangement_planner.planning.registry import PLANNER_NAMES as PLANNERS
 from rearrangement_planner.tools import benchmark
 
 COMMANDS = ("run", "generate", "physics", "scenes")
@@ -146,7 +146,7 @@ def scene_trial(scene_name: str, planner: str, seed: int, time_limit: float,
                 trees: int = 1) -> dict:
     """One planner run on one shipped scene (`trees` raced trees): outcome, plan time and
     which objects moved."""
-    from rearrangement_planner.planning.pcrrt import PlannerOptions
+    from rearrangement_planner.planning.interface import PlannerOptions
     from rearrangement_planner.planning.pipeline import plan_scene
 
     scene = load_scene(scene_name)

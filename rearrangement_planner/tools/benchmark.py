@@ -48,6 +48,7 @@ from rearrangement_planner.model.errors import RearrangementError
 from rearrangement_planner.model.resources import config_dir
 from rearrangement_planner.model.robot import RobotModel
 from rearrangement_planner.physics.validation import parse_scene
+from rearrangement_planner.planning.registry import PLANNERS
 
 log = logging.getLogger(__name__)
 
@@ -379,7 +380,7 @@ def _num(value: float | None, digits: int = 6) -> str:
 def run_trial(trial: Trial, shortcut_time: float, shortcut_attempts: int | None) -> dict:
     """Plan one trial and measure it: the CSV row (column -> text) of `CSV_COLUMNS`."""
     from rearrangement_planner.physics.validation import load_scene
-    from rearrangement_planner.planning.pcrrt import PlannerOptions
+    from rearrangement_planner.planning.interface import PlannerOptions
     from rearrangement_planner.planning.pipeline import plan_scene
 
     t0 = time.monotonic()
@@ -666,7 +667,7 @@ def run_trials(trials: Sequence[Trial], csv_path: Path, workers: int, shortcut_t
 # The summary
 # --------------------------------------------------------------------------------------------
 
-SHORTCUT_PLANNERS = ("pc-rrt", "static-rrt")
+SHORTCUT_PLANNERS = tuple(name for name, spec in PLANNERS.items() if spec.shortcut)
 """Planners whose paths are shortcut (`pipeline.plan_scene` leaves DARRT's paths alone: its
 Push primitive follows a different world model than the physics the shortcut re-simulates)."""
 

@@ -17,10 +17,11 @@ import numpy as np
 
 from rearrangement_planner.model.errors import RearrangementError
 from rearrangement_planner.physics.validation import load_scene
-from rearrangement_planner.planning.pcrrt import PlannerOptions, Progress
-from rearrangement_planner.planning.pipeline import PLANNERS, PlanOutput, plan_scene
+from rearrangement_planner.planning.interface import PlannerOptions, Progress
+from rearrangement_planner.planning.pipeline import PlanOutput, plan_scene
+from rearrangement_planner.planning.registry import PLANNERS, PRODUCT_DEFAULTS, planner_spec
 
-DEFAULT_TREES = 2
+DEFAULT_TREES = PRODUCT_DEFAULTS["trees"]
 """Trees raced by default (`parallel`): the 2 cores of the reference machine."""
 
 
@@ -30,13 +31,11 @@ def build_parser() -> argparse.ArgumentParser:
         description="Plan a nonprehensile whole-arm rearrangement for one scene: the arm pushes "
                     "objects (any link, several at once) until the goal object is inside its "
                     "goal region. Exit code 0 = solved, 1 = not solved, 2 = bad input.")
-    parser.add_argument("scene", type=Path, help="scene YAML file (DESIGN §3 format)")
-    parser.add_argument("--planner", choices=PLANNERS, default="pc-rrt",
-                        help="planning algorithm: pc-rrt (default; the physics-constrained "
-                             "kinodynamic RRT of King et al.: any link may push any object), "
-                             "static-rrt (the same, but only the goal object may move; the "
-                             "others are obstacles) or darrt (primitives: transit, RRT-Connect "
-                             "transit, straight-line push with the object held in the hand)")
+    parser.add_argument("scene", type=Path, nargs="?",
+                        help="scene YAML file (DESIGN §3 format) or a shipped scene's name")
+    parser.add_argument("--planner", choices=list(PLANNERS), default="pc-rrt",
+                        help="planning algorithm (default pc-rrt): " + "; ".join(
+                            f"{name}: {spec.summary}" for name, spec in PLANNERS.items()))
     parser.add_argument("--time-limit", type=float, default=60.0, metavar="S",
                         help="planning budget in seconds; running out is a failure (default 60)")
     parser.add_argument("--seed", type=int, default=0, metavar="N",
@@ -55,6 +54,13 @@ def build_parser() -> argparse.ArgumentParser:
                         help="stop shortcutting after N attempts even if time is left; a "
                              "bound that ends first makes the shortcut path reproducible "
                              "(default: time only)")
+    parser.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
+                        help="set any setting of the chosen planner, e.g. --set push_bias=0 "
+                             "--set greedy_goal=false (darrt: --set transit_time_limit=5); "
+                             "repeatable; `--list-settings` shows them")
+    parser.add_argument("--list-settings", action="store_true",
+                        help="print the chosen planner's settings (name, default, range, "
+                             "description) and exit")
     parser.add_argument("--json", type=Path, metavar="OUT",
                         help="write the result as JSON to OUT ('-' for standard output)")
     parser.add_argument("--record", type=Path, metavar="OUT.mcap",
@@ -79,11 +85,47 @@ def _progress_printer(quiet: bool):
     return show
 
 
+def _options(args: argparse.Namespace) -> PlannerOptions:
+    """The planner's options from --time-limit, --trees and every --set NAME=VALUE."""
+    spec = planner_spec(args.planner)
+    settings = {s.name: s for s in spec.options_type.describe()}
+    values: dict[str, object] = {"time_limit": args.time_limit, "trees": args.trees}
+    for item in args.set:
+        name, sep, text = item.partition("=")
+        if not sep or name.strip() not in settings:
+            raise RearrangementError(
+                f"--set {item}: expected NAME=VALUE with NAME one of {args.planner}'s settings "
+                f"({', '.join(settings)})")
+        try:
+            values[name.strip()] = settings[name.strip()].parse(text.strip())
+        except ValueError as exc:
+            raise RearrangementError(f"--set {item}: {exc}") from None
+    try:
+        return spec.options(**values)
+    except ValueError as exc:
+        raise RearrangementError(f"--set/--time-limit/--trees: {exc}") from None
+
+
+def _settings_table(planner: str) -> str:
+    lines = [f"settings of {planner} (--set NAME=VALUE):"]
+    for s in planner_spec(planner).options_type.describe():
+        bounds = f" in [{s.low:g}, {s.high:g}]" if s.low is not None else ""
+        bounds += f" one of {', '.join(s.choices)}" if s.choices else ""
+        lines.append(f"  {s.name} = {s.default!r}{bounds}: {s.description}")
+    return "\n".join(lines)
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     logging.basicConfig(level=logging.WARNING, format="%(message)s")
+    if args.list_settings:
+        print(_settings_table(args.planner))
+        return 0
     try:
+        if args.scene is None:
+            raise RearrangementError("give a scene: a scene .yaml file or a shipped scene name")
+        options = _options(args)
         if not args.time_limit > 0:
             raise RearrangementError(f"--time-limit must be positive, got {args.time_limit}")
         if not 1 <= args.trees <= 64:
@@ -98,7 +140,6 @@ def main(argv: list[str] | None = None) -> int:
         print(f"rearrangement-plan: {exc}", file=sys.stderr)
         return 2
     started = time.monotonic()
-    options = PlannerOptions(time_limit=args.time_limit, trees=args.trees)
     output = plan_scene(scene, args.planner, options,
                         seed=args.seed, progress=_progress_printer(args.quiet),
                         shortcut_time=args.shortcut, shortcut_attempts=args.shortcut_attempts)

@@ -1,10 +1,5 @@
-"""The two baselines of King et al. §V-A, in the same framework as PC-RRT (same scene, physics,
-validity checks, outcome codes and `plan()` signature).
-
-**Static RRT** — PC-RRT in which only the goal object may move: every other movable object is
-a static obstacle ("All movable objects are treated as static obstacles"). It is PC-RRT with
-`PhysicsOptions.static_objects` = every non-goal object, so any arm contact with one of them
-ends the propagation as invalid.
+"""The DARRT baseline of King et al. §V-A, in the same framework as PC-RRT (same scene, physics,
+validity checks, outcome codes and `Planner` interface).
 
 **DARRT** (Barry et al., as implemented in §V-A) — an RRT over the same states whose edges are
 primitives instead of sampled controls:
@@ -27,55 +22,43 @@ are checked by the rules above.
 
 from __future__ import annotations
 
-import dataclasses
 import math
 import threading
 import time
-from collections.abc import Callable
+from dataclasses import dataclass
 
 import numpy as np
 
 from rearrangement_planner.model.scene import Scene
 from rearrangement_planner.model.state import State
 from rearrangement_planner.physics.step import Physics
-from rearrangement_planner.planning.manifold import ik_on_manifold, project_step, tool_planar_pose
-from rearrangement_planner.planning.pcrrt import (
-    PCRRT,
+from rearrangement_planner.planning.interface import (
     SUPERSEDED,
+    IterationGate,
     Outcome,
     PlannerOptions,
     PlanResult,
     Progress,
-    _Tree,
+    ProgressCallback,
 )
-from rearrangement_planner.planning.propagation import support_distance
+from rearrangement_planner.planning.manifold import ik_on_manifold, project_step, tool_planar_pose
+from rearrangement_planner.planning.push_policy import support_distance
+from rearrangement_planner.planning.settings import setting
+from rearrangement_planner.planning.tree import Tree
 
 TRANSIT_STEP = 0.02      # rad, joint-space resolution of transit motions (collision checks)
 PUSH_STEP = 0.01         # m, tool travel per push step
 STANDOFF = 0.005         # m, gap between the tool and the carried object's surface
 
 
-def static_physics(scene: Scene, physics: Physics | None = None) -> Physics:
-    """The Static RRT's world: `physics` (default the scene's own) with every object but the
-    goal object static, so that touching one is invalid. Whatever re-simulates a Static RRT
-    path (shortcutting) must use it too, or it could push the objects the planner may not."""
-    static = frozenset(o.name for o in scene.objects if o.name != scene.goal.object)
-    base = physics or Physics(scene)
-    return Physics(scene, dataclasses.replace(base.options, static_objects=static), base.robot)
+@dataclass(frozen=True)
+class DARRTOptions(PlannerOptions):
+    """DARRT's settings."""
 
-
-class StaticRRT(PCRRT):
-    """PC-RRT where only the goal object may move (§V-A of King et al.)."""
-
-    name = "static-rrt"
-
-    def __init__(self, scene: Scene, options: PlannerOptions | None = None,
-                 physics: Physics | None = None):
-        super().__init__(scene, options, static_physics(scene, physics))
-        # Objects that cannot move add the same distance to every node: leave them out.
-        weights = np.zeros(len(scene.objects))
-        weights[scene.goal_index] = self.options.goal_weight
-        self._weights = weights
+    transit_time_limit: float = setting(15.0, low=0.01, high=3600.0)
+    """Budget of one RRTTransit (RRT-Connect) call, s (15 s in §V-A of King et al.)."""
+    push_step: float = setting(0.25, low=0.001, high=2.0)
+    """Longest straight-line push of one extension, m (as an RRT extends towards a sample)."""
 
 
 class _Cancelled(Exception):
@@ -88,15 +71,12 @@ class DARRT:
     name = "darrt"
 
     def __init__(self, scene: Scene, options: PlannerOptions | None = None,
-                 physics: Physics | None = None, transit_time_limit: float = 15.0,
-                 push_step: float = 0.25):
+                 physics: Physics | None = None):
         self.scene = scene
-        self.options = options or PlannerOptions()
+        self.options = DARRTOptions.adopt(options)
         self.physics = physics or Physics(scene)
         self.robot = self.physics.robot
         self.world = self.physics.world
-        self.transit_time_limit = transit_time_limit
-        self.push_step = push_step
         self._goal_xy = np.asarray(scene.goal.position, dtype=float)
         self._table_height = scene.table.height
 
@@ -104,8 +84,8 @@ class DARRT:
 
     def plan(self, start: State | None = None, seed: int = 0,
              cancel: threading.Event | None = None,
-             progress: Callable[[Progress], None] | None = None,
-             iteration_gate: Callable[[int], bool] | None = None) -> PlanResult:
+             progress: ProgressCallback | None = None,
+             iteration_gate: IterationGate | None = None) -> PlanResult:
         """As `PCRRT.plan`."""
         t0 = time.monotonic()
         opts, scene = self.options, self.scene
@@ -121,7 +101,7 @@ class DARRT:
             return PlanResult(Outcome.START_INVALID, "start configuration touches an object; "
                               "DARRT's transit primitives need a collision-free start", seed)
         rng = np.random.default_rng(seed)
-        tree = _Tree(start, start.q)
+        tree = Tree(start, start.q)
         deadline = t0 + opts.time_limit
         self._cancelled = cancel.is_set if cancel is not None else (lambda: False)
         iterations = steps = 0
@@ -171,7 +151,7 @@ class DARRT:
 
     # -- primitives -----------------------------------------------------------------------------
 
-    def _extend_arm(self, tree: _Tree, rng: np.random.Generator, deadline: float):
+    def _extend_arm(self, tree: Tree, rng: np.random.Generator, deadline: float):
         """Sample a configuration; Transit, else RRTTransit, from the nearest node."""
         robot = self.robot
         q_rand = rng.uniform(robot.lower, robot.upper)
@@ -182,7 +162,7 @@ class DARRT:
         path = self._transit(tree.q[node], q_rand, objects, rng, deadline)
         return ([State(q, objects) for q in path[1:]] if path else []), node
 
-    def _extend_object(self, tree: _Tree, obj: int, rng: np.random.Generator,
+    def _extend_object(self, tree: Tree, obj: int, rng: np.random.Generator,
                        deadline: float):
         """Sample a pose for object `obj`; from the node where it is nearest, RRTTransit to a
         configuration holding it, then Push it straight towards the sample."""
@@ -203,7 +183,7 @@ class DARRT:
         if length < 1e-3:
             return [], node
         direction = delta / length
-        length = min(length, self.push_step)
+        length = min(length, self.options.push_step)
         q_hold = self._holding_configuration(here, obj, direction, rng)
         if q_hold is None:
             return [], node
@@ -299,8 +279,8 @@ class DARRT:
         q_b at TRANSIT_STEP resolution, or None."""
         if self._line_free(q_a, q_b, objects):
             return _densify([q_a, q_b])
-        waypoints = self._rrt_connect(q_a, q_b, objects, rng,
-                                      min(time.monotonic() + self.transit_time_limit, deadline))
+        budget = min(time.monotonic() + self.options.transit_time_limit, deadline)
+        waypoints = self._rrt_connect(q_a, q_b, objects, rng, budget)
         return None if waypoints is None else _densify(waypoints)
 
     def _rrt_connect(self, q_a: np.ndarray, q_b: np.ndarray, objects: np.ndarray,
@@ -359,7 +339,7 @@ class DARRT:
                 return k
         return None
 
-    def _failure(self, outcome: Outcome, message: str, seed: int, tree: _Tree, iterations: int,
+    def _failure(self, outcome: Outcome, message: str, seed: int, tree: Tree, iterations: int,
                  steps: int, t0: float, best: float) -> PlanResult:
         return PlanResult(outcome, message, seed, (), iterations, tree.n, steps,
                           time.monotonic() - t0, best)

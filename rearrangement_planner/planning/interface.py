@@ -1,0 +1,137 @@
+"""What every planner shares: the `Planner` protocol, the options base, the result, the outcome
+codes and the reasons a propagation stops (STYLE 12: one planner interface).
+
+A planner is built from the models and its options, `Planner(scene, options, physics)`, and
+answers `plan(start, seed, cancel, progress, iteration_gate) -> PlanResult`. The registry
+(`planning.registry`) maps names to planners; nothing else branches on a planner's name.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import threading
+from collections.abc import Callable
+from dataclasses import dataclass
+from enum import Enum
+from typing import Protocol, TypeVar
+
+import numpy as np
+
+from rearrangement_planner.model.scene import Scene
+from rearrangement_planner.model.state import State
+from rearrangement_planner.physics.step import Physics
+from rearrangement_planner.planning.settings import Settings, setting
+
+SUPERSEDED = "superseded: another tree of the race found a plan in fewer iterations"
+"""The message of a tree that a race (`planning.parallel`) stopped because another won."""
+
+
+class Outcome(str, Enum):
+    """Planning outcome codes (DESIGN §4, modelled on Nav2)."""
+
+    SUCCEEDED = "SUCCEEDED"
+    START_INVALID = "START_INVALID"
+    GOAL_INVALID = "GOAL_INVALID"
+    TIMEOUT = "TIMEOUT"
+    CANCELLED = "CANCELLED"
+    INVALID_INPUT = "INVALID_INPUT"
+    INTERNAL = "INTERNAL"
+
+
+class StopReason(str, Enum):
+    """Why a propagation ended before its duration, other than an invalid step (`Invalid`)."""
+
+    GOAL = "goal"
+    """The goal object is in the goal region: the plan is found."""
+    CANCEL = "cancel"
+    """The request was cancelled."""
+    TIMEOUT = "timeout"
+    """The plan's time limit passed (an action is cut there, so no plan is found late)."""
+
+
+_O = TypeVar("_O", bound="PlannerOptions")
+
+
+@dataclass(frozen=True)
+class PlannerOptions(Settings):
+    """The settings every planner has; each planner's own options extend these."""
+
+    time_limit: float = setting(30.0, low=0.01, high=86400.0)
+    """Planning budget, s; running out is a TIMEOUT failure, never an approximate plan."""
+    max_iterations: int = setting(1_000_000, low=1, high=2**31 - 1)
+    """Iteration budget (a TIMEOUT when exhausted)."""
+    goal_bias: float = setting(0.2, low=0.0, high=1.0)
+    """Probability of sampling the goal object inside the goal region."""
+    dt: float = setting(0.1, low=0.001, high=1.0)
+    """Propagation step, s (Δt of Algorithm 2 of King et al.)."""
+    progress_period: float = setting(0.25, low=0.0, high=60.0)
+    """Seconds between progress reports."""
+    trees: int = setting(1, low=1, high=64)
+    """Independent trees grown at once on separate processes, the plan found in the fewest
+    iterations winning (`planning.parallel`, OR-parallel RRT); 1 = one tree in this process.
+    Honoured by `plan_scene` (the CLI, the node and the benchmarks), not by `plan()` itself."""
+
+    @classmethod
+    def adopt(cls: type[_O], options: PlannerOptions | None) -> _O:
+        """`options` as this options type: itself if it is one, else its shared fields with
+        the rest at their defaults (`PlannerOptions(time_limit=5)` for any planner)."""
+        if isinstance(options, cls):
+            return options
+        if options is None:
+            return cls()
+        mine = {f.name for f in dataclasses.fields(cls)}
+        return cls(**{f.name: getattr(options, f.name) for f in dataclasses.fields(options)
+                      if f.name in mine})
+
+
+@dataclass(frozen=True)
+class Progress:
+    iterations: int
+    tree_size: int
+    best_goal_distance: float
+    elapsed: float
+
+
+@dataclass(frozen=True)
+class PlanResult:
+    outcome: Outcome
+    message: str
+    seed: int
+    states: tuple[State, ...] = ()
+    """Every propagation step of the plan, the start first (empty unless SUCCEEDED)."""
+    iterations: int = 0
+    tree_size: int = 0
+    propagation_steps: int = 0
+    plan_time: float = 0.0
+    best_goal_distance: float = math.inf
+
+    @property
+    def solved(self) -> bool:
+        return self.outcome is Outcome.SUCCEEDED
+
+    @property
+    def arm_path(self) -> np.ndarray:
+        return np.array([s.q for s in self.states])
+
+
+ProgressCallback = Callable[[Progress], None]
+IterationGate = Callable[[int], bool]
+
+
+class Planner(Protocol):
+    """The one planner interface."""
+
+    name: str
+
+    def __init__(self, scene: Scene, options: PlannerOptions | None = None,
+                 physics: Physics | None = None) -> None: ...
+
+    def plan(self, start: State | None = None, seed: int = 0,
+             cancel: threading.Event | None = None,
+             progress: ProgressCallback | None = None,
+             iteration_gate: IterationGate | None = None) -> PlanResult:
+        """Plan from `start` (default the scene's initial state) with all randomness from
+        `seed`. `cancel` is checked every iteration and every propagation step;
+        `iteration_gate(i)`, asked before iteration i, ends the plan as CANCELLED when False."""
+        ...

@@ -1,0 +1,229 @@
+"""Closed-loop pushes: the heuristics PC-RRT adds to the paper's random actions.
+
+- `push_policy_prop`: one feedback push of an object towards a point, propagated exactly like
+  an action of Algorithm 2 (every step through Project and the physics; valid prefix kept).
+- `PushPolicy`: what PC-RRT does with it (`PCRRTOptions`):
+  - *push bias*: in a share of the iterations one of the k actions is a push of one object
+    towards its position in the sample (`sample_push`);
+  - *greedy goal push*: from every new best node, a push of the goal object straight for the
+    goal centre (`goal_push`, like the Connect step of RRT-Connect);
+  - *clearing*: a push of the goal object that ends against another object pushes that object
+    sideways out of the way and pushes on, within the same action (`clear_blockers`).
+
+The push itself is in the spirit of the pushing policy of Haustein et al. (002, §IV) but
+analytic: bring the tool behind the object on the line through the object and the target
+(going round the object when it is on the wrong side), then push along the line with a lateral
+correction. Every step goes through the physics, so these edges replay like any other.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Protocol
+
+import numpy as np
+
+from rearrangement_planner.model.scene import MovableObject
+from rearrangement_planner.model.state import State
+from rearrangement_planner.physics.step import Invalid, Physics
+from rearrangement_planner.planning.interface import StopReason
+from rearrangement_planner.planning.manifold import tool_planar_pose
+from rearrangement_planner.planning.propagation import Propagation, StopCheck, propagate
+
+PUSH_BAND = 0.02
+"""Lateral offset (m) of the tool from the push line within which the push policy pushes."""
+GREEDY_STEPS = 3
+"""The greedy goal push may take this many times `push_steps` (it has to go round the goal
+object and then push it all the way)."""
+CLEAR_ROUNDS = 2
+"""How many blockers one clearing action may push aside."""
+_ENDS_ACTION = (StopReason.GOAL, StopReason.CANCEL, StopReason.TIMEOUT)
+
+
+class PushSettings(Protocol):
+    """The settings the pushes read (`pcrrt.PCRRTOptions` has them; see there)."""
+
+    @property
+    def dt(self) -> float: ...
+    @property
+    def max_speed(self) -> float: ...
+    @property
+    def nullspace_speed(self) -> float: ...
+    @property
+    def push_goal_share(self) -> float: ...
+    @property
+    def push_steps(self) -> int: ...
+    @property
+    def clear_blockers(self) -> bool: ...
+
+
+def support_distance(obj: MovableObject, yaw: float, u: np.ndarray) -> float:
+    """How far the footprint of `obj` at heading `yaw` reaches from its centre along the unit
+    vector u (the support function), m."""
+    if obj.shape == "cylinder":
+        return float(obj.footprint_radius)       # the radius
+    c, s = math.cos(yaw), math.sin(yaw)
+    ux, uy = c * u[0] + s * u[1], -s * u[0] + c * u[1]
+    return 0.5 * (abs(ux) * float(obj.size[0]) + abs(uy) * float(obj.size[1]))
+
+
+def push_velocity(tool: np.ndarray, centre: np.ndarray, yaw: float, obj: MovableObject,
+                  target: np.ndarray, speed: float, dt: float) -> np.ndarray | None:
+    """The planar tool velocity (m/s) of the feedback push of `obj` (centre, heading `yaw`)
+    towards `target`, from the tool's planar position; None once the object is within 1 cm of
+    the target. In the push band behind the object: along the line with a lateral correction;
+    beside or in front of it: round it on the tool's side; else: to the place behind it."""
+    to_target = target - centre
+    distance = float(np.hypot(*to_target))
+    if distance < 0.01:
+        return None
+    u = to_target / distance
+    perp = np.array([-u[1], u[0]])
+    rel = tool - centre
+    along, across = float(rel @ u), float(rel @ perp)
+    extent = support_distance(obj, yaw, u)
+    radius = obj.footprint_radius
+    if abs(across) <= PUSH_BAND and -(extent + 0.06) <= along <= -extent + 0.005:
+        v = u * speed - (0.5 / dt) * across * perp        # push, staying on the line
+    elif along > -extent - 0.005 and abs(across) < radius + 0.04:
+        side = 1.0 if across >= 0 else -1.0                # go round it, on the tool's side
+        v = (centre + perp * side * (radius + 0.07) - u * (extent + 0.03) - tool) / dt
+    else:                                                  # line up behind it
+        v = (centre - u * (extent + 0.025) - tool) / dt
+    norm = float(np.hypot(*v))
+    return v * (speed / norm) if norm > speed else v
+
+
+def push_policy_prop(physics: Physics, state: State, obj: int, target: np.ndarray,
+                     max_steps: int, dt: float, speed: float, nullspace: np.ndarray,
+                     stop: StopCheck | None = None) -> Propagation:
+    """The feedback push of object `obj` from `state` towards `target` (x, y), at most
+    `max_steps` steps of `dt`, the tool at most `speed` m/s per component (`push_velocity`);
+    the hand keeps its yaw and the tool point is the pusher."""
+    robot = physics.robot
+    shape = physics.scene.objects[obj]
+    target = np.asarray(target, dtype=float)
+
+    def velocity(x: State) -> np.ndarray | None:
+        tool = tool_planar_pose(robot, x.q)
+        v = push_velocity(tool[:2], x.objects[obj, :2], x.objects[obj, 2], shape, target,
+                          speed, dt)
+        return None if v is None else np.array([v[0], v[1], 0.0])
+
+    return propagate(physics, state, velocity, max_steps, dt, nullspace, stop)
+
+
+class PushPolicy:
+    """The closed-loop actions of PC-RRT on one scene (module doc)."""
+
+    def __init__(self, physics: Physics, options: PushSettings, pushable: np.ndarray):
+        """`pushable`: indices of the objects the push bias may aim at besides the goal object
+        (the Static RRT: none)."""
+        self.physics = physics
+        self.options = options
+        self.scene = physics.scene
+        self.goal_xy = np.asarray(self.scene.goal.position, dtype=float)
+        self.pushable = pushable
+
+    def sample_push(self, x_near: State, sample_objects: np.ndarray, rng: np.random.Generator,
+                    stop: StopCheck) -> Propagation:
+        """The push-bias action: push one object from x_near towards its position in the
+        sample: the goal object with probability `push_goal_share`, else another at random."""
+        opts, g = self.options, self.scene.goal_index
+        if (len(self.scene.objects) == 1 or rng.random() < opts.push_goal_share
+                or self.pushable.size <= 1):
+            obj = g
+        else:
+            others = self.pushable[self.pushable != g]
+            obj = int(others[rng.integers(others.size)])
+        nullspace = self._nullspace(rng)
+        result = self.push(x_near, obj, sample_objects[obj, :2], opts.push_steps, nullspace,
+                           stop)
+        if obj != g:
+            return result
+        return self._when_blocked(x_near, result, sample_objects[g, :2], nullspace, rng, stop)
+
+    def goal_push(self, x: State, rng: np.random.Generator, stop: StopCheck) -> Propagation:
+        """The greedy extension: push the goal object from x towards the goal centre."""
+        nullspace = self._nullspace(rng)
+        result = self.push(x, self.scene.goal_index, self.goal_xy,
+                           GREEDY_STEPS * self.options.push_steps, nullspace, stop)
+        return self._when_blocked(x, result, self.goal_xy, nullspace, rng, stop)
+
+    def push(self, x: State, obj: int, where: np.ndarray, steps: int, nullspace: np.ndarray,
+             stop: StopCheck) -> Propagation:
+        """One closed-loop push of `obj` from x towards `where` (`push_policy_prop`)."""
+        opts = self.options
+        return push_policy_prop(self.physics, x, obj, where, steps, opts.dt, opts.max_speed,
+                                nullspace, stop)
+
+    def _nullspace(self, rng: np.random.Generator) -> np.ndarray:
+        speed = self.options.nullspace_speed
+        return rng.uniform(-speed, speed, self.physics.robot.nq)
+
+    def _when_blocked(self, x: State, result: Propagation, target: np.ndarray,
+                      nullspace: np.ndarray, rng: np.random.Generator,
+                      stop: StopCheck) -> Propagation:
+        """A push of the goal object towards `target` that ended against another object goes
+        on by clearing it away (`clear_blockers`)."""
+        if result.stopped is not Invalid.OBJECT_OVERLAP or not self.options.clear_blockers:
+            return result
+        return self.clear_and_push(x, result, target, nullspace, rng, stop)
+
+    def _blocker(self, x: State) -> int:
+        """The object nearest to the goal object's footprint (the one a blocked push hit)."""
+        g = self.scene.goal_index
+        centre = x.objects[g, :2]
+        gaps = [float(np.hypot(*(x.objects[i, :2] - centre))) - o.footprint_radius
+                if i != g else math.inf for i, o in enumerate(self.scene.objects)]
+        return int(np.argmin(gaps))
+
+    def clear_and_push(self, x_near: State, blocked: Propagation, target: np.ndarray,
+                        nullspace: np.ndarray, rng: np.random.Generator,
+                        stop: StopCheck) -> Propagation:
+        """The goal object's push towards `target` ran into another object B: push B sideways
+        out of the corridor the goal object sweeps on its way to `target` (to a random point
+        just clear of it), then push the goal object on; up to CLEAR_ROUNDS blockers. The
+        action ends at the goal, on cancel or timeout, or when B cannot be pushed at all."""
+        g, steps = self.scene.goal_index, self.options.push_steps
+        states, links = list(blocked.states), set(blocked.pushing_links)
+        x = states[-1] if states else x_near
+        stopped = blocked.stopped
+        for _ in range(CLEAR_ROUNDS):
+            to_target = target - x.objects[g, :2]
+            distance = float(np.hypot(*to_target))
+            if distance < 0.01:
+                break
+            u = to_target / distance
+            perp = np.array([-u[1], u[0]])
+            b, aside = self._aside(x, u, perp, rng)
+            for obj, where, must_move in ((b, aside, True), (g, target, False)):
+                part = self.push(x, obj, where, steps, nullspace, stop)
+                states.extend(part.states)
+                links |= part.pushing_links
+                x = states[-1] if states else x_near
+                stopped = part.stopped
+                if stopped in _ENDS_ACTION or (must_move and stopped is not None
+                                               and not part.states):
+                    return _joined(states, stopped, links, self.options.dt)
+            if stopped is not Invalid.OBJECT_OVERLAP:
+                break
+        return _joined(states, stopped, links, self.options.dt)
+
+    def _aside(self, x: State, u: np.ndarray, perp: np.ndarray,
+               rng: np.random.Generator) -> tuple[int, np.ndarray]:
+        """The blocker and a random point just clear of the goal object's corridor along u."""
+        objects, g = self.scene.objects, self.scene.goal_index
+        b = self._blocker(x)
+        across = float((x.objects[b, :2] - x.objects[g, :2]) @ perp)
+        side = math.copysign(1.0, across) if abs(across) > 1e-3 else rng.choice([-1.0, 1.0])
+        clear = objects[g].footprint_radius + objects[b].footprint_radius \
+            + rng.uniform(0.01, 0.05)
+        return b, x.objects[b, :2] + perp * side * (clear - abs(across)) \
+            + u * rng.uniform(-0.03, 0.03)
+
+
+def _joined(states: list[State], stopped: Invalid | StopReason | None, links: set[str],
+            dt: float) -> Propagation:
+    return Propagation(tuple(states), len(states) * dt, stopped, frozenset(links))
+

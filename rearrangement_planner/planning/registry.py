@@ -1,0 +1,109 @@
+"""The planners by name (STYLE 12): each entry says which class plans, which options it takes,
+the physics it plans in and whether its paths may be shortcut. The CLI, the node, the
+benchmark, the race and the pipeline look planners up here; nothing branches on a name.
+
+    spec = PLANNERS["darrt"]
+    planner = spec.make(scene, spec.options(time_limit=10))
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+from rearrangement_planner.model.scene import Scene
+from rearrangement_planner.physics.step import Physics
+from rearrangement_planner.planning.darrt import DARRT, DARRTOptions
+from rearrangement_planner.planning.interface import Planner, PlannerOptions
+from rearrangement_planner.planning.pcrrt import PCRRT, PCRRTOptions
+from rearrangement_planner.planning.settings import SettingSpec
+from rearrangement_planner.planning.static_rrt import StaticRRT, static_physics
+
+
+def _own_physics(scene: Scene, physics: Physics | None) -> Physics:
+    return physics or Physics(scene)
+
+
+@dataclass(frozen=True)
+class PlannerSpec:
+    """One registered planner."""
+
+    name: str
+    planner: Callable[..., Planner]
+    """The class: `planner(scene, options, physics)`."""
+    options_type: type[PlannerOptions]
+    physics: Callable[[Scene, Physics | None], Physics] = _own_physics
+    """The world the planner plans in, from the scene's physics: also the one its paths are
+    shortcut in (a Static RRT path must not push the objects it treats as obstacles)."""
+    shortcut: bool = True
+    """Whether its paths may be shortcut: shortcutting re-simulates the pushes in the
+    quasistatic physics, which DARRT's rigid carrying does not follow."""
+    summary: str = ""
+
+    def options(self, base: PlannerOptions | None = None, **values: Any) -> PlannerOptions:
+        """This planner's options: the shared fields of `base` (any `PlannerOptions`), then
+        `values`; the rest at their defaults. ValueError names a setting out of range."""
+        fields = {f.name for f in dataclasses.fields(self.options_type)}
+        unknown = sorted(set(values) - fields)
+        if unknown:
+            raise ValueError(f"{self.name} has no setting {', '.join(unknown)}; its settings "
+                             f"are {', '.join(sorted(fields))}")
+        return dataclasses.replace(self.options_type.adopt(base), **values)
+
+    def make(self, scene: Scene, options: PlannerOptions | None = None,
+             physics: Physics | None = None) -> Planner:
+        """The planner on `scene`, in its own physics built from `physics` (or the scene)."""
+        return self.planner(scene, self.options(options), self.physics(scene, physics))
+
+
+PLANNERS: dict[str, PlannerSpec] = {
+    "pc-rrt": PlannerSpec("pc-rrt", PCRRT, PCRRTOptions,
+                          summary="physics-constrained kinodynamic RRT (King et al. Alg. 1)"),
+    "static-rrt": PlannerSpec("static-rrt", StaticRRT, PCRRTOptions, static_physics,
+                              summary="PC-RRT with every non-goal object a static obstacle"),
+    "darrt": PlannerSpec("darrt", DARRT, DARRTOptions, shortcut=False,
+                         summary="DARRT primitives: transit, RRT transit, rigid straight push"),
+}
+PLANNER_NAMES = tuple(PLANNERS)
+
+PRODUCT_DEFAULTS: dict[str, Any] = {"trees": 2}
+"""Where the CLI and the node differ from the library's defaults: they race 2 trees, one per
+core of the 2-core machines this is measured on (`planning.parallel`); `PlannerOptions()`
+keeps the paper's single tree for a researcher calling a planner directly."""
+
+
+def planner_spec(name: str) -> PlannerSpec:
+    """The registered planner `name`; ValueError lists the known ones."""
+    try:
+        return PLANNERS[name]
+    except KeyError:
+        raise ValueError(f"unknown planner {name!r}; choose one of "
+                         f"{', '.join(PLANNER_NAMES)}") from None
+
+
+def make_planner(name: str, scene: Scene, options: PlannerOptions | None = None,
+                 physics: Physics | None = None) -> Planner:
+    """The planner called `name` on `scene` (`PlannerSpec.make`)."""
+    return planner_spec(name).make(scene, options, physics)
+
+
+def all_settings() -> tuple[SettingSpec, ...]:
+    """Every planner setting once (a name shared by several planners has one meaning and one
+    default), the shared ones first, with the product defaults applied."""
+    seen: dict[str, SettingSpec] = {}
+    for spec in (PlannerOptions, *(p.options_type for p in PLANNERS.values())):
+        for setting in spec.describe():
+            if setting.name not in seen:
+                default = PRODUCT_DEFAULTS.get(setting.name, setting.default)
+                seen[setting.name] = dataclasses.replace(setting, default=default)
+    return tuple(seen.values())
+
+
+def options_from(name: str, values: dict[str, Any]) -> PlannerOptions:
+    """The options of planner `name` from a flat mapping holding (at least) its settings,
+    such as the node's parameters; other keys are ignored."""
+    spec = planner_spec(name)
+    fields = {f.name for f in dataclasses.fields(spec.options_type)}
+    return spec.options(**{k: v for k, v in values.items() if k in fields})

@@ -1,0 +1,52 @@
+"""The search tree shared by PC-RRT and the baselines: nodes in growing arrays, so that Nearest
+is one vectorised expression, and the edge (the propagated states) into each node."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from rearrangement_planner.model.state import State
+
+
+class Tree:
+    """Nodes of an RRT over full states x = (q, o^1 ... o^M).
+
+    `arm[i]` is what the metric compares of node i's arm (its joint vector, or its tool
+    position); `segments[i]` the states of the edge from `parent[i]` to node i, ending at it."""
+
+    def __init__(self, root: State, root_arm: np.ndarray, capacity: int = 1024):
+        self.n = 0
+        self.q = np.empty((capacity, root.q.size))
+        self.arm = np.empty((capacity, root_arm.size))
+        self.objects = np.empty((capacity, *root.objects.shape))
+        self.parent: list[int] = []
+        self.segments: list[tuple[State, ...]] = []
+        self.add(root, root_arm, -1, ())
+
+    def add(self, state: State, arm: np.ndarray, parent: int, segment: tuple[State, ...]) -> int:
+        """Add a node reached from `parent` along `segment`; returns its index."""
+        if self.n == len(self.arm):
+            self.q = np.concatenate([self.q, np.empty_like(self.q)])
+            self.arm = np.concatenate([self.arm, np.empty_like(self.arm)])
+            self.objects = np.concatenate([self.objects, np.empty_like(self.objects)])
+        self.q[self.n] = state.q
+        self.arm[self.n] = arm
+        self.objects[self.n] = state.objects
+        self.parent.append(parent)
+        self.segments.append(segment)
+        self.n += 1
+        return self.n - 1
+
+    def state(self, node: int) -> State:
+        return State(self.q[node], self.objects[node])
+
+    def path_to(self, node: int, root: State) -> list[State]:
+        """Every state from the root to `node`, the root first."""
+        pieces = []
+        while node > 0:
+            pieces.append(self.segments[node])
+            node = self.parent[node]
+        states = [root]
+        for piece in reversed(pieces):
+            states.extend(piece)
+        return states

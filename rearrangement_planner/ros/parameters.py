@@ -1,0 +1,90 @@
+"""The node's parameters, declared once (DESIGN §4, STYLE 12): the node's own (scene, inputs,
+outputs) are listed here; the planner and pipeline settings are read from the option
+dataclasses (`planning.registry.all_settings`, `PipelineOptions`), so their default, range and
+description are written once, in the core. `config/planner.yaml` holds the same defaults
+(a test checks it).
+
+    ros2 param describe /rearrangement_planner time_limit
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
+
+from rearrangement_planner.planning.pipeline import PipelineOptions
+from rearrangement_planner.planning.registry import PLANNER_NAMES, all_settings
+from rearrangement_planner.planning.settings import SettingSpec
+
+_INT32_MAX = 2**31 - 1
+
+
+@dataclass(frozen=True)
+class ParameterSpec:
+    name: str
+    default: bool | int | float | str | tuple[str, ...]
+    description: str
+    low: float | None = None
+    high: float | None = None
+    read_only: bool = False
+
+    def descriptor(self) -> ParameterDescriptor:
+        descriptor = ParameterDescriptor(description=self.description, read_only=self.read_only)
+        if self.low is not None and isinstance(self.default, bool):
+            raise TypeError(f"parameter {self.name}: a bool has no range")
+        if self.low is not None and isinstance(self.default, int):
+            descriptor.integer_range = [IntegerRange(from_value=int(self.low),
+                                                     to_value=int(self.high), step=1)]
+        elif self.low is not None:
+            descriptor.floating_point_range = [FloatingPointRange(
+                from_value=float(self.low), to_value=float(self.high), step=0.0)]
+        return descriptor
+
+    @classmethod
+    def of(cls, setting: SettingSpec) -> ParameterSpec:
+        """The parameter of a core setting: same name, default, range and description."""
+        description = setting.description
+        if setting.choices:
+            description += f" One of: {', '.join(setting.choices)}."
+        return cls(setting.name, setting.default, description, setting.low, setting.high)
+
+
+_NODE_FIRST: tuple[ParameterSpec, ...] = (
+    ParameterSpec("scene", "default", "Scene: a shipped scene name (config/scenes) or a scene "
+                  "YAML path (DESIGN §3). Table, obstacles, object shapes and the default goal.",
+                  read_only=True),
+    ParameterSpec("robot_description", "", "URDF of the robot (XML string); '' = the URDF of "
+                  "the robot config the scene names.", read_only=True),
+    ParameterSpec("object_ids", (), "Scene object names in the order of the poses on "
+                  "~/object_poses; [] = scene order. Must list every scene object once."),
+    ParameterSpec("goal_object", "", "Object to bring into the goal region; '' = the scene's."),
+    ParameterSpec("goal_radius", 0.0, "Goal region radius, m; 0 = the scene's.", 0.0, 10.0),
+    ParameterSpec("planning_frame", "", "Frame of all inputs and outputs; '' = the robot base "
+                  "frame. Inputs in another frame are rejected (no tf here)."),
+    ParameterSpec("max_object_tilt", 0.05, "Largest tilt from upright of a received object "
+                  "pose, rad; objects must stand on the table.", 0.0, 1.5),
+    ParameterSpec("state_timeout", 1.0, "Joint states and object poses older than this (receive "
+                  "time, s) are stale (NO_STATE); 0 = never stale.", 0.0, 86400.0),
+    ParameterSpec("planner", "pc-rrt", f"Planning algorithm: {', '.join(PLANNER_NAMES)}."),
+    ParameterSpec("seed", 0, "Random seed: same scene, inputs, parameters and seed give the "
+                  "same plan.", 0, _INT32_MAX),
+)
+_NODE_LAST: tuple[ParameterSpec, ...] = (
+    ParameterSpec("record_dir", "~/.ros/rearrangement_plans", "Folder of the MCAP recordings "
+                  "(<plan id>.mcap); '~' is expanded."),
+    ParameterSpec("record", True, "Record every plan (success or failure) to MCAP."),
+    ParameterSpec("auto_execute", False, "Publish every successful plan on joint_trajectory "
+                  "right away."),
+    ParameterSpec("plan_on_goal", False, "Start planning when a goal arrives on ~/goal."),
+)
+
+PARAMETERS: tuple[ParameterSpec, ...] = (
+    _NODE_FIRST
+    + tuple(ParameterSpec.of(s) for s in all_settings())
+    + tuple(ParameterSpec.of(s) for s in PipelineOptions.describe())
+    + _NODE_LAST
+)
+"""Every parameter of the node, in the order of config/planner.yaml."""
+DEFAULTS: dict[str, Any] = {p.name: p.default for p in PARAMETERS}
