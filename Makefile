@@ -30,7 +30,9 @@ test: $(STAMP)
 	$(PY) -m pytest -q test
 
 lint: $(STAMP)
-	$(PY) -m pip install --quiet ruff==0.17.5 && $(VENV)/bin/ruff check rearrangement_planner msg_adapters test
+	$(PIP) ruff==0.17.5 mypy==2.4.1
+	$(VENV)/bin/ruff check rearrangement_planner msg_adapters test
+	$(VENV)/bin/mypy --config-file setup.cfg
 
 clean:
 	rm -rf $(VENV) build *.egg-info

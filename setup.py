@@ -34,7 +34,7 @@ setup(
     maintainer_email="maintainers@example.org",
     description="Nonprehensile whole-arm rearrangement planning (PC-RRT) for ROS 2",
     license="Apache-2.0",
-    python_requires=">=3.10",
+    python_requires=">=3.11",
     tests_require=["pytest"],
     entry_points={
         "console_scripts": [

@@ -178,7 +178,7 @@ def pose_array_to_objects(msg: PoseArray, object_ids: Sequence[str], planning_fr
 
 
 def objects_to_pose_array(objects: np.ndarray, planning_frame: str,
-                          z: Sequence[float] | None = None,
+                          z: Sequence[float] | np.ndarray | None = None,
                           stamp: Time | None = None) -> PoseArray:
     """A PoseArray of the planar poses `objects` (M, 3) (x, y, yaw) in `planning_frame`; `z`
     gives each pose's height (m), default 0."""

@@ -85,7 +85,8 @@ def plan_markers(scene: Scene, object_paths: np.ndarray | None, ee_path: np.ndar
 
     markers = [Marker(header=header, ns="", id=0, action=Marker.DELETEALL)]
     markers.append(_marker(header, "table", 0, Marker.CUBE,
-                           _pose(*table.center, top - 0.5 * TABLE_THICKNESS),
+                           _pose(table.center[0], table.center[1],
+                                 top - 0.5 * TABLE_THICKNESS),
                            Vector3(x=float(table.size[0]), y=float(table.size[1]),
                                    z=TABLE_THICKNESS), _TABLE))
     for i, box in enumerate(scene.obstacles):
@@ -104,7 +105,8 @@ def plan_markers(scene: Scene, object_paths: np.ndarray | None, ee_path: np.ndar
                                _GOAL_OBJECT if i == goal_index else _OBJECT))
     goal = scene.goal
     markers.append(_marker(header, "goal", 0, Marker.CYLINDER,
-                           _pose(*goal.position, top + 0.5 * GOAL_DISC_THICKNESS),
+                           _pose(goal.position[0], goal.position[1],
+                                 top + 0.5 * GOAL_DISC_THICKNESS),
                            Vector3(x=2.0 * goal.radius, y=2.0 * goal.radius,
                                    z=GOAL_DISC_THICKNESS), _GOAL))
     if ee_path is not None and len(ee_path) >= 2:

@@ -45,3 +45,21 @@ def cancel_after() -> Callable:
         thread.join(5.0)
         return box["result"], running, box["done"] - sent
     return run
+
+
+ROS_FILES = {"test_node.py", "test_world_sim.py", "test_bag_replay.py"}
+"""Test files that start rclpy nodes over DDS (marker `ros`)."""
+SLOW_FILES = {"test_golden_plans.py", "test_parallel.py", "test_benchmark.py",
+              "test_bench.py", "test_baselines.py"}
+"""Test files whose tests plan whole scenes or spawn worker processes (marker `slow`)."""
+
+
+def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
+    """Marks by file, so that `pytest -m "not slow and not ros"` is the quick loop; `make test`
+    runs everything."""
+    for item in items:
+        name = item.path.name
+        if name in ROS_FILES:
+            item.add_marker(pytest.mark.ros)
+        if name in SLOW_FILES:
+            item.add_marker(pytest.mark.slow)

@@ -14,6 +14,7 @@ so it is not thread-safe: give each planning thread its own (`RobotModel.copy()`
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -27,7 +28,7 @@ from rearrangement_planner.model.resources import robots_dir
 SHAPE_KINDS = ("capsule", "sphere", "box", "cylinder")
 
 
-def _readonly(a: np.ndarray) -> np.ndarray:
+def _readonly(a: np.ndarray | Sequence[float]) -> np.ndarray:
     a = np.array(a, dtype=float)
     a.setflags(write=False)
     return a
@@ -229,9 +230,9 @@ class RobotModel:
         self.tool_frame_id = self.frame_id(config.tool_frame)
         self._shape_frame_ids = np.array([self.frame_id(s.link) for s in config.contact_shapes])
         # Shapes share links: fetch each link pose once, then index (hot path of the physics).
-        self._shape_links, self._shape_link_index = np.unique(
-            self._shape_frame_ids, return_inverse=True)
-        self._shape_links = [int(f) for f in self._shape_links]
+        shape_links, self._shape_link_index = np.unique(self._shape_frame_ids,
+                                                        return_inverse=True)
+        self._shape_links = [int(f) for f in shape_links]
         self._shape_offsets = np.stack([s.offset for s in config.contact_shapes]) \
             if config.contact_shapes else np.zeros((0, 4, 4))
         self.shape_bounding_radii = _readonly(

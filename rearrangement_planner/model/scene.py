@@ -29,6 +29,7 @@ the table, obstacles and objects) live with the physics, in `physics.validation`
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import numbers
 from collections.abc import Mapping, Sequence
@@ -264,6 +265,16 @@ class Scene:
     def goal_index(self) -> int:
         """Index of the goal object in `objects` / `State.objects`."""
         return self.object_index(self.goal.object)
+
+    def with_start(self, start_configuration: np.ndarray, object_poses: np.ndarray) -> Scene:
+        """The same scene from another start: arm configuration (nq,) and object poses (M, 3).
+        Not checked: `physics.validation.check_scene` does that."""
+        poses = np.asarray(object_poses, dtype=float).reshape(len(self.objects), 3)
+        objects = tuple(dataclasses.replace(o, pose=p) for o, p in zip(self.objects, poses,
+                                                                         strict=True))
+        return dataclasses.replace(self, start_configuration=np.asarray(start_configuration,
+                                                                        dtype=float),
+                                   objects=objects)
 
     def initial_state(self) -> State:
         """x_0 = (q_start, o^1 ... o^M) of King et al. §II-A."""

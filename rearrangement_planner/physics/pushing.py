@@ -431,51 +431,58 @@ def lemke(M: np.ndarray, q: np.ndarray, *, max_iterations: int | None = None,
     if n == 0 or q.min() >= 0.0:                         # z = 0 is a solution
         return LCPSolution(np.zeros(n), q.copy(), "solved", 0)
     cap = max(100, 20 * n) if max_iterations is None else int(max_iterations)
+    tableau = _LemkeTableau(M, q)
+    # First pivot: z0 enters at max(-q_i); among ties the largest row index leaves (the
+    # lexicographic rule for the perturbation q + (eps, eps^2, ...)).
+    rhs = tableau.T[:, -1]
+    ties = np.flatnonzero(rhs <= rhs.min() + 1e-14)
+    leaving = tableau.pivot(int(ties[-1]), tableau.z0)
+    entering = leaving + n                               # complement of the w that left
+    for it in range(1, cap + 1):
+        r = tableau.leaving_row(entering, pivot_tol)
+        if r is None:
+            return tableau.no_solution("ray_termination", it)
+        leaving = tableau.pivot(r, entering)
+        if leaving == tableau.z0:
+            return tableau.solution(it)
+        entering = leaving + n if leaving < n else leaving - n
+    return tableau.no_solution("iteration_limit", cap)
 
-    q_scale = float(np.abs(q).max())
-    m_scale = float(np.abs(M).max()) or 1.0
-    # Tableau [I | -M | -d | q] over the variables (w_1..w_n, z_1..z_n, z0); row r holds the
-    # basic variable basis[r]. Columns 0..n-1 hold B^-1 (the initial basis is I).
-    z0 = 2 * n
-    T = np.zeros((n, 2 * n + 2))
-    T[:, :n] = np.eye(n)
-    T[:, n:z0] = M * (-1.0 / m_scale)
-    T[:, z0] = -1.0
-    T[:, -1] = q * (1.0 / q_scale)
-    basis = list(range(n))
 
-    def pivot(r: int, e: int) -> int:
+class _LemkeTableau:
+    """The tableau [I | -M | -d | q] of `lemke` over the variables (w_1..w_n, z_1..z_n, z0),
+    scaled to unit max-norm; row r holds the basic variable basis[r], and columns 0..n-1 hold
+    the basis inverse B^-1 (the initial basis is I)."""
+
+    def __init__(self, M: np.ndarray, q: np.ndarray):
+        n = q.shape[0]
+        self.n, self.M, self.q = n, M, q
+        self.q_scale = float(np.abs(q).max())
+        self.m_scale = float(np.abs(M).max()) or 1.0
+        self.z0 = 2 * n
+        T = np.zeros((n, 2 * n + 2))
+        T[:, :n] = np.eye(n)
+        T[:, n:self.z0] = M * (-1.0 / self.m_scale)
+        T[:, self.z0] = -1.0
+        T[:, -1] = q * (1.0 / self.q_scale)
+        self.T = T
+        self.basis = list(range(n))
+
+    def pivot(self, r: int, e: int) -> int:
+        """Variable e enters the basis in row r; returns the variable that leaves."""
+        T = self.T
         row = T[r] / T[r, e]
         T[:] -= T[:, e, None] * row
         T[r] = row
-        leaving, basis[r] = basis[r], e
+        leaving, self.basis[r] = self.basis[r], e
         return leaving
 
-    def solution(it: int) -> LCPSolution:
-        x = np.zeros(2 * n + 1)
-        x[basis] = T[:, -1]
-        z = np.maximum(x[n:z0], 0.0) * (q_scale / m_scale)
-        return LCPSolution(z, M @ z + q, "solved", it)
-
-    def no_solution(status: LCPStatus, it: int) -> LCPSolution:
-        # Degenerate end: z0 is still basic but already ~0 (rounding kept it from leaving on a
-        # tie), so the current almost-complementary point is complementary.
-        if z0 in basis and T[basis.index(z0), -1] <= 1e-12:
-            candidate = solution(it)
-            if candidate.w.min() >= -1e-9 * q_scale:     # verified: w = M z + q >= 0
-                return candidate
-        nan = np.full(n, np.nan)
-        return LCPSolution(nan, nan.copy(), status, it)
-
-    # First pivot: z0 enters at max(-q_i); among ties the largest row index leaves (the
-    # lexicographic rule for the perturbation q + (eps, eps^2, ...)).
-    rhs = T[:, -1]
-    ties = np.flatnonzero(rhs <= rhs.min() + 1e-14)
-    leaving = pivot(int(ties[-1]), z0)
-    entering = leaving + n                               # complement of the w that left
-    for it in range(1, cap + 1):
-        # Minimum-ratio test over the rows with a positive entry in the entering column (plain
-        # floats: n is small and this beats a dozen tiny numpy calls).
+    def leaving_row(self, entering: int, pivot_tol: float) -> int | None:
+        """The minimum-ratio test over the rows with a positive entry in the entering column
+        (plain floats: n is small and this beats a dozen tiny numpy calls); ties go to z0's
+        row (z0 leaves: solved), else to the lexicographic rule on the rows of B^-1. None: no
+        positive entry (ray termination)."""
+        T, n = self.T, self.n
         col = T[:, entering].tolist()
         rhs_list = T[:, -1].tolist()
         # Entries below pivot_tol relative to the column are rounding noise of exact zeros.
@@ -489,19 +496,30 @@ def lemke(M: np.ndarray, q: np.ndarray, *, max_iterations: int | None = None,
                 elif ratio <= best * (1.0 + 1e-10) + 1e-12:
                     cand.append(i)
         if not cand:
-            return no_solution("ray_termination", it)
-        r = cand[0]
-        if len(cand) > 1:
-            z0_rows = [k for k in cand if basis[k] == z0]
-            if z0_rows:                                  # let z0 leave: solution found
-                r = z0_rows[0]
-            else:                                        # lexicographic rule on B^-1 rows
-                r = cand[_lexmin_row([[v / col[k] for v in T[k, :n].tolist()] for k in cand])]
-        leaving = pivot(r, entering)
-        if leaving == z0:
-            return solution(it)
-        entering = leaving + n if leaving < n else leaving - n
-    return no_solution("iteration_limit", cap)
+            return None
+        if len(cand) == 1:
+            return cand[0]
+        z0_rows = [k for k in cand if self.basis[k] == self.z0]
+        if z0_rows:
+            return z0_rows[0]
+        return cand[_lexmin_row([[v / col[k] for v in T[k, :n].tolist()] for k in cand])]
+
+    def solution(self, it: int) -> LCPSolution:
+        n = self.n
+        x = np.zeros(2 * n + 1)
+        x[self.basis] = self.T[:, -1]
+        z = np.maximum(x[n:self.z0], 0.0) * (self.q_scale / self.m_scale)
+        return LCPSolution(z, self.M @ z + self.q, "solved", it)
+
+    def no_solution(self, status: LCPStatus, it: int) -> LCPSolution:
+        # Degenerate end: z0 is still basic but already ~0 (rounding kept it from leaving on a
+        # tie), so the current almost-complementary point is complementary.
+        if self.z0 in self.basis and self.T[self.basis.index(self.z0), -1] <= 1e-12:
+            candidate = self.solution(it)
+            if candidate.w.min() >= -1e-9 * self.q_scale:    # verified: w = M z + q >= 0
+                return candidate
+        nan = np.full(self.n, np.nan)
+        return LCPSolution(nan, nan.copy(), status, it)
 
 
 def multi_contact_twist(c: float, points: np.ndarray | Sequence[Sequence[float]],

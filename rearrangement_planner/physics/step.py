@@ -92,7 +92,9 @@ def object_limit_surface_c(obj: MovableObject) -> float:
     """c = m_max / f_max (m) of a scene object's footprint: 2R/3 for a cylinder of radius R,
     the integrated mean distance for a box (DESIGN §5; `pushing.limit_surface_c`)."""
     if obj.shape == "cylinder":
-        return pushing.limit_surface_c("cylinder", obj.radius)
+        radius = obj.radius
+        assert radius is not None  # MovableObject.radius is a float for every cylinder
+        return pushing.limit_surface_c("cylinder", radius)
     return pushing.limit_surface_c("box", obj.size)
 
 

@@ -23,7 +23,6 @@ are checked by the rules above.
 from __future__ import annotations
 
 import math
-import threading
 import time
 from dataclasses import dataclass
 
@@ -34,6 +33,7 @@ from rearrangement_planner.model.state import State
 from rearrangement_planner.physics.step import Physics
 from rearrangement_planner.planning.interface import (
     SUPERSEDED,
+    CancelFlag,
     IterationGate,
     Outcome,
     PlannerOptions,
@@ -83,7 +83,7 @@ class DARRT:
     # -- the algorithm -------------------------------------------------------------------------
 
     def plan(self, start: State | None = None, seed: int = 0,
-             cancel: threading.Event | None = None,
+             cancel: CancelFlag | None = None,
              progress: ProgressCallback | None = None,
              iteration_gate: IterationGate | None = None) -> PlanResult:
         """As `PCRRT.plan`."""

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import threading
 from collections.abc import Callable
 from dataclasses import dataclass
 from enum import Enum
@@ -57,7 +56,7 @@ _O = TypeVar("_O", bound="PlannerOptions")
 class PlannerOptions(Settings):
     """The settings every planner has; each planner's own options extend these."""
 
-    time_limit: float = setting(30.0, low=0.01, high=86400.0)
+    time_limit: float = setting(30.0, low=0.001, high=86400.0)
     """Planning budget, s; running out is a TIMEOUT failure, never an approximate plan."""
     max_iterations: int = setting(1_000_000, low=1, high=2**31 - 1)
     """Iteration budget (a TIMEOUT when exhausted)."""
@@ -115,6 +114,12 @@ class PlanResult:
         return np.array([s.q for s in self.states])
 
 
+class CancelFlag(Protocol):
+    """What a planner needs of a cancel request: `threading.Event` is one."""
+
+    def is_set(self) -> bool: ...
+
+
 ProgressCallback = Callable[[Progress], None]
 IterationGate = Callable[[int], bool]
 
@@ -128,7 +133,7 @@ class Planner(Protocol):
                  physics: Physics | None = None) -> None: ...
 
     def plan(self, start: State | None = None, seed: int = 0,
-             cancel: threading.Event | None = None,
+             cancel: CancelFlag | None = None,
              progress: ProgressCallback | None = None,
              iteration_gate: IterationGate | None = None) -> PlanResult:
         """Plan from `start` (default the scene's initial state) with all randomness from

@@ -25,7 +25,6 @@ Reproducible: all randomness comes from one numpy Generator seeded by the reques
 from __future__ import annotations
 
 import math
-import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -38,6 +37,7 @@ from rearrangement_planner.physics.step import Physics
 from rearrangement_planner.planning.approach import approach_path
 from rearrangement_planner.planning.interface import (
     SUPERSEDED,
+    CancelFlag,
     IterationGate,
     Outcome,
     PlannerOptions,
@@ -123,7 +123,7 @@ class PCRRT:
     # -- the algorithm -------------------------------------------------------------------------
 
     def plan(self, start: State | None = None, seed: int = 0,
-             cancel: threading.Event | None = None,
+             cancel: CancelFlag | None = None,
              progress: ProgressCallback | None = None,
              iteration_gate: IterationGate | None = None) -> PlanResult:
         """Algorithm 1 (the `Planner` protocol). `cancel` is checked every iteration and every
@@ -275,7 +275,7 @@ class PCRRT:
 class _Run:
     """The state of one `PCRRT.plan` call: generator, tree, budget, counters, best distance."""
 
-    def __init__(self, planner: PCRRT, seed: int, cancel: threading.Event | None,
+    def __init__(self, planner: PCRRT, seed: int, cancel: CancelFlag | None,
                  progress: ProgressCallback | None, iteration_gate: IterationGate | None):
         self.planner, self.seed = planner, seed
         self.progress, self.iteration_gate = progress, iteration_gate

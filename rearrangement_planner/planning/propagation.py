@@ -97,7 +97,8 @@ def replay(physics: Physics, start: State, arm_path: np.ndarray) -> tuple[list[S
     for q in np.asarray(arm_path)[1:]:
         result = physics.step(x, q)
         if not result.valid:
-            return states, f"{result.reason.value}: {result.detail}"
+            reason = result.reason.value if result.reason is not None else "invalid"
+            return states, f"{reason}: {result.detail}"
         x = result.state
         states.append(x)
     return states, ""

@@ -93,8 +93,10 @@ def all_settings() -> tuple[SettingSpec, ...]:
     """Every planner setting once (a name shared by several planners has one meaning and one
     default), the shared ones first, with the product defaults applied."""
     seen: dict[str, SettingSpec] = {}
-    for spec in (PlannerOptions, *(p.options_type for p in PLANNERS.values())):
-        for setting in spec.describe():
+    types: list[type[PlannerOptions]] = [PlannerOptions]
+    types += [p.options_type for p in PLANNERS.values()]
+    for options_type in types:
+        for setting in options_type.describe():
             if setting.name not in seen:
                 default = PRODUCT_DEFAULTS.get(setting.name, setting.default)
                 seen[setting.name] = dataclasses.replace(setting, default=default)

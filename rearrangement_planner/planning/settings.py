@@ -23,7 +23,7 @@ import math
 import textwrap
 from dataclasses import dataclass
 from functools import cache
-from typing import Any
+from typing import Any, cast
 
 Value = bool | int | float | str
 
@@ -74,10 +74,14 @@ class Settings:
     def describe(cls) -> tuple[SettingSpec, ...]:
         """Every field as a `SettingSpec`, in declaration order."""
         docs = _attribute_docs(cls)
-        return tuple(SettingSpec(f.name, f.default, docs.get(f.name, ""),
-                                 f.metadata.get("low"), f.metadata.get("high"),
-                                 tuple(f.metadata.get("choices", ())))
-                     for f in dataclasses.fields(cls))
+        specs = []
+        for f in dataclasses.fields(cls):
+            if not isinstance(f.default, bool | int | float | str):
+                raise TypeError(f"{cls.__name__}.{f.name} needs a default made by setting()")
+            specs.append(SettingSpec(f.name, f.default, docs.get(f.name, ""),
+                                     f.metadata.get("low"), f.metadata.get("high"),
+                                     tuple(f.metadata.get("choices", ()))))
+        return tuple(specs)
 
 
 def check_value(spec: SettingSpec, value: Any) -> None:
@@ -90,7 +94,7 @@ def check_value(spec: SettingSpec, value: Any) -> None:
         raise ValueError(f"{spec.name} must be a {kind.__name__}, got {value!r}")
     if spec.choices and value not in spec.choices:
         raise ValueError(f"{spec.name} must be one of {', '.join(spec.choices)}, not {value!r}")
-    if spec.low is None and spec.high is None:
+    if spec.low is None and spec.high is None or isinstance(value, str):
         return
     low = -math.inf if spec.low is None else spec.low
     high = math.inf if spec.high is None else spec.high
@@ -98,14 +102,18 @@ def check_value(spec: SettingSpec, value: Any) -> None:
         raise ValueError(f"{spec.name} must be in [{low:g}, {high:g}], got {value}")
 
 
-@cache
 def _attribute_docs(cls: type) -> dict[str, str]:
+    return _docs_of(cls)
+
+
+@cache
+def _docs_of(cls: Any) -> dict[str, str]:
     """The docstring under each annotated field of `cls` and its bases, folded to one line."""
     docs: dict[str, str] = {}
     for klass in reversed(cls.__mro__):
         if klass is object or not dataclasses.is_dataclass(klass):
             continue
-        body = ast.parse(textwrap.dedent(inspect.getsource(klass))).body[0]
+        body = ast.parse(textwrap.dedent(inspect.getsource(cast(type, klass)))).body[0]
         assert isinstance(body, ast.ClassDef)
         for node, after in zip(body.body, body.body[1:], strict=False):
             if (isinstance(node, ast.AnnAssign) and isinstance(node.target, ast.Name)

@@ -105,7 +105,7 @@ def connect(physics: Physics, q_a: np.ndarray, q_b: np.ndarray, dt: float = 0.1,
     does not get within LANDING_STEP of q_b."""
     robot, table_height = physics.robot, physics.scene.table.height
     pose_a, pose_b = tool_planar_pose(robot, q_a), tool_planar_pose(robot, q_b)
-    dyaw = wrap_angle(pose_b[2] - pose_a[2])
+    dyaw = float(wrap_angle(pose_b[2] - pose_a[2]))
     steps = max(1, math.ceil(max(float(np.hypot(*(pose_b[:2] - pose_a[:2]))) / STEP_LENGTH,
                                  abs(dyaw) / YAW_STEP,
                                  float(np.abs(q_b - q_a).max()) / JOINT_STEP)))

@@ -50,10 +50,10 @@ class PlannerStatus:
                 raise ValueError(f"{name} must be >= 0, got {value}")
             object.__setattr__(self, name, int(value))
         for name in ("best_goal_distance", "elapsed"):
-            value = float(getattr(self, name))
-            if not value >= 0.0:  # also rejects NaN
-                raise ValueError(f"{name} must be >= 0, got {value}")
-            object.__setattr__(self, name, value)
+            number = float(getattr(self, name))
+            if not number >= 0.0:  # also rejects NaN
+                raise ValueError(f"{name} must be >= 0, got {number}")
+            object.__setattr__(self, name, number)
 
     @property
     def finished(self) -> bool:

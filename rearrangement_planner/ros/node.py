@@ -7,7 +7,7 @@ Data flow:
 - A plan request (`~/plan`, or `~/goal` with `plan_on_goal`) becomes a `_Job` for the ONE worker
   thread; a request while a job exists is refused at once. The worker reads the parameters,
   snapshots the inputs, builds the planning scene (the configured scene with the received start
-  state and goal, validated by `parse_scene`), runs `plan_scene`, then publishes the trajectory,
+  state and goal, checked by `check_scene`), runs `plan_scene`, then publishes the trajectory,
   records the plan to MCAP, publishes markers and the final status, and answers the request.
 - A MultiThreadedExecutor with three callback groups keeps the inputs, `~/cancel`, `~/execute`
   and the 4 Hz status timer live while the worker plans: `inputs` (subscriptions), `plan`
@@ -62,8 +62,9 @@ from msg_adapters.plan_record import record_plan
 from rearrangement_planner.io.recording import RecordingError
 from rearrangement_planner.model.errors import InputError, RearrangementError, SceneError
 from rearrangement_planner.model.robot import RobotModel
-from rearrangement_planner.model.scene import Scene
-from rearrangement_planner.physics.validation import load_scene, parse_scene
+from rearrangement_planner.model.scene import Goal, Scene
+from rearrangement_planner.physics.step import Physics
+from rearrangement_planner.physics.validation import check_scene, load_scene
 from rearrangement_planner.planning.interface import Outcome, PlannerOptions, PlanResult, Progress
 from rearrangement_planner.planning.pipeline import PipelineOptions, PlanOutput, plan_scene
 from rearrangement_planner.planning.registry import options_from, planner_spec
@@ -451,7 +452,7 @@ class PlannerNode(Node):
         outcome, message, scene, output, inputs = self._plan(job, params)
         job.planned.set()
 
-        if output is not None and output.solved:
+        if output is not None and output.trajectory is not None:
             msg = trajectory_to_msg(output.trajectory)
             self._trajectory_pub.publish(msg)
             with self._lock:
@@ -491,8 +492,9 @@ class PlannerNode(Node):
         try:
             settings = plan_settings(params)
             inputs = self._snapshot(params["state_timeout"])
-            scene = self._planning_scene(inputs, params)
+            scene, physics = self._planning_scene(inputs, params)
             output = plan_scene(scene, settings.planner, settings.options, seed=settings.seed,
+                                physics=physics,
                                 cancel=job.cancel, progress=self._on_progress,
                                 shortcut_time=settings.shortcut_time, timing=settings.timing,
                                 shortcut_attempts=settings.shortcut_attempts)
@@ -532,25 +534,25 @@ class PlannerNode(Node):
                                           f"(state_timeout {state_timeout:g} s)")
         return inputs
 
-    def _planning_scene(self, inputs: dict[str, _Input | None], params: dict[str, Any]) -> Scene:
-        """The configured scene with the received start state and goal, validated."""
-        data = self._scene.to_dict()
-        del data["robot"]
-        data["start_configuration"] = inputs["joint_states"].value.tolist()
-        for entry, pose in zip(data["objects"], inputs["object_poses"].value, strict=True):
-            entry["pose"] = pose.tolist()
-        goal = data["goal"]
-        if params["goal_object"]:
-            goal["object"] = params["goal_object"]
-        if params["goal_radius"] > 0:
-            goal["radius"] = params["goal_radius"]
-        if inputs["goal"] is not None:
-            goal["position"] = inputs["goal"].value.tolist()
+    def _planning_scene(self, inputs: dict[str, _Input | None],
+                        params: dict[str, Any]) -> tuple[Scene, Physics]:
+        """The configured scene with the received start state and goal, checked, and the one
+        physics the plan runs in (the scene is not re-parsed: only the state and goal change)."""
+        joints, objects, received = (inputs["joint_states"], inputs["object_poses"],
+                                     inputs["goal"])
+        assert joints is not None and objects is not None    # `_snapshot` raised otherwise
+        configured = self._scene.goal
+        goal = Goal(params["goal_object"] or configured.object,
+                    received.value if received is not None else configured.position,
+                    params["goal_radius"] if params["goal_radius"] > 0 else configured.radius)
+        scene = dataclasses.replace(self._scene.with_start(joints.value, objects.value),
+                                    goal=goal)
         try:
-            return parse_scene(data, base_dir=Path(self._scene.source).parent,
-                               name=self._scene.source, robot=self._robot)
+            physics = Physics(scene)
+            check_scene(scene, physics.world)
         except SceneError as exc:
-            raise _Rejected(*_classify(exc, inputs["goal"] is not None)) from None
+            raise _Rejected(*_classify(exc, received is not None)) from None
+        return scene, physics
 
     def _record(self, job: _Job, output: PlanOutput | None, params: dict[str, Any], frame: str,
                 inputs: dict[str, _Input | None]) -> str:
@@ -583,7 +585,7 @@ class PlannerNode(Node):
         return f"not recorded: {reason}"
 
     def _markers(self, scene: Scene, output: PlanOutput | None, frame: str) -> MarkerArray:
-        if output is None or not output.solved:
+        if output is None or output.trajectory is None:
             return plan_markers(scene, None, None, frame, self._stamp())
         robot = scene.robot
         object_paths = np.array([s.objects for s in output.trajectory_states])

@@ -34,10 +34,12 @@ class ParameterSpec:
         descriptor = ParameterDescriptor(description=self.description, read_only=self.read_only)
         if self.low is not None and isinstance(self.default, bool):
             raise TypeError(f"parameter {self.name}: a bool has no range")
-        if self.low is not None and isinstance(self.default, int):
+        if self.low is None or self.high is None:
+            return descriptor
+        if isinstance(self.default, int):
             descriptor.integer_range = [IntegerRange(from_value=int(self.low),
                                                      to_value=int(self.high), step=1)]
-        elif self.low is not None:
+        else:
             descriptor.floating_point_range = [FloatingPointRange(
                 from_value=float(self.low), to_value=float(self.high), step=0.0)]
         return descriptor

@@ -241,7 +241,7 @@ def playback_qos(topic: Topic):
     durabilities = {_DURABILITY.get(p.get("durability")) for p in topic.offered_qos}
     reliability = reliabilities.pop() if len(reliabilities) == 1 else "reliable"
     durability = durabilities.pop() if len(durabilities) == 1 else "volatile"
-    depths = [p.get("depth") for p in topic.offered_qos
+    depths = [p["depth"] for p in topic.offered_qos
               if p.get("history") in ("keep_last", 1) and isinstance(p.get("depth"), int)]
     depth = max(1, max(depths)) if depths else 10
     return QoSProfile(

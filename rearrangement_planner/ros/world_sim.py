@@ -288,6 +288,7 @@ class OpenLoopExecution:
             result = self.physics.step(self.state, q)
             self.steps += 1
             if not result.valid:
+                assert result.reason is not None  # Physics.step gives a reason for every failure
                 self.invalid = InvalidStep(result.reason.value, result.detail, t)
                 return
             self.state = result.state
@@ -330,7 +331,7 @@ def execution_outcome(status: str, execution: OpenLoopExecution, goal: Goal,
     objects = {}
     for i, name in enumerate(names):
         displacement = float(np.hypot(*(final[i, :2] - start[i, :2])))
-        rotation = float(abs(wrap_angle(final[i, 2] - start[i, 2])))
+        rotation = abs(float(wrap_angle(final[i, 2] - start[i, 2])))
         objects[name] = {"start": [float(v) for v in start[i]],
                          "final": [float(v) for v in final[i]],
                          "displacement_m": displacement, "rotation_rad": rotation,
@@ -618,14 +619,15 @@ class WorldSim(Node):
 
     def _on_update(self) -> None:
         """The controller update: run the updates the wall clock asks for, publish the state."""
-        execution = self._execution
+        execution, record = self._execution, self._record
         if execution is not None:
+            assert record is not None  # _on_command sets both together
             due = (time.monotonic() - self._started) * self._time_scale
             budget = time.monotonic() + self._period   # never hold the executor longer
             while not execution.done and execution.t + 1e-12 < min(due, execution.command.duration):
                 execution.update()
-                self._record.objects.append(execution.state.objects)
-                self._record.tool.append(self._world.robot.tool_pose(execution.state.q)[:2, 3])
+                record.objects.append(execution.state.objects)
+                record.tool.append(self._world.robot.tool_pose(execution.state.q)[:2, 3])
                 if time.monotonic() > budget:
                     break
             self._state = execution.state
@@ -689,6 +691,8 @@ class WorldSim(Node):
     def _finish(self, status: str) -> None:
         """End the running execution with `status` ('' = ran to its end: judge the goal)."""
         execution, record = self._execution, self._record
+        # Only called while an execution runs; _on_command sets both together.
+        assert execution is not None and record is not None
         self._execution = None
         self._state = execution.state
         wall = time.monotonic() - self._started

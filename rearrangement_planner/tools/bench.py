@@ -32,6 +32,7 @@ import shlex
 import sys
 import time
 from pathlib import Path
+from typing import Any
 
 from rearrangement_planner.model.errors import RearrangementError
 from rearrangement_planner.model.resources import scenes_dir
@@ -163,10 +164,11 @@ def scene_trial(scene_name: str, planner: str, seed: int, time_limit: float,
             "best_goal_distance_m": round(result.best_goal_distance, 3)}
 
 
-QUICK = {"seeds": [0], "time_limit": 20.0}
+QUICK: dict[str, Any] = {"seeds": [0], "time_limit": 20.0}
 """--quick: 2 scenes per object count (14), seed 0, 20 s budget: 42 trials with the three
 planners, at most 42 x (20 s + 5 s shortcut + ~1 s) / 2 workers = 9.1 min on 2 cores."""
-DEFAULTS = {"seeds": [0, 1, 2], "time_limit": 60.0, "shortcut": 5.0, "shortcut_attempts": 100}
+DEFAULTS: dict[str, Any] = {"seeds": [0, 1, 2], "time_limit": 60.0, "shortcut": 5.0,
+                            "shortcut_attempts": 100}
 """The full protocol: the 35 scenes, the three planners, seeds 0-2, 60 s budget (315 trials;
 at most 315 x 66 s / 2 workers = 2.9 h on 2 cores). Shortcutting: 5 s or 100 attempts,
 whichever ends first (an attempt bound that ends first makes the shortened path

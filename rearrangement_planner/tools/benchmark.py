@@ -172,7 +172,10 @@ def _draw_scene(rng: np.random.Generator, objects: int) -> dict | None:
             xy = _draw_position(rng, radius, lambda x, y: math.hypot(x - goal[0], y - goal[1])
                                 >= MIN_GOAL_OFFSET)
         else:
-            xy = _draw_position(rng, radius, lambda x, y, r=radius: clear(x, y, r))
+            def accept(x: float, y: float, r: float = radius) -> bool:
+                return clear(x, y, r)
+
+            xy = _draw_position(rng, radius, accept)
         if xy is None:
             return None
         yaw = _round(rng.uniform(-math.pi, math.pi))
@@ -675,8 +678,8 @@ TARGETS = {"solved_share_at_60s": 0.95, "median_plan_time_s": 5.0,
            "shortcut_arm_path_reduction": 0.25, "shortcut_time_s": 5.0}
 """Issue #7's targets for PC-RRT."""
 
-PAPER = {"solved_share_at_300s": {"pc-rrt": 0.75, "darrt": 0.39},
-         "shortcut_arm_path_reduction": 0.14}
+PAPER: dict[str, Any] = {"solved_share_at_300s": {"pc-rrt": 0.75, "darrt": 0.39},
+                         "shortcut_arm_path_reduction": 0.14}
 """King et al. §V: PC-RRT 75 % and DARRT 39 % solved at 300 s (Fig. 7), Static RRT below
 PC-RRT (Fig. 4), shortcutting -14 % manipulator path length (Fig. 8a)."""
 
@@ -719,7 +722,7 @@ def _shortcut_summary(solved: Sequence[dict], budget: float) -> dict:
         out[field] = {
             "mean_before": _rounded(mean_before), "mean_after": _rounded(mean_after),
             "reduction": _rounded(1.0 - mean_after / mean_before)
-            if mean_before else None,
+            if mean_before and mean_after is not None else None,
             "median_trial_reduction": _rounded(_median(
                 [1.0 - a / b for a, b in zip(after, before, strict=True) if b > 0])),
         }

@@ -12,6 +12,7 @@ import logging
 import sys
 import time
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -89,7 +90,7 @@ def _options(args: argparse.Namespace) -> PlannerOptions:
     """The planner's options from --time-limit, --trees and every --set NAME=VALUE."""
     spec = planner_spec(args.planner)
     settings = {s.name: s for s in spec.options_type.describe()}
-    values: dict[str, object] = {"time_limit": args.time_limit, "trees": args.trees}
+    values: dict[str, Any] = {"time_limit": args.time_limit, "trees": args.trees}
     for item in args.set:
         name, sep, text = item.partition("=")
         if not sep or name.strip() not in settings:
@@ -125,7 +126,6 @@ def main(argv: list[str] | None = None) -> int:
     try:
         if args.scene is None:
             raise RearrangementError("give a scene: a scene .yaml file or a shipped scene name")
-        options = _options(args)
         if not args.time_limit > 0:
             raise RearrangementError(f"--time-limit must be positive, got {args.time_limit}")
         if not 1 <= args.trees <= 64:
@@ -135,6 +135,7 @@ def main(argv: list[str] | None = None) -> int:
         if args.shortcut_attempts is not None and args.shortcut_attempts < 1:
             raise RearrangementError(f"--shortcut-attempts must be >= 1, got "
                                      f"{args.shortcut_attempts}")
+        options = _options(args)
         scene = load_scene(args.scene)
     except RearrangementError as exc:
         print(f"rearrangement-plan: {exc}", file=sys.stderr)
