@@ -20,13 +20,16 @@ from fractions import Fraction
 
 import numpy as np
 from builtin_interfaces.msg import Duration, Time
-from geometry_msgs.msg import Point, Pose, PoseArray, PoseStamped, Quaternion
+from geometry_msgs.msg import PoseArray, PoseStamped, Quaternion
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Header
-from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
+from trajectory_msgs.msg import JointTrajectory
 
+from rearrangement_planner.io import messages
 from rearrangement_planner.model.errors import InputError
 from rearrangement_planner.planning.trajectory import Trajectory
+
+from .plain import from_plain, time_to_plain
 
 _NANOSECONDS = 1_000_000_000
 _MIN_QUATERNION_NORM = 1e-6
@@ -53,7 +56,7 @@ def _wrap(angle: float) -> float:
 
 def yaw_to_quaternion(yaw: float) -> Quaternion:
     """The unit quaternion of a rotation by `yaw` (rad) about z: (0, 0, sin(yaw/2), cos(yaw/2))."""
-    return Quaternion(x=0.0, y=0.0, z=math.sin(0.5 * yaw), w=math.cos(0.5 * yaw))
+    return from_plain(messages.yaw_to_quaternion(yaw), Quaternion)
 
 
 def _check_frame(frame_id: str, planning_frame: str, field: str, what: str) -> None:
@@ -117,12 +120,7 @@ def configuration_to_joint_state(q: Sequence[float] | np.ndarray, joint_names: S
                                  stamp: Time | None = None) -> JointState:
     """A JointState with the positions `q` (rad) of `joint_names` (no velocities or efforts);
     stamp zero unless given."""
-    q = np.asarray(q, dtype=float)
-    if q.shape != (len(joint_names),):
-        raise ValueError(f"q has shape {q.shape}, expected ({len(joint_names)},): one position "
-                         f"per joint name")
-    return JointState(header=_header("", stamp), name=list(joint_names),
-                      position=[float(v) for v in q])
+    return from_plain(messages.joint_state(q, joint_names, time_to_plain(stamp)), JointState)
 
 
 # --------------------------------------------------------------------------------------------
@@ -182,19 +180,8 @@ def objects_to_pose_array(objects: np.ndarray, planning_frame: str,
                           stamp: Time | None = None) -> PoseArray:
     """A PoseArray of the planar poses `objects` (M, 3) (x, y, yaw) in `planning_frame`; `z`
     gives each pose's height (m), default 0."""
-    objects = np.asarray(objects, dtype=float)
-    if objects.size == 0:
-        objects = objects.reshape(0, 3)
-    if objects.ndim != 2 or objects.shape[1] != 3:
-        raise ValueError(f"objects has shape {objects.shape}, expected (M, 3): x, y, yaw")
-    heights = np.zeros(len(objects)) if z is None else np.asarray(z, dtype=float)
-    if heights.shape != (len(objects),):
-        raise ValueError(f"z has shape {heights.shape}, expected ({len(objects)},): one height "
-                         f"per object")
-    poses = [Pose(position=Point(x=float(x), y=float(y), z=float(h)),
-                  orientation=yaw_to_quaternion(float(yaw)))
-             for (x, y, yaw), h in zip(objects, heights, strict=True)]
-    return PoseArray(header=_header(planning_frame, stamp), poses=poses)
+    return from_plain(messages.pose_array(objects, planning_frame, z, time_to_plain(stamp)),
+                      PoseArray)
 
 
 # --------------------------------------------------------------------------------------------
@@ -216,12 +203,8 @@ def pose_stamped_to_goal(msg: PoseStamped, planning_frame: str) -> np.ndarray:
 def goal_to_pose_stamped(xy: Sequence[float] | np.ndarray, planning_frame: str, z: float = 0.0,
                          stamp: Time | None = None) -> PoseStamped:
     """A PoseStamped at the goal point `xy` (m) and height `z` (m), identity orientation."""
-    xy = np.asarray(xy, dtype=float)
-    if xy.shape != (2,):
-        raise ValueError(f"xy has shape {xy.shape}, expected (2,): x, y")
-    return PoseStamped(header=_header(planning_frame, stamp),
-                       pose=Pose(position=Point(x=float(xy[0]), y=float(xy[1]), z=float(z)),
-                                 orientation=Quaternion(w=1.0)))
+    return from_plain(messages.goal_pose(xy, planning_frame, z, time_to_plain(stamp)),
+                      PoseStamped)
 
 
 # --------------------------------------------------------------------------------------------
@@ -232,19 +215,7 @@ def goal_to_pose_stamped(xy: Sequence[float] | np.ndarray, planning_frame: str, 
 def trajectory_to_msg(trajectory: Trajectory) -> JointTrajectory:
     """The controller command of DESIGN §4: header.stamp zero ("start now"), empty frame_id,
     positions and velocities on every point, time_from_start rounded to the nanosecond."""
-    points = []
-    for t, q, v in zip(trajectory.times, trajectory.positions, trajectory.velocities,
-                       strict=True):
-        points.append(JointTrajectoryPoint(positions=[float(a) for a in q],
-                                           velocities=[float(a) for a in v],
-                                           time_from_start=_duration(float(t))))
-    for i in range(1, len(points)):
-        if _seconds(points[i].time_from_start) <= _seconds(points[i - 1].time_from_start):
-            raise ValueError(f"points {i - 1} and {i} are less than 1 ns apart "
-                             f"({trajectory.times[i - 1]!r} s, {trajectory.times[i]!r} s); "
-                             f"time_from_start could not strictly increase")
-    return JointTrajectory(header=_header("", None), joint_names=list(trajectory.joint_names),
-                           points=points)
+    return from_plain(messages.joint_trajectory(trajectory), JointTrajectory)
 
 
 def msg_to_trajectory(msg: JointTrajectory) -> Trajectory:

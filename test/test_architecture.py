@@ -15,12 +15,6 @@ ROOT = Path(__file__).resolve().parents[1]
 PACKAGE = "rearrangement_planner"
 LAYERS = ["model", "physics", "planning", "io", "tools", "ros"]
 """A module may import from its own layer and the layers before it."""
-KNOWN_EXCEPTIONS = {
-    ("rearrangement_planner.tools.cli", "msg_adapters.plan_record"):
-        "`rearrangement-plan --record` still builds the ROS messages through msg_adapters "
-        "(lazily, only when asked); moving the message building into io/ is left (issue 17)",
-}
-"""Imports that break the rule today, each with why; a new one fails the test."""
 ROS_MODULES = ("rclpy", "builtin_interfaces", "geometry_msgs", "sensor_msgs", "std_msgs",
                "std_srvs", "trajectory_msgs", "visualization_msgs", "diagnostic_msgs",
                "rcl_interfaces", "msg_adapters")
@@ -78,8 +72,6 @@ def test_imports_point_down_the_layers(path: Path):
     mine = LAYERS.index(_layer(me)) if _layer(me) else len(LAYERS)
     for module, names, line in _imports(path):
         root = module.split(".")[0]
-        if (me, module) in KNOWN_EXCEPTIONS:
-            continue
         if _layer(me) != "ros":
             assert root not in ROS_MODULES, f"{me}:{line} imports {module}: only ros/ and " \
                                             f"msg_adapters/ may know ROS"

@@ -134,3 +134,23 @@ def test_bad_planner_options_exit_2(option, value, capsys):
         raise SystemExit(code)
     assert exc.value.code == 2
     assert option.lstrip("-") in capsys.readouterr().err
+
+
+def test_record_needs_no_ros(tmp_path):
+    """`--record` builds its messages as plain data (io/): it works with rclpy, the ROS
+    message packages and msg_adapters all unimportable, and the file decodes as ROS 2 CDR."""
+    import subprocess
+    import sys
+
+    mcap = tmp_path / "plan.mcap"
+    blocked = ["rclpy", "builtin_interfaces", "geometry_msgs", "sensor_msgs", "std_msgs",
+               "trajectory_msgs", "visualization_msgs", "diagnostic_msgs", "msg_adapters"]
+    code = (f"import sys\nfor m in {blocked!r}:\n    sys.modules[m] = None\n"
+            "from rearrangement_planner.tools.cli import main\n"
+            f"sys.exit(main(['easy_push', '--seed', '1', '--trees', '1', '--quiet', "
+            f"'--record', {str(mcap)!r}]))")
+    subprocess.run([sys.executable, "-c", code], check=True, timeout=120)
+    from mcap_ros2.reader import read_ros2_messages
+
+    topics = {m.channel.topic for m in read_ros2_messages(str(mcap))}
+    assert "/planner_node/trajectory" in topics and "/planner_node/markers" in topics

@@ -30,7 +30,7 @@ from msg_adapters.conversions import (
     trajectory_to_msg,
 )
 from msg_adapters.markers import plan_markers
-from msg_adapters.plan_record import METADATA_NAME, TOPICS, record_plan
+from rearrangement_planner.io.plan_record import METADATA_NAME, TOPICS, record_plan
 from rearrangement_planner.io.recording import (
     McapRecorder,
     RecordingError,

@@ -58,7 +58,7 @@ from msg_adapters import (
     status_to_diagnostics,
     trajectory_to_msg,
 )
-from msg_adapters.plan_record import record_plan
+from rearrangement_planner.io.plan_record import record_plan
 from rearrangement_planner.io.recording import RecordingError
 from rearrangement_planner.model.errors import InputError, RearrangementError, SceneError
 from rearrangement_planner.model.robot import RobotModel

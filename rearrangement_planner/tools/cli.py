@@ -184,7 +184,7 @@ def _record(output: PlanOutput, args: argparse.Namespace) -> None:
     """Write the MCAP (the same recorder as the ROS node). A recording failure is reported on
     stderr and changes nothing else: the exit code still says whether the scene was solved, and
     the JSON and plot are already written."""
-    from msg_adapters.plan_record import record_plan  # ROS message types only when asked for
+    from rearrangement_planner.io.plan_record import record_plan
     from rearrangement_planner.io.recording import RecordingError
 
     parameters = {"planner": output.planner, "time_limit": args.time_limit, "seed": args.seed,

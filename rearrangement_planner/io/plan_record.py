@@ -3,6 +3,10 @@ and markers as the ROS messages the node exchanges, plus a metadata record.
 
     record_plan("plans/p1.mcap", output, plan_id="p1", parameters={...}, planning_frame="world")
 
+The messages are built as plain data (`io.messages`), so recording needs no ROS install (the
+CLI's `--record`); the node passes the messages it received as inputs (rclpy objects or plain
+dicts are both encoded).
+
 Topics (log time = `start_time_ns`, default now, unless stated):
   /joint_states                          sensor_msgs/msg/JointState        the start arm state
   /planner_node/object_poses             geometry_msgs/msg/PoseArray       the start object poses
@@ -29,22 +33,12 @@ from typing import Any
 
 import numpy as np
 import yaml
-from builtin_interfaces.msg import Duration, Time
-from geometry_msgs.msg import PoseArray, PoseStamped
-from sensor_msgs.msg import JointState
 
+from rearrangement_planner.io import messages
 from rearrangement_planner.io.recording import McapRecorder, RecordingError
 from rearrangement_planner.model.errors import RearrangementError
 from rearrangement_planner.model.scene import Scene
 from rearrangement_planner.planning.pipeline import PlanOutput
-
-from .conversions import (
-    configuration_to_joint_state,
-    goal_to_pose_stamped,
-    objects_to_pose_array,
-    trajectory_to_msg,
-)
-from .markers import plan_markers
 
 NODE_NAMESPACE = "/planner_node"
 METADATA_NAME = "rearrangement_plan"
@@ -60,8 +54,8 @@ TOPICS = {
 
 def record_plan(path: str | os.PathLike[str], output: PlanOutput, *, plan_id: str,
                 parameters: Mapping[str, Any], planning_frame: str,
-                joint_state: JointState | None = None, object_poses: PoseArray | None = None,
-                goal: PoseStamped | None = None, start_time_ns: int | None = None) -> Path:
+                joint_state: Any = None, object_poses: Any = None, goal: Any = None,
+                start_time_ns: int | None = None) -> Path:
     """Record `output` to the MCAP file `path` and return its path.
 
     The inputs default to the plan's start state (its first state, or the scene's initial
@@ -70,7 +64,8 @@ def record_plan(path: str | os.PathLike[str], output: PlanOutput, *, plan_id: st
     """
     start = time.time_ns() if start_time_ns is None else int(start_time_ns)
     try:
-        messages = _messages(output, planning_frame, start, joint_state, object_poses, goal)
+        recorded = _messages(output, planning_frame, start, joint_state, object_poses,
+                             goal)
         metadata = plan_metadata(output, plan_id, parameters)
     except RecordingError:
         raise
@@ -78,27 +73,26 @@ def record_plan(path: str | os.PathLike[str], output: PlanOutput, *, plan_id: st
         raise RecordingError(f"cannot record to {path}: building the messages failed: "
                              f"{exc}") from exc
     with McapRecorder(path) as recorder:
-        for topic, type_name, message, log_time, qos in messages:
+        for topic, type_name, message, log_time, qos in recorded:
             recorder.write(topic, type_name, message, log_time, qos)
         recorder.metadata(METADATA_NAME, metadata)
     return recorder.path
 
 
-def _messages(output: PlanOutput, frame: str, start: int, joint_state: JointState | None,
-              object_poses: PoseArray | None, goal: PoseStamped | None) -> list[tuple]:
+def _messages(output: PlanOutput, frame: str, start: int, joint_state: Any,
+              object_poses: Any, goal: Any) -> list[tuple]:
     """(topic, type, message, log time (ns), qos) of every message to record."""
     scene = output.scene
-    stamp = _time(start)
+    stamp = messages.time(start)
     start_state = output.result.states[0] if output.result.states else scene.initial_state()
     if joint_state is None:
-        joint_state = configuration_to_joint_state(start_state.q, scene.robot.joint_names,
-                                                   stamp)
+        joint_state = messages.joint_state(start_state.q, scene.robot.joint_names, stamp)
     if object_poses is None:
-        object_poses = objects_to_pose_array(start_state.objects, frame, _centre_heights(scene),
-                                             stamp)
+        object_poses = messages.pose_array(start_state.objects, frame, _centre_heights(scene),
+                                           stamp)
     if goal is None:
-        goal = goal_to_pose_stamped(scene.goal.position, frame, scene.table.height, stamp)
-    messages: list[tuple] = [
+        goal = messages.goal_pose(scene.goal.position, frame, scene.table.height, stamp)
+    recorded: list[tuple] = [
         (TOPICS["joint_state"], "sensor_msgs/msg/JointState", joint_state, start, "sensor"),
         (TOPICS["object_poses"], "geometry_msgs/msg/PoseArray", object_poses, start,
          "reliable"),
@@ -107,21 +101,22 @@ def _messages(output: PlanOutput, frame: str, start: int, joint_state: JointStat
     object_paths = ee_path = None
     trajectory = output.trajectory
     if trajectory is not None:
-        trajectory_msg = trajectory_to_msg(trajectory)
-        messages.append((TOPICS["trajectory"], "trajectory_msgs/msg/JointTrajectory",
+        trajectory_msg = messages.joint_trajectory(trajectory)
+        recorded.append((TOPICS["trajectory"], "trajectory_msgs/msg/JointTrajectory",
                          trajectory_msg, start, "transient_local"))
         heights = _centre_heights(scene)
-        for point, state in zip(trajectory_msg.points, output.trajectory_states, strict=True):
-            t = start + _nanoseconds(point.time_from_start)
-            messages.append((TOPICS["predicted_object_poses"], "geometry_msgs/msg/PoseArray",
-                             objects_to_pose_array(state.objects, frame, heights, _time(t)),
+        for point, state in zip(trajectory_msg["points"], output.trajectory_states,
+                                strict=True):
+            t = start + messages.nanoseconds(point["time_from_start"])
+            recorded.append((TOPICS["predicted_object_poses"], "geometry_msgs/msg/PoseArray",
+                             messages.pose_array(state.objects, frame, heights, messages.time(t)),
                              t, "reliable"))
         object_paths = np.array([state.objects for state in output.trajectory_states])
         ee_path = np.array([scene.robot.tool_pose(q)[:3, 3] for q in trajectory.positions])
-    messages.append((TOPICS["markers"], "visualization_msgs/msg/MarkerArray",
-                     plan_markers(scene, object_paths, ee_path, frame, stamp), start,
+    recorded.append((TOPICS["markers"], "visualization_msgs/msg/MarkerArray",
+                     messages.plan_markers(scene, object_paths, ee_path, frame, stamp), start,
                      "reliable"))
-    return messages
+    return recorded
 
 
 def plan_metadata(output: PlanOutput, plan_id: str, parameters: Mapping[str, Any]
@@ -166,11 +161,3 @@ def _jsonable(value: Any) -> Any:
 def _centre_heights(scene: Scene) -> np.ndarray:
     """z (m) of every object's centre: the prisms stand on the table top."""
     return np.array([scene.table.height + 0.5 * o.height for o in scene.objects])
-
-
-def _time(ns: int) -> Time:
-    return Time(sec=ns // 1_000_000_000, nanosec=ns % 1_000_000_000)
-
-
-def _nanoseconds(d: Duration) -> int:
-    return d.sec * 1_000_000_000 + d.nanosec
