@@ -13,7 +13,7 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 PACKAGE = "rearrangement_planner"
-LAYERS = ["model", "physics", "planning", "io", "tools", "ros"]
+LAYERS = ["model", "physics", "planning", "execution", "io", "tools", "ros"]
 """A module may import from its own layer and the layers before it."""
 ROS_MODULES = ("rclpy", "builtin_interfaces", "geometry_msgs", "sensor_msgs", "std_msgs",
                "std_srvs", "trajectory_msgs", "visualization_msgs", "diagnostic_msgs",

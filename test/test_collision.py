@@ -481,8 +481,7 @@ def test_broad_phase_finds_every_narrow_phase_contact(world: CollisionWorld,
         shapes = place(CAPSULE, centre, rot_z_to(rng.normal(size=3)))
         expected = [(c.shape, c.obj) for c in world.arm_object_contacts(shapes, poses, 0.01)]
         with monkeypatch.context() as patched:
-            patched.setattr(world, "_shape_radius", np.full(4, 1e3))
-            patched.setattr(world, "_seg_radius", np.full(4, 1e3))
+            patched.setattr(world._shapes, "seg_radius", np.full(4, 1e3))
             everything = [(c.shape, c.obj) for c in world.arm_object_contacts(shapes, poses, 0.01)]
         assert expected == everything
 

@@ -37,6 +37,8 @@ from std_srvs.srv import Trigger  # noqa: E402
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint  # noqa: E402
 
 from msg_adapters import goal_to_pose_stamped, pose_array_to_objects  # noqa: E402
+from msg_adapters.command import command_from_msg  # noqa: E402
+from rearrangement_planner.execution.open_loop import Command, OpenLoopExecution  # noqa: E402
 from rearrangement_planner.model.errors import InputError, RearrangementError  # noqa: E402
 from rearrangement_planner.physics.step import Physics, PhysicsOptions  # noqa: E402
 from rearrangement_planner.physics.validation import load_scene  # noqa: E402
@@ -46,13 +48,7 @@ from rearrangement_planner.ros.replay import (  # noqa: E402
     read_bag,
     wait_until,
 )
-from rearrangement_planner.ros.world_sim import (  # noqa: E402
-    MAX_SUBSTEP,
-    Command,
-    OpenLoopExecution,
-    WorldSim,
-    command_from_msg,
-)
+from rearrangement_planner.ros.world_sim import MAX_SUBSTEP, WorldSim  # noqa: E402
 
 BAGS = Path(__file__).resolve().parent.parent / "bags"
 FRAME = "panda_link0"

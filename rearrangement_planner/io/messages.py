@@ -121,10 +121,11 @@ def joint_trajectory(trajectory: Trajectory) -> Plain:
     """The controller command of DESIGN §4 (trajectory_msgs/JointTrajectory): header.stamp zero
     ("start now"), empty frame_id, positions and velocities on every point, time_from_start
     rounded to the nanosecond (ValueError if two points round to the same time)."""
-    points = [{"positions": [float(a) for a in q], "velocities": [float(a) for a in v],
-               "time_from_start": duration(float(t))}
-              for t, q, v in zip(trajectory.times, trajectory.positions, trajectory.velocities,
-                                 strict=True)]
+    points: list[Plain] = [
+        {"positions": [float(a) for a in q], "velocities": [float(a) for a in v],
+         "time_from_start": duration(float(t))}
+        for t, q, v in zip(trajectory.times, trajectory.positions, trajectory.velocities,
+                           strict=True)]
     for i in range(1, len(points)):
         if nanoseconds(points[i]["time_from_start"]) \
                 <= nanoseconds(points[i - 1]["time_from_start"]):
@@ -135,7 +136,7 @@ def joint_trajectory(trajectory: Trajectory) -> Plain:
 
 
 def _marker(head: Plain, ns: str, marker_id: int, kind: int, at: Plain,
-            scale: Sequence[float], color: Sequence[float]) -> Plain:
+            scale: Sequence[float] | np.ndarray, color: Sequence[float]) -> Plain:
     return {"header": head, "ns": ns, "id": marker_id, "type": kind, "action": ADD, "pose": at,
             "scale": dict(zip("xyz", map(float, scale), strict=True)),
             "color": dict(zip("rgba", color, strict=True))}

@@ -63,15 +63,12 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import fcl
 import numpy as np
 
 from rearrangement_planner.model.robot import ContactShape, RobotModel
-
-if TYPE_CHECKING:
-    from rearrangement_planner.model.scene import Scene
+from rearrangement_planner.model.scene import MovableObject, Scene
 
 TABLE_THICKNESS = 0.05   # m, the table box extends this far below its top face
 EPA_MIN_DEPTH = 1e-3     # m, fcl's EPA (signed distance) runs only on penetrations deeper than this
@@ -210,6 +207,107 @@ def prism_penetration(shape_a: str, size_a: Sequence[float], pose_a: Sequence[fl
     return min(depth, size_a[2], size_b[2])
 
 
+class _ArmBodies:
+    """The fcl bodies of the arm's contact shapes with their placement and broad-phase boxes,
+    reused while the arm configuration is unchanged (one substep asks several queries at one
+    configuration), and the arm's narrow phase against any placed body."""
+
+    def __init__(self, shapes: Sequence[ContactShape]):
+        self._bodies = [_ArmShape.build(s) for s in shapes]
+        # Tighter broad phase: a capsule is its axis segment (half-length along the shape's z
+        # axis) swept by its radius; other shapes are their bounding sphere.
+        self.seg_half = np.array([0.5 * s.dims[1] if s.kind == "capsule" else 0.0
+                                  for s in shapes], dtype=float)
+        self.seg_radius = np.array([s.dims[0] if s.kind == "capsule" else s.bounding_radius
+                                    for s in shapes], dtype=float)
+        self._boxes_for: np.ndarray | None = None
+        self._boxes = np.zeros((0, 8))
+        self._cores_for: np.ndarray | None = None
+        self._cores_placed: list[bool] = []
+        self._gjk = fcl.DistanceRequest(enable_nearest_points=True)
+        self._epa = fcl.DistanceRequest(enable_nearest_points=True, enable_signed_distance=True)
+        self._contact = fcl.CollisionRequest(num_max_contacts=1, enable_contact=True)
+
+    def place(self, s: int, shape_poses: np.ndarray) -> None:
+        """Move arm shape s's core to its pose (the full/shrunk bodies follow on demand).
+        Within one read-only pose array (RobotModel.shape_poses caches it per configuration)
+        a core already placed stays placed: one substep queries the static world, the objects
+        and the pushed objects again at the same configuration."""
+        if shape_poses is not self._cores_for:
+            self._cores_for = None if shape_poses.flags.writeable else shape_poses
+            self._cores_placed = [False] * len(self._bodies)
+        elif self._cores_placed[s]:
+            return
+        self._bodies[s].core.setTransform(fcl.Transform(shape_poses[s, :3, :3],
+                                                     shape_poses[s, :3, 3]))
+        if self._cores_for is not None:
+            self._cores_placed[s] = True
+
+    def boxes(self, shape_poses: np.ndarray) -> np.ndarray:
+        """Axis-aligned bounding boxes of the arm's contact shapes, exact for capsules (segment
+        end points -/+ radius), bounding sphere otherwise, packed for `_overlapping`: (S, 8)
+        rows (lo_x, lo_y, lo_z, -hi_x, -hi_y, -hi_z, -inf, -inf). The last result is reused for
+        the same read-only pose array (RobotModel.shape_poses caches it), since one physics
+        substep asks several queries at one arm configuration."""
+        if shape_poses is self._boxes_for and not shape_poses.flags.writeable:
+            return self._boxes
+        centres = shape_poses[:, :3, 3]
+        extent = np.abs(shape_poses[:, :3, 2]) * self.seg_half[:, None] \
+            + self.seg_radius[:, None]
+        boxes = np.full((len(centres), 8), -np.inf)
+        boxes[:, :3] = centres - extent
+        boxes[:, 3:6] = -(centres + extent)
+        self._boxes_for, self._boxes = shape_poses, boxes
+        return boxes
+
+    def distance(self, s: int, shape_poses: np.ndarray, body: fcl.CollisionObject,
+                      margin: float, polytope: bool
+                      ) -> tuple[float, np.ndarray, np.ndarray | None] | None:
+        """Signed distance d (m; < 0 when penetrating) between arm shape s, whose core is
+        already placed, and a placed body: (d, closest point on the body, unit normal from the
+        arm into the body or None if undefined), or None as soon as d >= margin is known.
+        `polytope`: the body is a box, so GJK from a capsule's segment core is exact at any
+        depth; on a curved body EPA is more accurate once it is safe. See the module
+        docstring for why the core and the EPA gate."""
+        arm = self._bodies[s]
+        result = fcl.DistanceResult()
+        gap = fcl.distance(arm.core, body, self._gjk, result)
+        if gap > 0.0:
+            d = gap - arm.radius
+            if d >= margin:
+                return None
+            if -d <= EPA_MIN_DEPTH or (polytope and gap > _WITNESS_EPS):
+                p_core, p_body = result.nearest_points
+                if gap > _WITNESS_EPS:
+                    return d, p_body, (p_body - p_core) / gap
+                return d, p_body, None
+        # Penetration deeper than EPA_MIN_DEPTH, or a box/cylinder shape whose depth is unknown.
+        pose = fcl.Transform(shape_poses[s, :3, :3], shape_poses[s, :3, 3])
+        arm.full.setTransform(pose)
+        if arm.shrunk is not None:
+            arm.shrunk.setTransform(pose)
+            if fcl.distance(arm.shrunk, body, self._gjk, fcl.DistanceResult()) > 0.0:
+                # 0 < depth < EPA_MIN_DEPTH: too shallow for EPA; MPR's contact is close enough.
+                hit = fcl.CollisionResult()
+                fcl.collide(arm.full, body, self._contact, hit)
+                if not hit.contacts:
+                    return None if margin <= 0.0 else (0.0, result.nearest_points[1], None)
+                c = hit.contacts[0]
+                depth = min(max(c.penetration_depth, 0.0), EPA_MIN_DEPTH)
+                return -depth, np.asarray(c.pos, dtype=float), np.asarray(c.normal, dtype=float)
+        result = fcl.DistanceResult()
+        d = fcl.distance(arm.full, body, self._epa, result)
+        p_arm, p_body = result.nearest_points
+        between = p_arm - p_body       # penetrating: the arm's deepest point lies inside
+        length = math.sqrt(float(between @ between))
+        return d, p_body, (between / length if length > _WITNESS_EPS else None)
+
+    def depth(self, s: int, shape_poses: np.ndarray, body: fcl.CollisionObject,
+                   polytope: bool) -> float:
+        hit = self.distance(s, shape_poses, body, 0.0, polytope)
+        return 0.0 if hit is None else -hit[0]
+
+
 class CollisionWorld:
     """Collision and contact queries for one scene and one robot (DESIGN §5).
 
@@ -229,19 +327,12 @@ class CollisionWorld:
         # Arm contact shapes: geometry now, transforms per query.
         shapes = self.robot.contact_shapes
         self.shape_links: tuple[str, ...] = tuple(s.link for s in shapes)
-        self._arm = [_ArmShape.build(s) for s in shapes]
-        self._shape_radius = np.array([s.bounding_radius for s in shapes], dtype=float)
-        # Tighter broad phase: a capsule is its axis segment (half-length along the shape's z
-        # axis) swept by its radius; other shapes are their bounding sphere.
-        self._seg_half = np.array([0.5 * s.dims[1] if s.kind == "capsule" else 0.0
-                                   for s in shapes], dtype=float)
-        self._seg_radius = np.array([s.dims[0] if s.kind == "capsule" else s.bounding_radius
-                                     for s in shapes], dtype=float)
-        self._boxes_for: np.ndarray | None = None
-        self._boxes = np.zeros((0, 8))
+        self._shapes = _ArmBodies(shapes)
+        self._init_objects(scene.objects)
+        self._init_static(scene)
 
-        # Movable objects: vertical prisms on the table top; the z of their centre is fixed.
-        objects = scene.objects
+    def _init_objects(self, objects: Sequence[MovableObject]) -> None:
+        """Movable objects: vertical prisms on the table top; the z of their centre is fixed."""
         self.object_names: tuple[str, ...] = tuple(o.name for o in objects)
         self._obj_fcl = [
             fcl.CollisionObject(fcl.Cylinder(0.5 * o.size[0], o.size[2]) if o.shape == "cylinder"
@@ -258,9 +349,19 @@ class CollisionWorld:
         self._obj_pair_limit2 = (self._obj_footprint[self._obj_pairs[0]]
                                  + self._obj_footprint[self._obj_pairs[1]]) ** 2
         self._all_objects = np.arange(len(objects))
+        # Object centres (x, y, z) for the object broad phase: z is fixed, x and y are filled
+        # in per query.
+        self._obj_centre = np.column_stack([np.zeros((len(objects), 2)), self._obj_z])
+        self._obj_boxes = np.full((len(objects), 8), np.inf)
+        self._obj_extent0 = np.column_stack([self._obj_footprint, self._obj_footprint,
+                                             self._obj_half[:, 2]])
+        # What the object bodies were last placed at (see _place_object).
+        self._obj_placed: list[list[float] | None] = [None] * len(objects)
 
-        # Obstacles: boxes on the table top, placed once.
-        obstacles = scene.obstacles
+    def _init_static(self, scene: Scene) -> None:
+        """Obstacles (boxes on the table top) and the table slab, placed once, and their
+        broad-phase boxes."""
+        table, obstacles = scene.table, scene.obstacles
         self.obstacle_names: tuple[str, ...] = tuple(b.name for b in obstacles)
         self._obst_size = tuple(tuple(float(v) for v in b.size) for b in obstacles)
         self._obst_pose = tuple(tuple(float(v) for v in b.pose) for b in obstacles)
@@ -279,11 +380,6 @@ class CollisionWorld:
             fcl.Transform(np.eye(3), np.array([table.center[0], table.center[1],
                                                self._table_top - 0.5 * TABLE_THICKNESS])))
 
-        self._gjk_request = fcl.DistanceRequest(enable_nearest_points=True)
-        self._epa_request = fcl.DistanceRequest(enable_nearest_points=True,
-                                                enable_signed_distance=True)
-        self._contact_request = fcl.CollisionRequest(num_max_contacts=1, enable_contact=True)
-
         # Broad-phase boxes of the static world, packed for `_overlapping` as (1 + K, 8) rows
         # (hi_x, hi_y, hi_z, -lo_x, -lo_y, -lo_z, inf, inf): the table slab (its top face at
         # table.height), then each obstacle's bounding-sphere box.
@@ -294,33 +390,8 @@ class CollisionWorld:
         static_hi = np.vstack([[table_hi[0], table_hi[1], self._table_top],
                                self._obst_centre + self._obst_radius[:, None]])
         self._static_boxes = _packed_boxes(static_lo, static_hi)
-        # Object centres (x, y, z) for the object broad phase: z is fixed, x and y are filled
-        # in per query.
-        self._obj_centre = np.column_stack([np.zeros((len(objects), 2)), self._obj_z])
-        self._obj_boxes = np.full((len(objects), 8), np.inf)
-        self._obj_extent0 = np.column_stack([self._obj_footprint, self._obj_footprint,
-                                             self._obj_half[:, 2]])
-        # What the fcl bodies were last placed at (see _place_shape and _place_object).
-        self._cores_for: np.ndarray | None = None
-        self._cores_placed: list[bool] = []
-        self._obj_placed: list[list[float] | None] = [None] * len(objects)
 
     # -- placing bodies -----------------------------------------------------------------------
-
-    def _place_shape(self, s: int, shape_poses: np.ndarray) -> None:
-        """Move arm shape s's core to its pose (the full/shrunk bodies follow on demand).
-        Within one read-only pose array (RobotModel.shape_poses caches it per configuration)
-        a core already placed stays placed: one substep queries the static world, the objects
-        and the pushed objects again at the same configuration."""
-        if shape_poses is not self._cores_for:
-            self._cores_for = None if shape_poses.flags.writeable else shape_poses
-            self._cores_placed = [False] * len(self._arm)
-        elif self._cores_placed[s]:
-            return
-        self._arm[s].core.setTransform(fcl.Transform(shape_poses[s, :3, :3],
-                                                     shape_poses[s, :3, 3]))
-        if self._cores_for is not None:
-            self._cores_placed[s] = True
 
     def _place_object(self, i: int, pose: np.ndarray) -> fcl.CollisionObject:
         """Move object i's body to its planar pose (kept when the pose is unchanged: most
@@ -342,53 +413,6 @@ class CollisionWorld:
 
     # -- arm narrow phase ---------------------------------------------------------------------
 
-    def _arm_distance(self, s: int, shape_poses: np.ndarray, body: fcl.CollisionObject,
-                      margin: float, polytope: bool
-                      ) -> tuple[float, np.ndarray, np.ndarray | None] | None:
-        """Signed distance d (m; < 0 when penetrating) between arm shape s, whose core is
-        already placed, and a placed body: (d, closest point on the body, unit normal from the
-        arm into the body or None if undefined), or None as soon as d >= margin is known.
-        `polytope`: the body is a box, so GJK from a capsule's segment core is exact at any
-        depth; on a curved body EPA is more accurate once it is safe. See the module
-        docstring for why the core and the EPA gate."""
-        arm = self._arm[s]
-        result = fcl.DistanceResult()
-        gap = fcl.distance(arm.core, body, self._gjk_request, result)
-        if gap > 0.0:
-            d = gap - arm.radius
-            if d >= margin:
-                return None
-            if -d <= EPA_MIN_DEPTH or (polytope and gap > _WITNESS_EPS):
-                p_core, p_body = result.nearest_points
-                if gap > _WITNESS_EPS:
-                    return d, p_body, (p_body - p_core) / gap
-                return d, p_body, None
-        # Penetration deeper than EPA_MIN_DEPTH, or a box/cylinder shape whose depth is unknown.
-        pose = fcl.Transform(shape_poses[s, :3, :3], shape_poses[s, :3, 3])
-        arm.full.setTransform(pose)
-        if arm.shrunk is not None:
-            arm.shrunk.setTransform(pose)
-            if fcl.distance(arm.shrunk, body, self._gjk_request, fcl.DistanceResult()) > 0.0:
-                # 0 < depth < EPA_MIN_DEPTH: too shallow for EPA; MPR's contact is close enough.
-                hit = fcl.CollisionResult()
-                fcl.collide(arm.full, body, self._contact_request, hit)
-                if not hit.contacts:
-                    return None if margin <= 0.0 else (0.0, result.nearest_points[1], None)
-                c = hit.contacts[0]
-                depth = min(max(c.penetration_depth, 0.0), EPA_MIN_DEPTH)
-                return -depth, np.asarray(c.pos, dtype=float), np.asarray(c.normal, dtype=float)
-        result = fcl.DistanceResult()
-        d = fcl.distance(arm.full, body, self._epa_request, result)
-        p_arm, p_body = result.nearest_points
-        between = p_arm - p_body       # penetrating: the arm's deepest point lies inside
-        length = math.sqrt(float(between @ between))
-        return d, p_body, (between / length if length > _WITNESS_EPS else None)
-
-    def _arm_depth(self, s: int, shape_poses: np.ndarray, body: fcl.CollisionObject,
-                   polytope: bool) -> float:
-        hit = self._arm_distance(s, shape_poses, body, 0.0, polytope)
-        return 0.0 if hit is None else -hit[0]
-
     def _inward_normal(self, i: int, pose: np.ndarray, point: np.ndarray) -> np.ndarray:
         """Inward unit normal (base frame) of object i's face nearest to `point`."""
         rot = _rot_z(pose[2])
@@ -408,37 +432,20 @@ class CollisionWorld:
 
     # -- arm vs static world ------------------------------------------------------------------
 
-    def _shape_boxes(self, shape_poses: np.ndarray) -> np.ndarray:
-        """Axis-aligned bounding boxes of the arm's contact shapes, exact for capsules (segment
-        end points -/+ radius), bounding sphere otherwise, packed for `_overlapping`: (S, 8)
-        rows (lo_x, lo_y, lo_z, -hi_x, -hi_y, -hi_z, -inf, -inf). The last result is reused for
-        the same read-only pose array (RobotModel.shape_poses caches it), since one physics
-        substep asks several queries at one arm configuration."""
-        if shape_poses is self._boxes_for and not shape_poses.flags.writeable:
-            return self._boxes
-        centres = shape_poses[:, :3, 3]
-        extent = np.abs(shape_poses[:, :3, 2]) * self._seg_half[:, None] \
-            + self._seg_radius[:, None]
-        boxes = np.full((len(centres), 8), -np.inf)
-        boxes[:, :3] = centres - extent
-        boxes[:, 3:6] = -(centres + extent)
-        self._boxes_for, self._boxes = shape_poses, boxes
-        return boxes
-
     def _static_hit(self, shape_poses: np.ndarray, tol: float) -> tuple[int, str, float] | None:
         # Broad phase: (S, 1 + K) mask of the shapes whose boxes overlap the table slab
         # (column 0) or an obstacle's box.
-        near = _overlapping(self._shape_boxes(shape_poses), self._static_boxes)
+        near = _overlapping(self._shapes.boxes(shape_poses), self._static_boxes)
         if not near.any():
             return None     # the common case on the pushing plane, decided without a loop
         for s in np.flatnonzero(near.any(axis=1)).tolist():
-            self._place_shape(s, shape_poses)
+            self._shapes.place(s, shape_poses)
             if near[s, 0]:
-                depth = self._arm_depth(s, shape_poses, self._table_fcl, True)
+                depth = self._shapes.depth(s, shape_poses, self._table_fcl, True)
                 if depth > tol:
                     return s, "table", depth
             for k in np.flatnonzero(near[s, 1:]).tolist():
-                depth = self._arm_depth(s, shape_poses, self._obst_fcl[k], True)
+                depth = self._shapes.depth(s, shape_poses, self._obst_fcl[k], True)
                 if depth > tol:
                     return s, self.obstacle_names[k], depth
         return None
@@ -474,7 +481,7 @@ class CollisionWorld:
         # exactly in IEEE arithmetic.
         np.add(centre, extent, out=boxes[:, :3])
         np.subtract(extent, centre, out=boxes[:, 3:6])
-        near = _overlapping(self._shape_boxes(shape_poses), boxes)
+        near = _overlapping(self._shapes.boxes(shape_poses), boxes)
         shape_idx, col = near.nonzero()
         return shape_idx, (col if sel is None else sel[col])
 
@@ -514,12 +521,12 @@ class CollisionWorld:
         last_shape = -1
         for s, i in zip(shape_idx.tolist(), obj_idx.tolist(), strict=True):
             if s != last_shape:
-                self._place_shape(s, shape_poses)
+                self._shapes.place(s, shape_poses)
                 last_shape = s
             if not placed[i]:
                 self._place_object(i, poses[i])
                 placed[i] = True
-            hit = self._arm_distance(s, shape_poses, self._obj_fcl[i], margin,
+            hit = self._shapes.distance(s, shape_poses, self._obj_fcl[i], margin,
                                      self._obj_polytope[i])
             if hit is None or hit[0] >= margin:
                 continue

@@ -45,8 +45,9 @@ planner's 4 mm, so that the simulated world is converged (its outcome no longer 
 reach the goal in the planner's physics and, simulated finely, push the goal object into
 another object. world_sim reports that as it happens (status ABORTED, object_object_overlap).
 
-The ROS-free part (command checks, `OpenLoopExecution`, outcome) is at the top; the node
-(`WorldSim`) and `main` below it.
+The ROS-free part (`OpenLoopExecution`, the outcome, the perturbed world) is
+`execution/open_loop.py`; the command checks are `msg_adapters/command.py`; this module is the
+node (`WorldSim`) and `main`.
 """
 
 from __future__ import annotations
@@ -55,8 +56,6 @@ import json
 import math
 import threading
 import time
-from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -76,335 +75,29 @@ from std_srvs.srv import Trigger
 from trajectory_msgs.msg import JointTrajectory
 
 from msg_adapters import objects_to_pose_array, pose_stamped_to_goal
-from rearrangement_planner.model.errors import InputError, RearrangementError, SceneError
-from rearrangement_planner.model.robot import RobotModel
+from msg_adapters.command import command_from_msg
+from rearrangement_planner.execution.open_loop import (
+    ABORTED,
+    CANCELLED,
+    PREEMPTED,
+    REJECTED,
+    SUCCEEDED,
+    ExecutionRecord,
+    Goal,
+    OpenLoopExecution,
+    execution_outcome,
+    perturbed_world,
+)
+from rearrangement_planner.model.errors import InputError, RearrangementError
 from rearrangement_planner.model.scene import Scene
 from rearrangement_planner.model.state import State, wrap_angle
 from rearrangement_planner.physics.step import Physics, PhysicsOptions
-from rearrangement_planner.physics.validation import load_scene, parse_scene
+from rearrangement_planner.physics.validation import load_scene
 from rearrangement_planner.ros.parameters import ParameterSpec
 
 NODE_NAME = "world_sim"
 MAX_SUBSTEP = 0.001
 """Default `max_substep` (m): the simulated world's physics substep (the planner's is 4 mm)."""
-MOVED_DISTANCE = 1e-3
-"""An object counts as moved when its centre moved more than this (m) ..."""
-MOVED_ROTATION = 1e-2
-"""... or it turned more than this (rad)."""
-
-# Outcome statuses (the "status" of ~/outcome)
-SUCCEEDED = "SUCCEEDED"              # executed to the end, goal object in the goal region
-GOAL_NOT_REACHED = "GOAL_NOT_REACHED"  # executed to the end, goal object outside the region
-ABORTED = "ABORTED"                  # an invalid physics step stopped the execution
-PREEMPTED = "PREEMPTED"              # replaced by a newer trajectory
-CANCELLED = "CANCELLED"              # stopped by an empty trajectory or ~/reset
-REJECTED = "REJECTED"                # not executed: the command is unusable (field named)
-
-
-# --------------------------------------------------------------------------------------------
-# Commands (ROS-free apart from reading the message's fields)
-# --------------------------------------------------------------------------------------------
-
-
-@dataclass(frozen=True)
-class Command:
-    """A checked controller command: `times` (N,) s, strictly increasing from 0, and
-    `positions` (N, n) rad in the robot's planning-joint order; linear interpolation between
-    the points (a joint trajectory controller given positions only)."""
-
-    times: np.ndarray
-    positions: np.ndarray
-
-    @property
-    def duration(self) -> float:
-        return float(self.times[-1])
-
-    def sample(self, t: float) -> np.ndarray:
-        """Positions at trajectory time t (s), clamped to the first/last point."""
-        if t <= 0.0:
-            return self.positions[0].copy()
-        if t >= self.duration:
-            return self.positions[-1].copy()
-        i = int(np.searchsorted(self.times, t, side="right")) - 1
-        alpha = (t - self.times[i]) / (self.times[i + 1] - self.times[i])
-        return (1.0 - alpha) * self.positions[i] + alpha * self.positions[i + 1]
-
-    def velocity(self, t: float) -> np.ndarray:
-        """The slope of the segment at time t (rad/s of trajectory time); zero outside."""
-        if t < 0.0 or t >= self.duration:
-            return np.zeros(self.positions.shape[1])
-        i = int(np.searchsorted(self.times, t, side="right")) - 1
-        return (self.positions[i + 1] - self.positions[i]) / (self.times[i + 1] - self.times[i])
-
-
-def _seconds(sec: int, nanosec: int) -> float:
-    return sec + nanosec * 1e-9
-
-
-def command_from_msg(msg: JointTrajectory, robot: RobotModel, current: np.ndarray,
-                     start_tolerance: float) -> Command:
-    """Check a non-empty controller command against the arm and return it as a `Command`.
-
-    Joints may come in any order but must be exactly the planning joints. Points need finite
-    positions for every joint (velocities and accelerations are optional, as for
-    joint_trajectory_controller, but finite when given), strictly increasing time_from_start
-    and positions within the joint limits. header.stamp must be zero ("start now"). A first
-    point at time 0 must be within `start_tolerance` (rad, per joint; 0 = no check) of the
-    current position `current`, since the arm would have to jump there; a first point later
-    than 0 is reached by interpolating from `current`. Raises InputError naming the field
-    (``joint_trajectory.points[3].time_from_start``) and the problem.
-    """
-    names = list(msg.joint_names)
-    expected = list(robot.joint_names)
-    stamp = msg.header.stamp
-    if stamp.sec != 0 or stamp.nanosec != 0:
-        raise InputError("joint_trajectory.header.stamp",
-                         f"is {stamp.sec} s {stamp.nanosec} ns; this controller starts "
-                         f"trajectories on arrival: send stamp 0 (start now)")
-    duplicates = sorted({n for n in names if names.count(n) > 1})
-    missing = [n for n in expected if n not in names]
-    unknown = [n for n in names if n not in expected]
-    if duplicates or missing or unknown:
-        problems = []
-        if missing:
-            problems.append(f"missing {', '.join(missing)}")
-        if unknown:
-            problems.append(f"unknown {', '.join(unknown)}")
-        if duplicates:
-            problems.append(f"repeated {', '.join(duplicates)}")
-        raise InputError("joint_trajectory.joint_names",
-                         f"{'; '.join(problems)}; name each of the arm's joints "
-                         f"{', '.join(expected)} once (any order)")
-    order = [names.index(n) for n in expected]
-    count = len(msg.points)
-    times = np.empty(count)
-    positions = np.empty((count, len(expected)))
-    for i, point in enumerate(msg.points):
-        where = f"joint_trajectory.points[{i}]"
-        if len(point.positions) != len(names):
-            raise InputError(f"{where}.positions",
-                             f"has {len(point.positions)} values for {len(names)} joint names; "
-                             f"give one position per joint")
-        for what in ("velocities", "accelerations"):
-            values = getattr(point, what)
-            if len(values) not in (0, len(names)):
-                raise InputError(f"{where}.{what}",
-                                 f"has {len(values)} values for {len(names)} joint names; give "
-                                 f"none or one per joint")
-            bad = [names[j] for j, v in enumerate(values) if not math.isfinite(v)]
-            if bad:
-                raise InputError(f"{where}.{what}[{bad[0]}]",
-                                 f"is {values[names.index(bad[0])]}; must be a finite number")
-        q = np.array([point.positions[j] for j in order], dtype=float)
-        for name, value, lo, hi in zip(expected, q, robot.lower, robot.upper, strict=True):
-            if not math.isfinite(value):
-                raise InputError(f"{where}.positions[{name}]",
-                                 f"is {value}; joint positions must be finite numbers (rad)")
-            if not lo - 1e-9 <= value <= hi + 1e-9:
-                raise InputError(f"{where}.positions[{name}]",
-                                 f"is {value:.4f} rad, outside the joint limits "
-                                 f"[{lo:.4f}, {hi:.4f}]")
-        d = point.time_from_start
-        if d.sec < 0 or not 0 <= d.nanosec < 1_000_000_000:
-            raise InputError(f"{where}.time_from_start",
-                             f"is ({d.sec} s, {d.nanosec} ns); need sec >= 0 and "
-                             f"0 <= nanosec < 1e9")
-        times[i] = _seconds(d.sec, d.nanosec)
-        if i > 0 and times[i] <= times[i - 1]:
-            raise InputError(f"{where}.time_from_start",
-                             f"is {times[i]:.9f} s, not after point {i - 1} "
-                             f"({times[i - 1]:.9f} s); times must strictly increase")
-        positions[i] = q
-    current = np.asarray(current, dtype=float)
-    if times[0] > 0.0:   # reach the first point from where the arm is (joint_trajectory_controller)
-        times = np.concatenate([[0.0], times])
-        positions = np.vstack([current, positions])
-    elif start_tolerance > 0:
-        gap = np.abs(positions[0] - current)
-        j = int(np.argmax(gap))
-        if gap[j] > start_tolerance:
-            raise InputError(f"joint_trajectory.points[0].positions[{expected[j]}]",
-                             f"is {positions[0, j]:.4f} rad at time 0 but the arm is at "
-                             f"{current[j]:.4f} rad ({gap[j]:.4f} rad away, start_tolerance "
-                             f"{start_tolerance:g} rad); start the trajectory at the current "
-                             f"joint state")
-    if len(times) < 2:
-        raise InputError("joint_trajectory.points",
-                         "has one point at time 0; give a point later than 0 to move to")
-    times.setflags(write=False)
-    positions.setflags(write=False)
-    return Command(times, positions)
-
-
-# --------------------------------------------------------------------------------------------
-# Open-loop execution through the physics (ROS-free)
-# --------------------------------------------------------------------------------------------
-
-
-@dataclass(frozen=True)
-class InvalidStep:
-    """An invalid physics step met during an execution."""
-
-    reason: str
-    detail: str
-    time_from_start: float
-    """Trajectory time (s) of the configuration the arm could not move to."""
-
-
-class OpenLoopExecution:
-    """One command executed open loop on the simulated world, one controller update at a time.
-
-    `update()` advances the trajectory time by `period` s: the arm moves through every point
-    the command crosses in that interval, then to the interpolated position at its end, each
-    move stepped through `physics` (the objects follow). The first invalid step ends the
-    execution (`invalid`); the state stays the last valid one.
-    """
-
-    def __init__(self, physics: Physics, start: State, command: Command, period: float):
-        self.physics = physics
-        self.command = command
-        self.period = float(period)
-        self.start = start
-        self.state = start
-        self.t = 0.0
-        self.updates = 0
-        self.steps = 0
-        self.invalid: InvalidStep | None = None
-        self.moved: set[int] = set()
-
-    @property
-    def done(self) -> bool:
-        return self.invalid is not None or self.t >= self.command.duration
-
-    def update(self) -> None:
-        if self.done:
-            return
-        times = self.command.times
-        t_end = min((self.updates + 1) * self.period, self.command.duration)
-        crossed = np.flatnonzero((times > self.t) & (times < t_end))
-        targets = [(float(times[k]), self.command.positions[k]) for k in crossed]
-        targets.append((t_end, self.command.sample(t_end)))
-        for t, q in targets:
-            result = self.physics.step(self.state, q)
-            self.steps += 1
-            if not result.valid:
-                assert result.reason is not None  # Physics.step gives a reason for every failure
-                self.invalid = InvalidStep(result.reason.value, result.detail, t)
-                return
-            self.state = result.state
-            self.moved |= set(result.moved_objects)
-            self.t = t
-        self.updates += 1
-
-    def run(self) -> None:
-        """Execute to the end (or the first invalid step) at once."""
-        while not self.done:
-            self.update()
-
-
-@dataclass(frozen=True)
-class Goal:
-    """What the outcome is judged against: object index and name, goal point (m), radius."""
-
-    index: int
-    name: str
-    position: np.ndarray
-    radius: float
-
-
-@dataclass
-class ExecutionRecord:
-    """The path of one execution (one entry per controller update) and its outcome."""
-
-    number: int
-    command: Command
-    objects: list[np.ndarray] = field(default_factory=list)   # (M, 3) per update
-    tool: list[np.ndarray] = field(default_factory=list)      # tool (x, y) per update
-    outcome: dict[str, Any] | None = None
-
-
-def execution_outcome(status: str, execution: OpenLoopExecution, goal: Goal,
-                      names: tuple[str, ...], number: int, wall_time: float,
-                      settings: dict[str, Any]) -> dict[str, Any]:
-    """The ~/outcome JSON object of a finished (or stopped) execution."""
-    start, final = execution.start.objects, execution.state.objects
-    objects = {}
-    for i, name in enumerate(names):
-        displacement = float(np.hypot(*(final[i, :2] - start[i, :2])))
-        rotation = abs(float(wrap_angle(final[i, 2] - start[i, 2])))
-        objects[name] = {"start": [float(v) for v in start[i]],
-                         "final": [float(v) for v in final[i]],
-                         "displacement_m": displacement, "rotation_rad": rotation,
-                         "moved": displacement > MOVED_DISTANCE or rotation > MOVED_ROTATION}
-    distance = float(np.hypot(*(final[goal.index, :2] - goal.position)))
-    reached = distance <= goal.radius
-    if status == "":   # ran to its end
-        status = SUCCEEDED if reached else GOAL_NOT_REACHED
-    invalid = execution.invalid
-    moved = [f"{n} {o['displacement_m']:.3f} m" for n, o in objects.items() if o["moved"]]
-    message = (f"execution {number}: {status}: '{goal.name}' is {distance:.3f} m from the goal "
-               f"({'inside' if reached else 'outside'} radius {goal.radius:.3f} m) after "
-               f"{execution.t:.2f} of {execution.command.duration:.2f} s of trajectory "
-               f"({wall_time:.2f} s wall); moved: {', '.join(moved) or 'nothing'}")
-    if invalid is not None:
-        message += (f"; invalid step at t = {invalid.time_from_start:.2f} s: {invalid.reason}: "
-                    f"{invalid.detail} (arm and objects stopped at the last valid state)")
-    return {
-        "status": status, "execution": number, "message": message,
-        "goal": {"object": goal.name, "position": [float(v) for v in goal.position],
-                 "radius_m": goal.radius, "distance_m": distance, "reached": reached},
-        "objects": objects,
-        "moved_objects": [n for n, o in objects.items() if o["moved"]],
-        "invalid": None if invalid is None else {
-            "reason": invalid.reason, "detail": invalid.detail,
-            "time_from_start_s": invalid.time_from_start},
-        "duration_s": execution.command.duration, "executed_s": execution.t,
-        "wall_time_s": wall_time, "physics_steps": execution.steps,
-        "final_configuration": [float(v) for v in execution.state.q],
-        **settings,
-    }
-
-
-# --------------------------------------------------------------------------------------------
-# The simulated world
-# --------------------------------------------------------------------------------------------
-
-
-def perturbed_world(scene: Scene, start_configuration: np.ndarray | None, pose_noise: float,
-                    yaw_noise: float, friction_scale: float, seed: int
-                    ) -> tuple[Scene, np.ndarray]:
-    """The true world of the simulation and the perception offset.
-
-    Returns the scene whose objects are at their TRUE initial poses (the scene's plus a normal
-    offset of std dev `pose_noise` m in x and y and `yaw_noise` rad in yaw, drawn from `seed`)
-    with frictions scaled by `friction_scale`, and the offsets (M, 3): published pose = true
-    pose - offset. Raises InputError (naming the parameter) when the result is not a valid
-    world, e.g. noise that pushes an object into another or off the table.
-    """
-    offsets = np.zeros((len(scene.objects), 3))
-    if pose_noise > 0 or yaw_noise > 0:
-        rng = np.random.default_rng(seed)
-        offsets = rng.normal(0.0, 1.0, size=offsets.shape) * [pose_noise, pose_noise, yaw_noise]
-    data = scene.to_dict()
-    if start_configuration is not None:
-        data["start_configuration"] = [float(v) for v in start_configuration]
-    for entry, offset in zip(data["objects"], offsets, strict=True):
-        x, y, yaw = np.asarray(entry["pose"]) + offset
-        entry["pose"] = [float(x), float(y), float(wrap_angle(yaw))]
-        entry["support_friction"] = float(entry["support_friction"]) * friction_scale
-        entry["pusher_friction"] = float(entry["pusher_friction"]) * friction_scale
-    try:
-        world = parse_scene(data, base_dir=Path(scene.source).parent, name=scene.source,
-                            robot=scene.robot)
-    except SceneError as exc:
-        if exc.field.startswith("start_configuration"):
-            raise InputError("parameter start_configuration", str(exc)) from None
-        raise InputError("parameters pose_noise/yaw_noise/friction_scale/seed",
-                         f"pose_noise {pose_noise:g} m, yaw_noise {yaw_noise:g} rad, "
-                         f"friction_scale {friction_scale:g}, seed {seed} give no valid world: "
-                         f"{exc}; choose smaller noise or another seed") from None
-    return world, offsets
-
 
 _Spec = ParameterSpec
 PARAMETERS: tuple[ParameterSpec, ...] = (

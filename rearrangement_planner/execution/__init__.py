@@ -1,0 +1,1 @@
+"""Executing plans: open loop in the planner's physics (`open_loop`)."""
