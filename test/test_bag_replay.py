@@ -236,7 +236,9 @@ def test_player_publishes_in_log_time_order_at_the_rate(session):
             assert len(got) == 2
             for (arrived, _), (log, _) in zip(got, expected, strict=True):
                 scheduled = t0 + (log - first) * 1e-9 / rate
-                assert scheduled - 0.02 <= arrived <= scheduled + 1.5, arrived - scheduled
+                # Never early; late only by load, bounded as the whole playback is (3 s): with
+                # both cores busy (a benchmark beside the suite) a goal arrived 2.7 s late.
+                assert scheduled - 0.02 <= arrived <= scheduled + 3.0, arrived - scheduled
 
 
 # --------------------------------------------------------------------------------------------

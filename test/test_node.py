@@ -49,7 +49,7 @@ from rearrangement_planner.physics.step import Physics  # noqa: E402
 from rearrangement_planner.physics.validation import load_scene  # noqa: E402
 from rearrangement_planner.planning import DARRTOptions, PCRRTOptions  # noqa: E402
 from rearrangement_planner.planning.propagation import replay  # noqa: E402
-from rearrangement_planner.ros import node as node_module  # noqa: E402
+from rearrangement_planner.ros import plan_request as plan_request_module  # noqa: E402
 from rearrangement_planner.ros.node import EXECUTOR_THREADS, PlannerNode  # noqa: E402
 from rearrangement_planner.ros.parameters import DEFAULTS, PARAMETERS  # noqa: E402
 from rearrangement_planner.ros.replay import wait_until  # noqa: E402
@@ -483,7 +483,7 @@ def test_unexpected_error_is_internal_and_the_node_keeps_serving(ros, monkeypatc
     def broken(*args, **kwargs):
         raise RuntimeError("simulated planner bug")
 
-    monkeypatch.setattr(node_module, "plan_scene", broken)
+    monkeypatch.setattr(plan_request_module, "plan_scene", broken)
     client.wait_inputs_flowing()
     response = client.call("plan")
     assert not response.success

@@ -32,17 +32,16 @@ from rearrangement_planner.model.scene import Scene
 from rearrangement_planner.model.state import State
 from rearrangement_planner.physics.step import Physics
 from rearrangement_planner.planning.interface import (
-    SUPERSEDED,
     CancelFlag,
     IterationGate,
     Outcome,
     PlannerOptions,
     PlanResult,
-    Progress,
     ProgressCallback,
 )
 from rearrangement_planner.planning.manifold import ik_on_manifold, project_step, tool_planar_pose
 from rearrangement_planner.planning.push_policy import support_distance
+from rearrangement_planner.planning.search import Search
 from rearrangement_planner.planning.settings import setting
 from rearrangement_planner.planning.tree import Tree
 
@@ -86,68 +85,55 @@ class DARRT:
              cancel: CancelFlag | None = None,
              progress: ProgressCallback | None = None,
              iteration_gate: IterationGate | None = None) -> PlanResult:
-        """As `PCRRT.plan`."""
-        t0 = time.monotonic()
-        opts, scene = self.options, self.scene
-        start = start or scene.initial_state()
+        """The `Planner` protocol (as `PCRRT.plan`)."""
+        search = Search(self.options, seed, cancel, progress, iteration_gate)
+        start = start or self.scene.initial_state()
         problem = self.physics.check_state(start)
         if problem is not None:
             return PlanResult(Outcome.START_INVALID, f"start state invalid: {problem[1]}", seed)
-        best = self._goal_distance(start)
-        if best <= scene.goal.radius:
+        search.best = self._goal_distance(start)
+        if search.best <= self.scene.goal.radius:
             return PlanResult(Outcome.SUCCEEDED, "start already in the goal region", seed,
-                              (start,), best_goal_distance=best)
+                              (start,), best_goal_distance=search.best)
         if not self._free(start.q, start.objects):
             return PlanResult(Outcome.START_INVALID, "start configuration touches an object; "
                               "DARRT's transit primitives need a collision-free start", seed)
-        rng = np.random.default_rng(seed)
-        tree = Tree(start, start.q)
-        deadline = t0 + opts.time_limit
-        self._cancelled = cancel.is_set if cancel is not None else (lambda: False)
-        iterations = steps = 0
-        last_report = t0
-        g = scene.goal_index
-        others = [i for i in range(len(scene.objects)) if i != g]
+        search.tree = Tree(start, start.q)
+        self._cancelled = search.cancelled
         try:
             while True:
-                now = time.monotonic()
-                if self._cancelled():
-                    return self._failure(Outcome.CANCELLED, "cancelled", seed, tree,
-                                         iterations, steps, t0, best)
-                if now > deadline or iterations >= opts.max_iterations:
-                    return self._failure(Outcome.TIMEOUT, f"no plan within "
-                                         f"{opts.time_limit:g} s / {iterations} iterations",
-                                         seed, tree, iterations, steps, t0, best)
-                if progress is not None and now - last_report >= opts.progress_period:
-                    progress(Progress(iterations, tree.n, best, now - t0))
-                    last_report = now
-                if iteration_gate is not None and not iteration_gate(iterations + 1):
-                    return self._failure(Outcome.CANCELLED, SUPERSEDED, seed, tree,
-                                         iterations, steps, t0, best)
-                iterations += 1
-                choice = int(rng.integers(3))
-                if choice == 0:
-                    segment, node = self._extend_arm(tree, rng, deadline)
-                else:
-                    obj = g if choice == 1 or not others else others[int(rng.integers(
-                        len(others)))]
-                    segment, node = self._extend_object(tree, obj, rng, deadline)
-                if not segment:
-                    continue
-                steps += len(segment)
-                end_state = segment[-1]
-                tree.add(end_state, end_state.q, node, tuple(segment))
-                best = min(best, min(self._goal_distance(s) for s in segment))
-                end = self._first_at_goal(segment)
-                if end is not None:
-                    states = tree.path_to(node, start) + segment[:end + 1]
-                    return PlanResult(Outcome.SUCCEEDED, f"goal reached after {iterations} "
-                                      f"iterations", seed, tuple(states), iterations, tree.n,
-                                      steps, time.monotonic() - t0,
-                                      self._goal_distance(states[-1]))
+                ended = search.check()
+                if ended is not None:
+                    return ended
+                found = self._iteration(search, start)
+                if found is not None:
+                    return found
         except _Cancelled:
-            return self._failure(Outcome.CANCELLED, "cancelled", seed, tree, iterations, steps,
-                                 t0, best)
+            return search.failure(Outcome.CANCELLED, "cancelled")
+
+    def _iteration(self, search: Search, start: State) -> PlanResult | None:
+        """Sample the arm, the goal object or another object with equal probability and
+        extend the tree by the primitive that reaches it (§V-A); the plan once at the goal."""
+        rng, tree, g = search.rng, search.tree, self.scene.goal_index
+        search.iterations += 1
+        others = [i for i in range(len(self.scene.objects)) if i != g]
+        choice = int(rng.integers(3))
+        if choice == 0:
+            segment, node = self._extend_arm(tree, rng, search.deadline)
+        else:
+            obj = g if choice == 1 or not others else others[int(rng.integers(len(others)))]
+            segment, node = self._extend_object(tree, obj, rng, search.deadline)
+        if not segment:
+            return None
+        search.steps += len(segment)
+        end_state = segment[-1]
+        tree.add(end_state, end_state.q, node, tuple(segment))
+        search.best = min(search.best, min(self._goal_distance(s) for s in segment))
+        end = self._first_at_goal(segment)
+        if end is None:
+            return None
+        states = tree.path_to(node, start) + segment[:end + 1]
+        return search.success(states, self._goal_distance(states[-1]))
 
     # -- primitives -----------------------------------------------------------------------------
 
@@ -339,10 +325,6 @@ class DARRT:
                 return k
         return None
 
-    def _failure(self, outcome: Outcome, message: str, seed: int, tree: Tree, iterations: int,
-                 steps: int, t0: float, best: float) -> PlanResult:
-        return PlanResult(outcome, message, seed, (), iterations, tree.n, steps,
-                          time.monotonic() - t0, best)
 
 
 def _branch(tree: tuple[list[np.ndarray], list[int]], node: int) -> list[np.ndarray]:

@@ -36,13 +36,11 @@ from rearrangement_planner.model.state import State
 from rearrangement_planner.physics.step import Physics
 from rearrangement_planner.planning.approach import approach_path
 from rearrangement_planner.planning.interface import (
-    SUPERSEDED,
     CancelFlag,
     IterationGate,
     Outcome,
     PlannerOptions,
     PlanResult,
-    Progress,
     ProgressCallback,
     StopReason,
 )
@@ -53,6 +51,7 @@ from rearrangement_planner.planning.propagation import (
     constrained_prop,
 )
 from rearrangement_planner.planning.push_policy import PushPolicy
+from rearrangement_planner.planning.search import Search
 from rearrangement_planner.planning.settings import setting
 from rearrangement_planner.planning.tree import Tree
 
@@ -176,7 +175,7 @@ class PCRRT:
             end = chosen.states[-1]
             node = run.tree.add(end, self._arm_feature(end.q), parent, chosen.states)
             if chosen.stopped is StopReason.GOAL:
-                return run.success(node, self._goal_distance(end))
+                return run.reached(node, self._goal_distance(end))
             distance = self._goal_distance(end)
             if (distance >= run.best - 1e-3 or not self.options.greedy_goal
                     or chosen.stopped in (StopReason.CANCEL, StopReason.TIMEOUT)):
@@ -272,23 +271,18 @@ class PCRRT:
         return Action(velocity, duration, nullspace)
 
 
-class _Run:
-    """The state of one `PCRRT.plan` call: generator, tree, budget, counters, best distance."""
+class _Run(Search):
+    """One `PCRRT.plan` call: the shared bookkeeping (`Search`), the push policy, the stop
+    check of every propagation and the approach onto the manifold."""
 
     def __init__(self, planner: PCRRT, seed: int, cancel: CancelFlag | None,
                  progress: ProgressCallback | None, iteration_gate: IterationGate | None):
-        self.planner, self.seed = planner, seed
-        self.progress, self.iteration_gate = progress, iteration_gate
-        self.t0 = self.last_report = time.monotonic()
-        self.cancelled = cancel.is_set if cancel is not None else (lambda: False)
-        self.stop = planner.stop_check(self.cancelled, self.t0 + planner.options.time_limit)
-        self.rng = np.random.default_rng(seed)
+        super().__init__(planner.options, seed, cancel, progress, iteration_gate)
+        self.planner = planner
+        self.stop = planner.stop_check(self.cancelled, self.deadline)
         self.policy = PushPolicy(planner.physics, planner.options,
                                  np.flatnonzero(planner._weights > 0))
-        self.iterations = self.steps = 0
-        self.best = math.inf
         self.approach: list[State] = []
-        self.tree: Tree
 
     def begin(self, start: State) -> PlanResult | None:
         """Check the start and plan the approach onto the manifold; a result ends the plan."""
@@ -308,31 +302,6 @@ class _Run:
         self.tree = Tree(approach[-1], planner._arm_feature(approach[-1].q))
         return None
 
-    def check(self) -> PlanResult | None:
-        """Before each iteration: cancel, budget, progress report, the race's gate."""
-        now = time.monotonic()
-        opts = self.planner.options
-        if self.cancelled():
-            return self.failure(Outcome.CANCELLED, "cancelled")
-        if now - self.t0 > opts.time_limit or self.iterations >= opts.max_iterations:
-            return self.failure(Outcome.TIMEOUT, f"no plan within {opts.time_limit:g} s / "
-                                                 f"{self.iterations} iterations")
-        if self.progress is not None and now - self.last_report >= opts.progress_period:
-            self.progress(Progress(self.iterations, self.tree.n, self.best, now - self.t0))
-            self.last_report = now
-        if self.iteration_gate is not None and not self.iteration_gate(self.iterations + 1):
-            return self.failure(Outcome.CANCELLED, SUPERSEDED)
-        return None
-
-    def elapsed(self) -> float:
-        return time.monotonic() - self.t0
-
-    def success(self, node: int, distance: float) -> PlanResult:
-        states = self.approach[:-1] + self.tree.path_to(node, self.approach[-1])
-        return PlanResult(Outcome.SUCCEEDED, f"goal reached after {self.iterations} iterations",
-                          self.seed, tuple(states), self.iterations, self.tree.n, self.steps,
-                          self.elapsed(), distance)
-
-    def failure(self, outcome: Outcome, message: str) -> PlanResult:
-        return PlanResult(outcome, message, self.seed, (), self.iterations, self.tree.n,
-                          self.steps, self.elapsed(), self.best)
+    def reached(self, node: int, distance: float) -> PlanResult:
+        return self.success(self.approach[:-1] + self.tree.path_to(node, self.approach[-1]),
+                            distance)

@@ -13,6 +13,8 @@ from dataclasses import dataclass
 from typing import Any
 
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
+from rclpy.node import Node
+from rclpy.parameter import Parameter
 
 from rearrangement_planner.planning.pipeline import PipelineOptions
 from rearrangement_planner.planning.registry import PLANNER_NAMES, all_settings
@@ -90,3 +92,26 @@ PARAMETERS: tuple[ParameterSpec, ...] = (
 )
 """Every parameter of the node, in the order of config/planner.yaml."""
 DEFAULTS: dict[str, Any] = {p.name: p.default for p in PARAMETERS}
+
+
+def declare_parameters(node: Node, parameters: tuple[ParameterSpec, ...]) -> None:
+    """Declare every parameter on `node` with its descriptor."""
+    for spec in parameters:
+        if spec.default == ():
+            # An empty list has no ROS type (rclpy would guess a byte array, and rcl's YAML
+            # parser drops `[]`): declare the type, then set the empty default.
+            declared = node.declare_parameter(spec.name, Parameter.Type.STRING_ARRAY,
+                                              spec.descriptor())
+            if declared.type_ is Parameter.Type.NOT_SET:
+                node.set_parameters([Parameter(spec.name, Parameter.Type.STRING_ARRAY, [])])
+        else:
+            node.declare_parameter(spec.name, spec.default, spec.descriptor())
+
+
+def read_parameters(node: Node, parameters: tuple[ParameterSpec, ...]) -> dict[str, Any]:
+    """The current value of every parameter (string arrays as lists)."""
+    values: dict[str, Any] = {}
+    for spec in parameters:
+        value = node.get_parameter(spec.name).value
+        values[spec.name] = list(value) if isinstance(spec.default, tuple) else value
+    return values

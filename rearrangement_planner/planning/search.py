@@ -1,0 +1,72 @@
+"""The bookkeeping of one `plan()` call that every planner shares: the seeded generator, the
+wall-clock and iteration budget, cancel, progress reports, the race's iteration gate, the
+counters, and the results it ends with (Algorithm 1 of King et al. stops "on success, time
+limit, iteration limit or cancel, checked every iteration", DESIGN §6)."""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Sequence
+
+import numpy as np
+
+from rearrangement_planner.model.state import State
+from rearrangement_planner.planning.interface import (
+    SUPERSEDED,
+    CancelFlag,
+    IterationGate,
+    Outcome,
+    PlannerOptions,
+    PlanResult,
+    Progress,
+    ProgressCallback,
+)
+from rearrangement_planner.planning.tree import Tree
+
+
+class Search:
+    """One plan call: `check()` before every iteration; `success` / `failure` end it."""
+
+    tree: Tree
+
+    def __init__(self, options: PlannerOptions, seed: int, cancel: CancelFlag | None,
+                 progress: ProgressCallback | None, iteration_gate: IterationGate | None):
+        self.options, self.seed = options, seed
+        self.progress, self.iteration_gate = progress, iteration_gate
+        self.t0 = self.last_report = time.monotonic()
+        self.deadline = self.t0 + options.time_limit
+        self.cancelled = cancel.is_set if cancel is not None else (lambda: False)
+        self.rng = np.random.default_rng(seed)
+        self.iterations = self.steps = 0
+        self.best = math.inf
+        """The smallest goal distance (m) reached so far."""
+
+    def check(self) -> PlanResult | None:
+        """Before each iteration: cancel, budget, progress report, the race's gate; a result
+        ends the plan."""
+        now = time.monotonic()
+        opts = self.options
+        if self.cancelled():
+            return self.failure(Outcome.CANCELLED, "cancelled")
+        if now - self.t0 > opts.time_limit or self.iterations >= opts.max_iterations:
+            return self.failure(Outcome.TIMEOUT, f"no plan within {opts.time_limit:g} s / "
+                                                 f"{self.iterations} iterations")
+        if self.progress is not None and now - self.last_report >= opts.progress_period:
+            self.progress(Progress(self.iterations, self.tree.n, self.best, now - self.t0))
+            self.last_report = now
+        if self.iteration_gate is not None and not self.iteration_gate(self.iterations + 1):
+            return self.failure(Outcome.CANCELLED, SUPERSEDED)
+        return None
+
+    def elapsed(self) -> float:
+        return time.monotonic() - self.t0
+
+    def success(self, states: Sequence[State], distance: float) -> PlanResult:
+        return PlanResult(Outcome.SUCCEEDED, f"goal reached after {self.iterations} iterations",
+                          self.seed, tuple(states), self.iterations, self.tree.n, self.steps,
+                          self.elapsed(), distance)
+
+    def failure(self, outcome: Outcome, message: str) -> PlanResult:
+        return PlanResult(outcome, message, self.seed, (), self.iterations, self.tree.n,
+                          self.steps, self.elapsed(), self.best)

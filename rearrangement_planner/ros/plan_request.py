@@ -1,0 +1,257 @@
+"""One plan request of the node (DESIGN §4), apart from the node's wiring: the settings from
+the parameters, the inputs it plans from, the planning scene, the recording and the markers of
+the result. `ros/node.py` calls these from its worker thread."""
+
+from __future__ import annotations
+
+import dataclasses
+import threading
+import time
+import traceback
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from builtin_interfaces.msg import Time
+from visualization_msgs.msg import MarkerArray
+
+from msg_adapters import plan_markers
+from rearrangement_planner.io.plan_record import record_plan
+from rearrangement_planner.io.recording import RecordingError
+from rearrangement_planner.model.errors import InputError, SceneError
+from rearrangement_planner.model.robot import RobotModel
+from rearrangement_planner.model.scene import Goal, Scene
+from rearrangement_planner.physics.step import Physics
+from rearrangement_planner.physics.validation import check_scene, load_scene
+from rearrangement_planner.planning.interface import (
+    Outcome,
+    PlannerOptions,
+    PlanResult,
+    ProgressCallback,
+)
+from rearrangement_planner.planning.pipeline import PipelineOptions, PlanOutput, plan_scene
+from rearrangement_planner.planning.registry import options_from, planner_spec
+from rearrangement_planner.planning.trajectory import TimingOptions
+
+NO_STATE = "NO_STATE"
+"""The node's own outcome (DESIGN §4): no joint state / object poses yet, or stale ones."""
+
+
+@dataclass(frozen=True)
+class PlanSettings:
+    """The planner settings of one plan, checked, from the parameter values."""
+
+    planner: str
+    options: PlannerOptions
+    timing: TimingOptions
+    seed: int
+    shortcut_time: float
+    shortcut_attempts: int | None
+
+
+def plan_settings(params: dict[str, Any]) -> PlanSettings:
+    """Check and assemble the planner settings; InputError names the parameter at fault
+    (the ranges are already enforced by the parameter descriptors)."""
+    try:
+        planner_spec(params["planner"])
+    except ValueError as exc:
+        raise InputError("parameter planner", str(exc)) from None
+    try:
+        options = options_from(params["planner"], params)
+        pipeline = PipelineOptions(**{s.name: params[s.name] for s in PipelineOptions.describe()})
+    except ValueError as exc:
+        raise InputError(f"parameter {str(exc).split()[0]}", str(exc)) from None
+    return PlanSettings(params["planner"], options, pipeline.timing, int(params["seed"]),
+                        pipeline.shortcut_time, pipeline.shortcut_attempts or None)
+
+
+
+
+@dataclass(frozen=True)
+class Input:
+    """The last good message of one input topic, converted, with its receive time."""
+
+    value: np.ndarray
+    msg: Any
+    received: float
+    """time.monotonic() at reception (the staleness clock, DESIGN §4 `state_timeout`)."""
+
+
+class Job:
+    """One plan request, from submission to its answer."""
+
+    def __init__(self, plan_id: str, source: str):
+        self.plan_id = plan_id
+        self.source = source
+        self.submitted = time.monotonic()
+        self.submitted_ns = time.time_ns()
+        self.cancel = threading.Event()
+        self.planned = threading.Event()   # planning has stopped (the answer may still follow)
+        self.done = threading.Event()      # everything published, recorded and answered
+        self.started: float | None = None
+        self.outcome = ""
+        self.summary = ""
+
+
+class Rejected(Exception):
+    """A plan that ends before the planner runs (NO_STATE, invalid start or goal ...)."""
+
+    def __init__(self, outcome: str, message: str):
+        super().__init__(message)
+        self.outcome = outcome
+        self.message = message
+
+
+FINAL_STATES = {Outcome.SUCCEEDED.value: "succeeded", Outcome.CANCELLED.value: "cancelled"}
+
+
+def configured_scene(scene: str, robot_description: str) -> Scene:
+    """The node's scene (parameter `scene`), with the robot from `robot_description` when
+    given (else the robot the scene names). Raises RearrangementError."""
+    loaded = load_scene(scene)
+    if robot_description:
+        loaded = load_scene(loaded.source,
+                            robot=RobotModel(loaded.robot.config, urdf_xml=robot_description))
+    return loaded
+
+
+def object_ids(ids: list[str], scene: Scene) -> list[str]:
+    """The order of the poses on ~/object_poses: parameter `object_ids`, or scene order."""
+    names = list(scene.object_names)
+    if not ids:
+        return names
+    unknown = [i for i in ids if i not in names]
+    missing = [n for n in names if n not in ids]
+    if unknown or missing or len(set(ids)) != len(ids):
+        raise InputError("parameter object_ids",
+                         f"is {ids}; list every scene object once ({', '.join(names)})")
+    return ids
+
+
+def fresh_inputs(latest: dict[str, Input | None], topics: dict[str, str],
+                 state_timeout: float) -> dict[str, Input | None]:
+    """The inputs to plan from (`latest`, by key); NO_STATE when the joint state or object
+    poses are missing or older than `state_timeout` s (`topics` names them in the message)."""
+    now = time.monotonic()
+    for key, what in (("joint_states", "joint state"), ("object_poses", "object poses")):
+        value, topic = latest[key], topics[key]
+        if value is None:
+            raise Rejected(NO_STATE, f"no {what} received on {topic} yet")
+        age = now - value.received
+        if state_timeout > 0 and age > state_timeout:
+            raise Rejected(NO_STATE, f"the last {what} on {topic} is {age:.1f} s old "
+                                     f"(state_timeout {state_timeout:g} s)")
+    return latest
+
+
+def planning_scene(configured_scene: Scene, inputs: dict[str, Input | None],
+               params: dict[str, Any]) -> tuple[Scene, Physics]:
+    """The configured scene with the received start state and goal, checked, and the one
+    physics the plan runs in (the scene is not re-parsed: only the state and goal change)."""
+    joints, objects, received = (inputs["joint_states"], inputs["object_poses"],
+                                 inputs["goal"])
+    assert joints is not None and objects is not None    # `_snapshot` raised otherwise
+    configured = configured_scene.goal
+    goal = Goal(params["goal_object"] or configured.object,
+                received.value if received is not None else configured.position,
+                params["goal_radius"] if params["goal_radius"] > 0 else configured.radius)
+    scene = dataclasses.replace(configured_scene.with_start(joints.value, objects.value),
+                                goal=goal)
+    try:
+        physics = Physics(scene)
+        check_scene(scene, physics.world)
+    except SceneError as exc:
+        raise Rejected(*_classify(exc, received is not None)) from None
+    return scene, physics
+
+
+def run_plan(job: Job, params: dict[str, Any], configured: Scene,
+             latest: dict[str, Input | None], topics: dict[str, str],
+             progress: ProgressCallback, logger: Any
+             ) -> tuple[str, str, Scene, PlanOutput | None, dict[str, Input | None]]:
+    """Plan one request from the latest inputs: outcome, message, planning scene, plan
+    output (None for NO_STATE) and the inputs used. Every failure becomes an outcome;
+    nothing raises."""
+    inputs: dict[str, Input | None] = {}
+    scene, output = configured, None
+    try:
+        settings = plan_settings(params)
+        inputs = fresh_inputs(latest, topics, params["state_timeout"])
+        scene, physics = planning_scene(configured, inputs, params)
+        output = plan_scene(scene, settings.planner, settings.options, seed=settings.seed,
+                            physics=physics,
+                            cancel=job.cancel, progress=progress,
+                            shortcut_time=settings.shortcut_time, timing=settings.timing,
+                            shortcut_attempts=settings.shortcut_attempts)
+        return output.result.outcome.value, output.result.message, scene, output, inputs
+    except InputError as exc:
+        outcome, message = Outcome.INVALID_INPUT.value, str(exc)
+    except Rejected as exc:
+        outcome, message = exc.outcome, exc.message
+    except Exception as exc:  # noqa: BLE001 - INTERNAL, reported, the node keeps serving
+        logger.error(f"plan {job.plan_id}: {traceback.format_exc()}")
+        outcome = Outcome.INTERNAL.value
+        message = f"internal error {type(exc).__name__}: {exc} (traceback in the node log)"
+    if outcome != NO_STATE:   # a failure the recording can describe
+        output = PlanOutput(scene, params["planner"],
+                            PlanResult(Outcome(outcome), message, int(params["seed"])))
+    return outcome, message, scene, output, inputs
+
+
+def record(job: Job, output: PlanOutput | None, params: dict[str, Any], frame: str,
+           inputs: dict[str, Input | None], logger: Any) -> tuple[str, str | None]:
+    """Record the plan: (the path written or 'not recorded: <reason>', a failure to report
+    or None). A recording failure never loses the plan."""
+    if not params["record"]:
+        return "not recorded: parameter record is false", None
+    if output is None:
+        return "not recorded: no planning state", None
+
+    def msg(key: str) -> Any:
+        value = inputs.get(key)
+        return value.msg if value is not None else None
+
+    path = Path(params["record_dir"]).expanduser() / f"{job.plan_id}.mcap"
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        written = record_plan(path, output, plan_id=job.plan_id, parameters=params,
+                              planning_frame=frame, joint_state=msg("joint_states"),
+                              object_poses=msg("object_poses"), goal=msg("goal"),
+                              start_time_ns=job.submitted_ns)
+    except (RecordingError, OSError) as exc:
+        reason = str(exc)
+    except Exception as exc:  # noqa: BLE001 - a recording bug must not lose the plan
+        logger.error(f"plan {job.plan_id}: {traceback.format_exc()}")
+        reason = f"internal error {type(exc).__name__}: {exc}"
+    else:
+        return str(written), None
+    return (f"not recorded: {reason}",
+            f"plan {job.plan_id}: recording to {path} failed: {reason}")
+
+
+def result_markers(scene: Scene, output: PlanOutput | None, frame: str,
+                   stamp: Time) -> MarkerArray:
+    """The markers of the planning scene and, when solved, the plan's paths."""
+    if output is None or output.trajectory is None:
+        return plan_markers(scene, None, None, frame, stamp)
+    robot = scene.robot
+    object_paths = np.array([s.objects for s in output.trajectory_states])
+    ee_path = np.array([robot.tool_pose(q)[:3, 3] for q in output.trajectory.positions])
+    return plan_markers(scene, object_paths, ee_path, frame, stamp)
+
+
+def _classify(exc: SceneError, goal_received: bool) -> tuple[str, str]:
+    """Outcome and message of a planning scene that does not validate: the start state is the
+    joint state and object poses, the goal the received goal and the goal parameters."""
+    field = exc.field
+    if field.startswith("goal"):
+        source = {"goal.object": "parameter goal_object", "goal.radius": "parameter goal_radius",
+                  "goal.position": "~/goal" if goal_received else "the scene"}
+        where = source.get(field.split("[")[0], "the goal")
+        return Outcome.GOAL_INVALID.value, f"goal invalid ({where}): {exc}"
+    if field.startswith("start_configuration"):
+        return Outcome.START_INVALID.value, f"start invalid (joint_states): {exc}"
+    if field.startswith("objects"):
+        return Outcome.START_INVALID.value, f"start invalid (object_poses): {exc}"
+    return Outcome.INVALID_INPUT.value, str(exc)
