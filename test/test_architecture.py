@@ -116,3 +116,22 @@ def test_no_import_cycles():
     for node in sorted(graph):
         if node not in state:
             visit(node)
+
+
+CORE_LAYERS = ("model", "physics", "planning", "execution", "io")
+"""Functions here read like the paper: at most 60 lines; elsewhere at most 80."""
+
+
+@pytest.mark.parametrize("path", _sources(), ids=lambda p: _module_name(p))
+def test_functions_and_classes_stay_small(path: Path):
+    core = _layer(_module_name(path)) in CORE_LAYERS
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.ClassDef):
+            limit = 300
+        elif isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef):
+            limit = 60 if core else 80
+        else:
+            continue
+        length = (node.end_lineno or node.lineno) - node.lineno + 1
+        assert length <= limit, f"{_module_name(path)}.{node.name} has {length} lines " \
+                                f"(at most {limit})"

@@ -121,6 +121,14 @@ def _object_colour(scene: Scene, index: int) -> str:
 def _draw_scene(ax: Axes, scene: Scene, paths: np.ndarray, ee: np.ndarray,
                 start_only: bool) -> list[Artist]:
     """Draw everything on `ax`; return the legend handles, objects first."""
+    _draw_static(ax, scene)
+    object_handles = _draw_objects(ax, scene, paths, start_only)
+    _draw_tool(ax, ee, start_only)
+    return object_handles + _style_handles(scene, len(ee) > 0, start_only)
+
+
+def _draw_static(ax: Axes, scene: Scene) -> None:
+    """Table, goal region, robot base and obstacles."""
     table = scene.table
     ax.add_patch(Rectangle(tuple(table.lower), *table.size, facecolor=TABLE_COLOUR,
                            edgecolor="0.55", linewidth=1.0, zorder=1))
@@ -132,6 +140,9 @@ def _draw_scene(ax: Axes, scene: Scene, paths: np.ndarray, ee: np.ndarray,
         ax.add_patch(Polygon(object_outline(obstacle, obstacle.pose), closed=True,
                              facecolor=OBSTACLE_COLOUR, edgecolor="0.25", zorder=3))
 
+
+def _draw_objects(ax: Axes, scene: Scene, paths: np.ndarray, start_only: bool) -> list[Artist]:
+    """Objects at start (and end, with their centre paths); their legend handles."""
     object_handles: list[Artist] = []
     for i, obj in enumerate(scene.objects):
         colour = _object_colour(scene, i)
@@ -147,7 +158,11 @@ def _draw_scene(ax: Axes, scene: Scene, paths: np.ndarray, ee: np.ndarray,
         ax.plot(paths[:, i, 0], paths[:, i, 1], color=colour, linewidth=0.9, zorder=4)
         _fill(ax, obj, end, colour)
         _label(ax, obj.name, end)
+    return object_handles
 
+
+def _draw_tool(ax: Axes, ee: np.ndarray, start_only: bool) -> None:
+    """The end effector at start (and its path and end)."""
     if len(ee):
         if start_only:
             ax.plot(ee[0, 0], ee[0, 1], marker="o", color=EE_COLOUR, linestyle="none", zorder=7)
@@ -158,6 +173,10 @@ def _draw_scene(ax: Axes, scene: Scene, paths: np.ndarray, ee: np.ndarray,
             ax.plot(ee[-1, 0], ee[-1, 1], marker="s", markerfacecolor="white",
                     markeredgecolor=EE_COLOUR, markeredgewidth=1.5, linestyle="none", zorder=7)
 
+
+def _style_handles(scene: Scene, has_tool: bool, start_only: bool) -> list[Artist]:
+    """Legend entries for what is not an object."""
+    goal = scene.goal
     style_handles: list[Artist] = [
         Patch(facecolor=TABLE_COLOUR, edgecolor="0.55", label="table"),
         Line2D([], [], marker="P", markersize=9, color="black", linestyle="none",
@@ -170,16 +189,16 @@ def _draw_scene(ax: Axes, scene: Scene, paths: np.ndarray, ee: np.ndarray,
                                    label="obstacle"))
     if start_only:
         style_handles.append(Patch(facecolor="0.6", edgecolor="0.2", label="object at start"))
-        if len(ee):
+        if has_tool:
             style_handles.append(Line2D([], [], marker="o", color=EE_COLOUR, linestyle="none",
                                         label="end effector at start"))
-        return object_handles + style_handles
+        return style_handles
     style_handles += [
         Patch(fill=False, edgecolor="0.3", linestyle="--", label="object at start"),
         Patch(facecolor="0.6", edgecolor="0.2", label="object at end"),
         Line2D([], [], color="0.3", linewidth=0.9, label="object centre path"),
     ]
-    if len(ee):
+    if has_tool:
         style_handles += [
             Line2D([], [], color=EE_COLOUR, linewidth=1.2, label="end-effector path"),
             Line2D([], [], marker="o", color=EE_COLOUR, linestyle="none",
@@ -187,7 +206,7 @@ def _draw_scene(ax: Axes, scene: Scene, paths: np.ndarray, ee: np.ndarray,
             Line2D([], [], marker="s", markerfacecolor="white", markeredgecolor=EE_COLOUR,
                    markeredgewidth=1.5, linestyle="none", label="end effector end"),
         ]
-    return object_handles + style_handles
+    return style_handles
 
 
 def _fill(ax: Axes, obj: MovableObject, pose: np.ndarray, colour: str) -> None:
