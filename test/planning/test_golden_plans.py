@@ -1,9 +1,9 @@
 """Plans recorded before the package was reorganised (issue 17): the same scene, planner, seed
 and options must give the same trajectory, final object poses and search statistics after it.
 
-test/data/golden_plans.npz was written by the code at commit 4b9d3b9 with exactly the calls
+test/planning/data/golden_plans.npz was written by the code at commit 4b9d3b9 with exactly the calls
 below (`plan_scene`, 600 iterations, 10 shortcut attempts). A change that alters plans on
-purpose must say so and regenerate the file (`python test/test_golden_plans.py`)."""
+purpose must say so and regenerate the file (`python test/planning/test_golden_plans.py`)."""
 
 from __future__ import annotations
 

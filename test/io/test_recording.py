@@ -443,6 +443,6 @@ ros = sorted(m for m in sys.modules if m.split(".")[0] in
              ("rclpy", "msg_adapters", "sensor_msgs", "std_msgs", "builtin_interfaces"))
 assert not ros, ros
 """
-    subprocess.run([sys.executable, "-c", script], check=True, cwd=Path(__file__).parents[1])
+    subprocess.run([sys.executable, "-c", script], check=True, cwd=Path(__file__).parents[2])
     [message] = _decoded(tmp_path / "core.mcap", "/js")
     assert list(message.position) == [1.0]

@@ -44,7 +44,7 @@ from rearrangement_planner.ros.replay import (  # noqa: E402
     wait_until,
 )
 
-BAGS_DIR = Path(__file__).resolve().parent.parent / "bags"
+BAGS_DIR = Path(__file__).resolve().parents[2] / "bags"
 BAG_PATHS = sorted(BAGS_DIR.glob("*.mcap"))
 PLAN_PATHS = sorted((BAGS_DIR / "plans").glob("*.plan.mcap"))
 JOINTS, OBJECTS, GOAL = "/joint_states", "/planner_node/object_poses", "/planner_node/goal"

@@ -50,7 +50,7 @@ from rearrangement_planner.ros.replay import (  # noqa: E402
 )
 from rearrangement_planner.ros.world_sim import MAX_SUBSTEP, WorldSim  # noqa: E402
 
-BAGS = Path(__file__).resolve().parent.parent / "bags"
+BAGS = Path(__file__).resolve().parents[2] / "bags"
 FRAME = "panda_link0"
 TIME_SCALE = 20.0
 COMMAND_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE,
