@@ -27,7 +27,7 @@ def generate_launch_description() -> LaunchDescription:
         Node(
             package="rearrangement_planner",
             executable="planner_node",
-            name="planner_node",
+            name="rearrangement_planner",
             output="screen",
             parameters=[params],
             remappings=[("joint_trajectory", ["/", controller, "/joint_trajectory"])],

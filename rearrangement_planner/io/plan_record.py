@@ -7,15 +7,15 @@ The messages are built as plain data (`io.messages`), so recording needs no ROS 
 CLI's `--record`); the node passes the messages it received as inputs (rclpy objects or plain
 dicts are both encoded).
 
-Topics (log time = `start_time_ns`, default now, unless stated):
-  /joint_states                          sensor_msgs/msg/JointState        the start arm state
-  /planner_node/object_poses             geometry_msgs/msg/PoseArray       the start object poses
-  /planner_node/goal                     geometry_msgs/msg/PoseStamped     the goal point
-  /planner_node/markers                  visualization_msgs/msg/MarkerArray  scene (+ plan paths)
+Topics (log time = `start_time_ns`, default now, unless stated; N = /rearrangement_planner):
+  /joint_states                sensor_msgs/msg/JointState          the start arm state
+  N/object_poses               geometry_msgs/msg/PoseArray         the start object poses
+  N/goal                       geometry_msgs/msg/PoseStamped       the goal point
+  N/markers                    visualization_msgs/msg/MarkerArray  scene (+ plan paths)
 and when solved
-  /planner_node/trajectory               trajectory_msgs/msg/JointTrajectory
-  /planner_node/predicted_object_poses   geometry_msgs/msg/PoseArray, one per trajectory point,
-                                         logged and stamped at start + time_from_start.
+  N/trajectory                 trajectory_msgs/msg/JointTrajectory
+  N/predicted_object_poses     geometry_msgs/msg/PoseArray, one per trajectory point, logged and
+                               stamped at start + time_from_start.
 Metadata record "rearrangement_plan": plan_id, planner, seed, outcome, message, parameters
 (JSON), scene (YAML of the scene file format), statistics (JSON result of DESIGN §8 without
 the trajectory).
@@ -37,10 +37,12 @@ import yaml
 from rearrangement_planner.io import messages
 from rearrangement_planner.io.recording import McapRecorder, RecordingError
 from rearrangement_planner.model.errors import RearrangementError
+from rearrangement_planner.model.resources import NODE_NAME
 from rearrangement_planner.model.scene import Scene
 from rearrangement_planner.planning.pipeline import PlanOutput
 
-NODE_NAMESPACE = "/planner_node"
+NODE_NAMESPACE = f"/{NODE_NAME}"
+"""The planner node's namespace: its topics are recorded under it."""
 METADATA_NAME = "rearrangement_plan"
 TOPICS = {
     "joint_state": "/joint_states",

@@ -10,6 +10,9 @@ from functools import cache
 from pathlib import Path
 
 PACKAGE = "rearrangement_planner"
+NODE_NAME = PACKAGE
+"""The planner node's name (DESIGN §4): its topics and services are /rearrangement_planner/*;
+its executable is `planner_node`."""
 
 
 @cache

@@ -1,8 +1,8 @@
 """`python -m rearrangement_planner.ros.make_bags`: regenerate the input bags in `bags/` and the
 reference plan recordings in `bags/plans/`.
 
-Each input bag is what `ros2 bag record /joint_states /planner_node/object_poses
-/planner_node/goal` would have written on a Panda cell running a perception node, seconds
+Each input bag is what `ros2 bag record /joint_states /rearrangement_planner/object_poses
+/rearrangement_planner/goal` would have written on a Panda cell running a perception node, seconds
 before planning: rosbag2 MCAP (profile ros2, ros2msg schemas, cdr, offered_qos_profiles;
 `recording.McapRecorder`), log times from a fixed epoch, with
 
@@ -10,10 +10,11 @@ before planning: rosbag2 MCAP (profile ros2, ros2msg schemas, cdr, offered_qos_p
   the 7 arm joints and the 2 finger joints, as joint_state_broadcaster publishes them, with
   encoder-level noise on the positions and velocities, stamped a fraction of a millisecond
   before they are logged, with jitter;
-- `/planner_node/object_poses` (geometry_msgs/PoseArray in panda_link0) at a perception rate:
+- `/rearrangement_planner/object_poses` (geometry_msgs/PoseArray in `world`) at a perception
+  rate:
   the objects' true poses plus perception noise (position, height, yaw, a slight tilt),
   stamped at capture time, ~35 ms before they are logged;
-- `/planner_node/goal` (geometry_msgs/PoseStamped): the goal point, as clicked in RViz.
+- `/rearrangement_planner/goal` (geometry_msgs/PoseStamped): the goal point, as clicked in RViz.
 
 A metadata record `rearrangement_input` holds the planner node parameters to replay the bag
 with (`planner_parameters`, JSON: scene, seed, time limit, goal radius), the ground truth it
@@ -54,12 +55,12 @@ from rearrangement_planner.physics.validation import load_scene, parse_scene
 
 EPOCH_NS = 1_700_000_000 * 1_000_000_000
 """Log time of the first message of every bag (2023-11-14 22:13:20 UTC)."""
-FRAME = "panda_link0"
+FRAME = "world"
 FINGER_JOINTS = ("panda_finger_joint1", "panda_finger_joint2")
 FINGER_OPENING = 0.04
 """Finger joint positions, m (hand open)."""
-TOPICS = {"joint_states": "/joint_states", "object_poses": "/planner_node/object_poses",
-          "goal": "/planner_node/goal"}
+TOPICS = {"joint_states": "/joint_states", "object_poses": "/rearrangement_planner/object_poses",
+          "goal": "/rearrangement_planner/goal"}
 PERCEPTION_LATENCY = 0.035
 """Seconds from capture (header stamp) to publication of an object pose estimate."""
 

@@ -1,4 +1,5 @@
-"""`planner_node`: the ROS 2 node of DESIGN §4, a thin layer around `pipeline.plan_scene`.
+"""`planner_node` (node `rearrangement_planner`): the ROS 2 node of DESIGN §4, a thin layer
+around `pipeline.plan_scene`.
 
 Data flow:
 - Input topics (`joint_states`, `~/object_poses`, `~/goal`) are converted at the edge by
@@ -56,6 +57,7 @@ from msg_adapters import (
     trajectory_to_msg,
 )
 from rearrangement_planner.model.errors import RearrangementError
+from rearrangement_planner.model.resources import NODE_NAME
 from rearrangement_planner.planning.interface import Outcome, Progress
 from rearrangement_planner.planning.status import PlannerStatus
 from rearrangement_planner.ros.parameters import PARAMETERS, declare_parameters, read_parameters
@@ -70,7 +72,6 @@ from rearrangement_planner.ros.plan_request import (
     run_plan,
 )
 
-NODE_NAME = "planner_node"
 EXECUTOR_THREADS = 6
 STATUS_RATE = 4.0
 """Hz of the `~/status` progress messages while planning (DESIGN §4 asks for >= 2 Hz)."""
@@ -86,8 +87,8 @@ INPUT_ERROR_REPEAT = 1.0
 
 
 class PlannerNode(Node):
-    """The `planner_node` of DESIGN §4. Raises `RearrangementError` when the scene or robot
-    (read-only parameters) cannot be loaded."""
+    """The planner node of DESIGN §4 (`rearrangement_planner`). Raises `RearrangementError`
+    when the scene or robot (read-only parameters) cannot be loaded."""
 
     def __init__(self, **kwargs: Any):
         super().__init__(NODE_NAME, **kwargs)

@@ -3,8 +3,8 @@
 Starts `world_sim` (the simulated arm, objects and trajectory controller) and `planner_node`
 on a scene, each a real ROS 2 node on one executor. The planner receives the joint state and
 the object poses from world_sim, as from a robot and a perception system; the demo sends the
-goal (the scene's) on `/planner_node/goal`, calls `~/plan`, then `~/execute`, which sends the
-trajectory on `/joint_trajectory` to world_sim, which executes it open loop through the
+goal (the scene's) on `/rearrangement_planner/goal`, calls `~/plan`, then `~/execute`, which
+sends the trajectory on `/joint_trajectory` to world_sim, which executes it open loop through the
 quasistatic physics, faster than real time (`--time-scale`). Prints the plan summary,
 world_sim's outcome (goal object distance, in the region or not, objects moved), the MCAP of
 the plan and a top view PNG of the execution (the objects' true paths and the tool path).
@@ -116,13 +116,14 @@ def _run(session, world, planner, scene, args, planning_radius: float, plot_path
     from geometry_msgs.msg import PoseStamped
 
     from msg_adapters import goal_to_pose_stamped
+    from rearrangement_planner.model.resources import NODE_NAME
     from rearrangement_planner.ros.replay import BagError, OutcomeListener, PlannerClient
 
     node = session.node
     frame = planner.get_parameter("planning_frame").value or scene.robot.config.base_frame
-    client = PlannerClient(node, "/planner_node")
+    client = PlannerClient(node, f"/{NODE_NAME}")
     outcomes = OutcomeListener(node, "/world_sim/outcome")
-    goal_pub = node.create_publisher(PoseStamped, "/planner_node/goal", 10)
+    goal_pub = node.create_publisher(PoseStamped, "/rearrangement_planner/goal", 10)
     try:
         client.wait_ready()
         ready = _wait(lambda: goal_pub.get_subscription_count() >= 2             # both nodes

@@ -54,7 +54,7 @@ from mcap.exceptions import McapError
 from mcap.reader import make_reader
 
 from rearrangement_planner.model.errors import RearrangementError
-from rearrangement_planner.model.resources import share_dir
+from rearrangement_planner.model.resources import NODE_NAME, share_dir
 
 INPUT_METADATA = "rearrangement_input"
 """The metadata record of an input bag (written by make_bags): `planner_parameters` (JSON: the
@@ -360,7 +360,7 @@ def parse_summary(message: str) -> tuple[str, str, float, int, Path | None]:
 class PlannerClient:
     """The planner node's `~/plan` and `~/execute` and its `~/trajectory`, seen from `node`."""
 
-    def __init__(self, node, namespace: str = "/planner_node"):
+    def __init__(self, node, namespace: str = f"/{NODE_NAME}"):
         from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
         from std_srvs.srv import Trigger
         from trajectory_msgs.msg import JointTrajectory
@@ -588,7 +588,7 @@ def run_bag(bag: Bag | str | os.PathLike[str], session: Session, *, rate: float 
             context=session.context, namespace=ns or None,
             parameter_overrides=[Parameter(k, value=v) for k, v in parameters.items()]))
         player = BagPlayer(session.node, bag, rate=rate, namespace=ns)
-        client = PlannerClient(session.node, f"{ns}/planner_node")
+        client = PlannerClient(session.node, f"{ns}/{NODE_NAME}")
         client.wait_ready()
         missing = player.wait_for_subscribers()
         if missing:
@@ -700,7 +700,7 @@ def main(argv: list[str] | None = None) -> int:
             if args.play_only:
                 return 0
             time.sleep(SETTLE)
-            reply = PlannerClient(session.node, f"{args.namespace.rstrip('/')}/planner_node"
+            reply = PlannerClient(session.node, f"{args.namespace.rstrip('/')}/{NODE_NAME}"
                                   ).plan()
             print(reply.message)
             return 0 if reply.success else 1

@@ -5,7 +5,7 @@ What a real cell would give the planner, simulated with the planner's own quasis
 
 - the arm's `joint_states` (sensor_msgs/JointState, stamped, at `rate` Hz) and the object poses
   (geometry_msgs/PoseArray in the planning frame, at `object_rate` Hz, on the topic
-  `object_poses_topic`, by default the planner node's `planner_node/object_poses`);
+  `object_poses_topic`, by default the planner node's `rearrangement_planner/object_poses`);
 - a position-controlled arm behind a `joint_trajectory` command topic
   (trajectory_msgs/JointTrajectory), executed **open loop** the way ros2_control's
   joint_trajectory_controller does: the trajectory starts when it arrives (header.stamp zero,
@@ -128,11 +128,12 @@ PARAMETERS: tuple[ParameterSpec, ...] = (
     _Spec("start_tolerance", 0.01, "Largest distance (rad, per joint) between a trajectory's "
           "point at time 0 and the current position; farther is rejected. 0 = no check.",
           0.0, 10.0),
-    _Spec("frame_id", "", "Frame of the published object poses and of accepted goals; '' = "
-          "the robot base frame.", read_only=True),
-    _Spec("object_poses_topic", "planner_node/object_poses", "Topic of the published object "
-          "poses (PoseArray, scene object order).", read_only=True),
-    _Spec("goal_topic", "planner_node/goal", "Topic of the goal point (PoseStamped) the "
+    _Spec("frame_id", "world", "Frame of the published object poses and of accepted goals (the "
+          "robot base frame, as the planner's planning_frame); '' = the robot config's base "
+          "frame name.", read_only=True),
+    _Spec("object_poses_topic", "rearrangement_planner/object_poses", "Topic of the published "
+          "object poses (PoseArray, scene object order).", read_only=True),
+    _Spec("goal_topic", "rearrangement_planner/goal", "Topic of the goal point (PoseStamped) the "
           "outcome is judged against.", read_only=True),
 )
 

@@ -47,8 +47,9 @@ from rearrangement_planner.ros.replay import (  # noqa: E402
 BAGS_DIR = Path(__file__).resolve().parents[2] / "bags"
 BAG_PATHS = sorted(BAGS_DIR.glob("*.mcap"))
 PLAN_PATHS = sorted((BAGS_DIR / "plans").glob("*.plan.mcap"))
-JOINTS, OBJECTS, GOAL = "/joint_states", "/planner_node/object_poses", "/planner_node/goal"
-TRAJECTORY, PREDICTED = "/planner_node/trajectory", "/planner_node/predicted_object_poses"
+NS = "/rearrangement_planner"
+JOINTS, OBJECTS, GOAL = "/joint_states", f"{NS}/object_poses", f"{NS}/goal"
+TRAJECTORY, PREDICTED = f"{NS}/trajectory", f"{NS}/predicted_object_poses"
 RATE = 2.0
 """Playback rate factor (ros2 bag play --rate)."""
 TIME_SCALE = 20.0
@@ -132,7 +133,7 @@ def test_bags_cover_the_scenes_sizes_rates_and_a_bad_connection():
         assert 95 <= rates[JOINTS] <= 525 and 14 <= rates[OBJECTS] <= 32, (name, rates)
         joint_state = bag.last(JOINTS)
         assert len(joint_state.name) == 9 and len(joint_state.velocity) == 9   # arm + fingers
-        assert bag.last(OBJECTS).header.frame_id == "panda_link0"
+        assert bag.last(OBJECTS).header.frame_id == "world"
         found = _glitches(bag)
         if any(found.values()):
             assert all(found.values()), (name, found)          # the glitchy one has them all

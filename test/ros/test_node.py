@@ -43,7 +43,7 @@ from msg_adapters import (  # noqa: E402
     msg_to_trajectory,
     objects_to_pose_array,
 )
-from rearrangement_planner.model.resources import config_dir  # noqa: E402
+from rearrangement_planner.model.resources import NODE_NAME, config_dir  # noqa: E402
 from rearrangement_planner.model.state import State  # noqa: E402
 from rearrangement_planner.physics.step import Physics  # noqa: E402
 from rearrangement_planner.physics.validation import load_scene  # noqa: E402
@@ -54,8 +54,8 @@ from rearrangement_planner.ros.node import EXECUTOR_THREADS, PlannerNode  # noqa
 from rearrangement_planner.ros.parameters import DEFAULTS, PARAMETERS  # noqa: E402
 from rearrangement_planner.ros.replay import wait_until  # noqa: E402
 
-FRAME = "panda_link0"
-NS = "/planner_node"
+FRAME = "world"
+NS = f"/{NODE_NAME}"
 SUMMARY = re.compile(r"^plan (\S+): ([A-Z_]+) in ([\d.]+) s, (\d+) iterations, mcap (.+)$")
 
 
@@ -81,7 +81,7 @@ class Client:
         n.create_subscription(JointTrajectory, "/joint_trajectory", self._on_command, 10)
         self.clients = {name: n.create_client(Trigger, f"{NS}/{name}")
                         for name in ("plan", "cancel", "execute")}
-        self.parameters = AsyncParameterClient(n, "planner_node")
+        self.parameters = AsyncParameterClient(n, NODE_NAME)
         n.create_timer(0.05, self._publish_inputs)
 
     def _publish_inputs(self) -> None:
@@ -211,6 +211,10 @@ def check_controller_contract(msg: JointTrajectory, joint_names) -> None:
 
 def test_parameters_declared_once_with_descriptions_and_yaml_defaults(ros):
     planner = ros["planner"]
+    # DESIGN §4: the node is `rearrangement_planner` and takes messages in `world` by default
+    # (every test here publishes in FRAME = "world" without setting planning_frame).
+    assert planner.get_name() == "rearrangement_planner" == NODE_NAME
+    assert planner.get_parameter("planning_frame").value == "world" == FRAME
     names = [p.name for p in PARAMETERS]
     assert len(names) == len(set(names))
     for required in ("scene", "robot_description", "object_ids", "goal_object", "goal_radius",
@@ -233,7 +237,7 @@ def test_parameters_declared_once_with_descriptions_and_yaml_defaults(ros):
         else:
             assert DEFAULTS[field.name] == field.default, field.name
     data = yaml.safe_load((config_dir() / "planner.yaml").read_text())
-    file_defaults = data["planner_node"]["ros__parameters"]
+    file_defaults = data[NODE_NAME]["ros__parameters"]
     assert file_defaults == {k: list(v) if isinstance(v, tuple) else v
                              for k, v in DEFAULTS.items()}
     client = ros["client"]
@@ -408,7 +412,7 @@ def test_bad_inputs_are_reported_and_the_node_keeps_serving(ros):
          "joint_states.position[panda_joint3]"),
         ("objects", PoseArray(header=client.good_objects.header, poses=[]),
          "object_poses.poses"),
-        ("objects", objects_to_pose_array(scene.object_poses, "world"),
+        ("objects", objects_to_pose_array(scene.object_poses, "map"),
          "object_poses.header.frame_id"),
         ("objects", _tilted(client.good_objects), "object_poses.poses[0].orientation"),
     ]
@@ -420,7 +424,7 @@ def test_bad_inputs_are_reported_and_the_node_keeps_serving(ros):
             assert "rejected" in status.message
             client.joint_state, client.objects = client.good_joint_state, client.good_objects
         t0 = time.monotonic()
-        client.publish_goal(goal_to_pose_stamped(scene.goal.position, "world"))
+        client.publish_goal(goal_to_pose_stamped(scene.goal.position, "map"))
         client.wait_status(t0, lambda s: "goal.header.frame_id" in s.message)
 
         # Objects off the table: the start state is invalid (the object is named).

@@ -16,7 +16,7 @@ from rearrangement_planner.ros.parameters import PARAMETERS
 
 def test_config_file_lists_every_parameter_at_its_default_in_order():
     data = yaml.safe_load((config_dir() / "planner.yaml").read_text())
-    in_file = data["planner_node"]["ros__parameters"]
+    in_file = data["rearrangement_planner"]["ros__parameters"]
     declared = {p.name: list(p.default) if isinstance(p.default, tuple) else p.default
                 for p in PARAMETERS}
     assert list(in_file) == list(declared)

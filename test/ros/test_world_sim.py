@@ -51,7 +51,7 @@ from rearrangement_planner.ros.replay import (  # noqa: E402
 from rearrangement_planner.ros.world_sim import MAX_SUBSTEP, WorldSim  # noqa: E402
 
 BAGS = Path(__file__).resolve().parents[2] / "bags"
-FRAME = "panda_link0"
+FRAME = "world"
 TIME_SCALE = 20.0
 COMMAND_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE,
                          durability=DurabilityPolicy.VOLATILE)
@@ -65,7 +65,7 @@ def load_reference(name: str, folder: Path) -> SimpleNamespace:
     world_file = folder / f"{name}.world.yaml"
     world_file.write_text(yaml.safe_dump(bag.input_metadata()["world"], sort_keys=False))
     scene = load_scene(world_file)
-    trajectory = plan.last("/planner_node/trajectory")
+    trajectory = plan.last("/rearrangement_planner/trajectory")
     return SimpleNamespace(world_file=world_file, scene=scene, trajectory=trajectory,
                            command=command_from_msg(trajectory, scene.robot,
                                                     scene.start_configuration, 0.01))
@@ -195,7 +195,7 @@ def test_publishes_state_at_its_rates(session, reference):
     objects: list[tuple[float, PoseArray]] = []
     subs = [session.node.create_subscription(JointState, "/rates/joint_states",
                                              lambda m: joints.append((time.time(), m)), 10),
-            session.node.create_subscription(PoseArray, "/rates/planner_node/object_poses",
+            session.node.create_subscription(PoseArray, "/rates/rearrangement_planner/object_poses",
                                              lambda m: objects.append((time.time(), m)),
                                              qos_profile_sensor_data)]
     try:
@@ -318,7 +318,7 @@ def test_preemption_goal_updates_empty_trajectory_and_reset(session, reference):
     q0 = scene.start_configuration
     names = scene.robot.joint_names
     goal_pub = session.node.create_publisher(type(goal_to_pose_stamped([0, 0], FRAME)),
-                                             "/preempt/planner_node/goal", 10)
+                                             "/preempt/rearrangement_planner/goal", 10)
     try:
         assert wait_until(lambda: goal_pub.get_subscription_count() > 0, 10.0)
         goal_pub.publish(goal_to_pose_stamped([0.3, 0.4], "world"))      # wrong frame: ignored

@@ -112,7 +112,7 @@ def test_shortcut_and_record_from_the_cli(tmp_path):
         reader = make_reader(f)
         topics = {c.topic for c in reader.get_summary().channels.values()}
         metadata = {m.name for m in reader.iter_metadata()}
-    assert "/planner_node/trajectory" in topics and "rearrangement_plan" in metadata
+    assert "/rearrangement_planner/trajectory" in topics and "rearrangement_plan" in metadata
 
 
 def test_recording_failure_keeps_the_plan(tmp_path, capsys):
@@ -153,4 +153,4 @@ def test_record_needs_no_ros(tmp_path):
     from mcap_ros2.reader import read_ros2_messages
 
     topics = {m.channel.topic for m in read_ros2_messages(str(mcap))}
-    assert "/planner_node/trajectory" in topics and "/planner_node/markers" in topics
+    assert {"/rearrangement_planner/trajectory", "/rearrangement_planner/markers"} <= topics
