@@ -17,12 +17,13 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+from xml.etree import ElementTree
 
 import numpy as np
 import pinocchio as pin
-import yaml
 
 from rearrangement_planner.model.errors import RobotModelError
+from rearrangement_planner.model.files import FileProblem, is_file, load_yaml, quote, read_text
 from rearrangement_planner.model.resources import robots_dir
 
 SHAPE_KINDS = ("capsule", "sphere", "box", "cylinder")
@@ -97,11 +98,9 @@ class RobotConfig:
     def from_yaml(path: str | Path) -> RobotConfig:
         path = Path(path)
         try:
-            data = yaml.safe_load(path.read_text())
-        except OSError as exc:
-            raise RobotModelError(f"robot config {path}: cannot read ({exc.strerror})") from exc
-        except yaml.YAMLError as exc:
-            raise RobotModelError(f"robot config {path}: not valid YAML ({exc})") from exc
+            data = load_yaml(path, "robot config")
+        except FileProblem as exc:
+            raise RobotModelError(str(exc)) from None
         return RobotConfig.from_dict(data, base_dir=path.parent, source=path)
 
     @staticmethod
@@ -186,6 +185,18 @@ def _rotation_z_to(axis: np.ndarray) -> np.ndarray:
     return np.column_stack([x, y, axis])
 
 
+def _check_xml(urdf_xml: str, robot: str) -> None:
+    """RobotModelError unless `urdf_xml` is well-formed XML with a <robot> root (checked before
+    Pinocchio, whose URDF parser prints its own errors to the terminal)."""
+    try:
+        root = ElementTree.fromstring(urdf_xml)
+    except ElementTree.ParseError as exc:
+        raise RobotModelError(f"robot '{robot}': the URDF is not XML ({exc})") from None
+    if root.tag != "robot":
+        raise RobotModelError(f"robot '{robot}': the URDF's root element is <{quote(root.tag)}>, "
+                              f"not <robot>")
+
+
 class RobotModel:
     """Forward kinematics, Jacobians and contact-shape poses of a serial arm."""
 
@@ -194,11 +205,10 @@ class RobotModel:
             if config.urdf_path is None:
                 raise RobotModelError(f"robot '{config.name}': no URDF given")
             try:
-                urdf_xml = Path(config.urdf_path).read_text()
-            except OSError as exc:
-                raise RobotModelError(
-                    f"robot '{config.name}': cannot read URDF {config.urdf_path}"
-                    f" ({exc.strerror})") from exc
+                urdf_xml = read_text(config.urdf_path, f"robot '{config.name}': URDF")
+            except FileProblem as exc:
+                raise RobotModelError(str(exc)) from None
+        _check_xml(urdf_xml, config.name)
         try:
             self.model = pin.buildModelFromXML(urdf_xml)
         except (RuntimeError, ValueError) as exc:
@@ -254,13 +264,11 @@ class RobotModel:
         path = Path(name_or_path)
         if path.suffix not in (".yaml", ".yml"):
             path = robots_dir() / f"{name_or_path}.yaml"
-            if not path.is_file():
+            if not is_file(path):
                 known = sorted(p.stem for p in robots_dir().glob("*.yaml"))
                 raise RobotModelError(
-                    f"unknown robot '{name_or_path}'; shipped robots are {known}, "
+                    f"unknown robot {quote(str(name_or_path))}; shipped robots are {known}, "
                     f"or give the path of a robot config .yaml")
-        elif not path.is_file():
-            raise RobotModelError(f"robot config file {path} does not exist")
         return cls(RobotConfig.from_yaml(path), urdf_xml=urdf_xml)
 
     def copy(self) -> RobotModel:

@@ -38,9 +38,9 @@ from pathlib import Path
 from typing import Any, NoReturn
 
 import numpy as np
-import yaml
 
 from rearrangement_planner.model.errors import RobotModelError, SceneError
+from rearrangement_planner.model.files import FileProblem, is_file, load_yaml, quote
 from rearrangement_planner.model.resources import robots_dir, scenes_dir
 from rearrangement_planner.model.robot import RobotConfig, RobotModel
 from rearrangement_planner.model.state import State
@@ -53,6 +53,22 @@ OBJECT_SHAPES = ("box", "cylinder")
 # Depth (m) below which two touching bodies count as apart; absorbs the ~1e-6 m noise of the
 # narrow phase so that objects placed exactly side by side are accepted.
 TOUCH_TOLERANCE = 1e-6
+
+BOUNDS: dict[str, tuple[float, float, str]] = {
+    "table.center": (-3.0, 3.0, "m"),
+    "table.size": (0.1, 5.0, "m"),
+    "table.height": (-2.0, 2.0, "m"),
+    "obstacle extent": (0.005, 5.0, "m"),
+    "object extent": (0.005, 1.0, "m"),
+    "object radius": (0.0025, 0.5, "m"),
+    "mass": (0.001, 100.0, "kg"),
+    "support_friction": (0.01, 2.0, ""),
+    "pusher_friction": (0.0, 2.0, ""),
+    "goal.radius": (0.001, 5.0, "m"),
+}
+"""Physical plausibility (README, "Scene bounds"): values outside are refused at load time,
+not found late. The goal radius is also at most the table's larger side, and obstacles, like
+objects, stand on the table (their centre on its top)."""
 
 
 def _readonly(values: Any) -> np.ndarray:
@@ -345,26 +361,17 @@ def read_scene(path: str | Path, robot: RobotModel | None = None) -> Scene:
     Raises `SceneError` for a missing file, invalid YAML or any invalid content.
     """
     path = Path(path)
-    if path.suffix not in (".yaml", ".yml") and not path.is_file():
+    if path.suffix not in (".yaml", ".yml") and not is_file(path):
         shipped = scenes_dir() / f"{path}.yaml"
-        if not shipped.is_file():
+        if not is_file(shipped):
             known = sorted(p.stem for p in scenes_dir().glob("*.yaml"))
-            raise SceneError("", f"unknown scene '{path}'; shipped scenes are {known}, or give "
-                                 f"the path of a scene .yaml file")
+            raise SceneError("", f"unknown scene {quote(str(path))}; shipped scenes are "
+                                 f"{known}, or give the path of a scene .yaml file")
         path = shipped
     try:
-        text = path.read_text()
-    except FileNotFoundError:
-        raise SceneError("", f"scene file {path} does not exist") from None
-    except OSError as exc:
-        raise SceneError("", f"scene file {path}: cannot read it ({exc.strerror})") from None
-    try:
-        data = yaml.safe_load(text)
-    except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
-        problem = getattr(exc, "problem", None) or str(exc)
-        raise SceneError("", f"scene file {path} is not valid YAML{where}: {problem}") from None
+        data = load_yaml(path, "scene file")
+    except FileProblem as exc:
+        raise SceneError("", str(exc)) from None
     return scene_from_dict(data, base_dir=path.parent, name=str(path), robot=robot)
 
 
@@ -398,6 +405,7 @@ def scene_from_dict(data: Any, base_dir: Path | None = None, name: str = "<scene
     _check_unique_names([("obstacles", o.name) for o in obstacles]
                         + [("objects", o.name) for o in objects])
     goal = _parse_goal(data["goal"], [o.name for o in objects])
+    _check_on_table(table, obstacles, goal)
     return Scene(model, start, table, tuple(obstacles), tuple(objects), goal, source=name)
 
 
@@ -412,8 +420,8 @@ def _join(parent: str, key: str) -> str:
 def _type_name(value: Any) -> str:
     if value is None:
         return "nothing (null)"
-    return f"{type(value).__name__} {value!r}" if isinstance(value, str | bool | int | float) \
-        else type(value).__name__
+    return f"{type(value).__name__} {quote(value)}" \
+        if isinstance(value, str | bool | int | float) else type(value).__name__
 
 
 def _check_keys(data: Mapping, path: str, allowed: Sequence[str], required: Sequence[str],
@@ -455,24 +463,42 @@ def _not_a_number(value: Any) -> str:
 def _number(value: Any, path: str, unit: str = "") -> float:
     if not _is_number(value):
         _fail(path, f"expected a number{unit}, got {_not_a_number(value)}")
-    x = float(value)
+    x = _float(value)
     if not math.isfinite(x):
-        _fail(path, f"must be a finite number{unit}, got {x}")
+        _fail(path, f"must be a finite number{unit}, got {quote(value)}")
     return x
 
 
-def _positive(value: Any, path: str, unit: str) -> float:
-    x = _number(value, path, f" ({unit})")
-    if x <= 0:
-        _fail(path, f"must be > 0 {unit}, got {x}")
+def _float(value: Any) -> float:
+    """float(value), inf for an integer too large for a float (400 digits)."""
+    try:
+        return float(value)
+    except OverflowError:
+        return math.inf
+
+
+def _bounded(value: Any, path: str, bound: str) -> float:
+    """A finite number within BOUNDS[bound]."""
+    low, high, unit = BOUNDS[bound]
+    x = _number(value, path, f" ({unit})" if unit else "")
+    if not low <= x <= high:
+        _fail(path, f"must be between {low:g} and {high:g}{' ' + unit if unit else ''} "
+                    f"(scene bounds, README), got {x:.6g}")
     return x
 
 
-def _nonnegative(value: Any, path: str) -> float:
-    x = _number(value, path, " (a friction coefficient)")
-    if x < 0:
-        _fail(path, f"must be a friction coefficient >= 0, got {x}")
-    return x
+def _bounded_vector(value: Any, path: str, length: int, what: str, bound: str) -> np.ndarray:
+    out = _vector(value, path, length, what)
+    low, high, unit = BOUNDS[bound]
+    bad = [float(v) for v in out if not low <= v <= high]
+    if bad:
+        _fail(path, f"every entry must be between {low:g} and {high:g} {unit} (scene bounds, "
+                    f"README), got {bad[0]:.6g}")
+    return out
+
+
+
+
 
 
 def _vector(value: Any, path: str, length: int, what: str) -> np.ndarray:
@@ -486,18 +512,13 @@ def _vector(value: Any, path: str, length: int, what: str) -> np.ndarray:
     for i, item in enumerate(value):
         if not _is_number(item):
             _fail(path, f"entry {i} is {_not_a_number(item)}; expected {length} numbers: {what}")
-        out[i] = float(item)
+        out[i] = _float(item)
     if not np.all(np.isfinite(out)):
-        _fail(path, f"{[float(v) for v in out]} has a non-finite entry; every entry must be a "
-                    f"finite number")
+        _fail(path, f"entry {int(np.flatnonzero(~np.isfinite(out))[0])} is not a finite "
+                    f"number; every entry must be one")
     return out
 
 
-def _positive_vector(value: Any, path: str, length: int, what: str) -> np.ndarray:
-    out = _vector(value, path, length, what)
-    if np.any(out <= 0):
-        _fail(path, f"every extent must be > 0 m, got {[float(v) for v in out]}")
-    return out
 
 
 def _name(value: Any, path: str) -> str:
@@ -512,6 +533,8 @@ def _resolve_robot(value: Any, base_dir: Path | None, robot: RobotModel | None) 
     if not isinstance(value, str):
         _fail("robot", f"expected a shipped robot name (e.g. 'panda') or the path of a robot "
                        f"config .yaml, got {_type_name(value)}")
+    if len(value) > 255 or "\x00" in value:
+        _fail("robot", f"{quote(value)} is not a robot name or a robot config path")
     target: str | Path = value
     is_path = Path(value).suffix in (".yaml", ".yml")
     if is_path:
@@ -536,9 +559,10 @@ def _resolve_robot(value: Any, base_dir: Path | None, robot: RobotModel | None) 
 def _parse_table(value: Any) -> Table:
     data = _mapping(value, "table", _TABLE_KEYS, _TABLE_KEYS)
     return Table(
-        center=_vector(data["center"], "table.center", 2, "[x, y] (m)"),
-        size=_positive_vector(data["size"], "table.size", 2, "[size_x, size_y] (m)"),
-        height=_number(data["height"], "table.height", " (m)"))
+        center=_bounded_vector(data["center"], "table.center", 2, "[x, y] (m)", "table.center"),
+        size=_bounded_vector(data["size"], "table.size", 2, "[size_x, size_y] (m)",
+                             "table.size"),
+        height=_bounded(data["height"], "table.height", "table.height"))
 
 
 def _parse_list(value: Any, path: str, parse_one: Any, allow_empty: bool) -> list:
@@ -556,9 +580,10 @@ def _parse_obstacle(value: Any, path: str) -> Obstacle:
     name = _name(data["name"], f"{path}.name")
     shape = data.get("shape", "box")
     if shape != "box":
-        _fail(f"{path}.shape", f"unknown obstacle shape {shape!r}; obstacles are 'box'")
+        _fail(f"{path}.shape", f"unknown obstacle shape {quote(shape)}; obstacles are 'box'")
     return Obstacle(name,
-                    _positive_vector(data["size"], f"{path}.size", 3, "[x, y, z] extents (m)"),
+                    _bounded_vector(data["size"], f"{path}.size", 3, "[x, y, z] extents (m)",
+                                    "obstacle extent"),
                     _vector(data["pose"], f"{path}.pose", 3, "[x, y, yaw] (m, m, rad)"))
 
 
@@ -569,24 +594,40 @@ def _parse_object(value: Any, path: str) -> MovableObject:
         _fail(f"{path}.shape", f"missing required key; use one of {list(OBJECT_SHAPES)}")
     shape = value["shape"]
     if shape not in OBJECT_SHAPES:
-        _fail(f"{path}.shape", f"unknown shape {shape!r}; use one of {list(OBJECT_SHAPES)}")
+        _fail(f"{path}.shape", f"unknown shape {quote(shape)}; use one of {list(OBJECT_SHAPES)}")
     dims = ("size",) if shape == "box" else ("radius", "height")
     data = _mapping(value, path, _OBJECT_KEYS[shape], ("name", "pose") + dims,
                     what=f" for a {shape}")
     name = _name(data["name"], f"{path}.name")
     if shape == "box":
-        size = _positive_vector(data["size"], f"{path}.size", 3, "[x, y, z] extents (m)")
+        size = _bounded_vector(data["size"], f"{path}.size", 3, "[x, y, z] extents (m)",
+                               "object extent")
     else:
-        radius = _positive(data["radius"], f"{path}.radius", "m")
-        size = np.array([2 * radius, 2 * radius, _positive(data["height"], f"{path}.height", "m")])
+        radius = _bounded(data["radius"], f"{path}.radius", "object radius")
+        size = np.array([2 * radius, 2 * radius,
+                         _bounded(data["height"], f"{path}.height", "object extent")])
     return MovableObject(
         name=name, shape=shape, size=size,
         pose=_vector(data["pose"], f"{path}.pose", 3, "[x, y, yaw] (m, m, rad)"),
-        mass=_positive(data.get("mass", DEFAULT_MASS), f"{path}.mass", "kg"),
-        support_friction=_nonnegative(data.get("support_friction", DEFAULT_SUPPORT_FRICTION),
-                                      f"{path}.support_friction"),
-        pusher_friction=_nonnegative(data.get("pusher_friction", DEFAULT_PUSHER_FRICTION),
-                                     f"{path}.pusher_friction"))
+        mass=_bounded(data.get("mass", DEFAULT_MASS), f"{path}.mass", "mass"),
+        support_friction=_bounded(data.get("support_friction", DEFAULT_SUPPORT_FRICTION),
+                                  f"{path}.support_friction", "support_friction"),
+        pusher_friction=_bounded(data.get("pusher_friction", DEFAULT_PUSHER_FRICTION),
+                                 f"{path}.pusher_friction", "pusher_friction"))
+
+
+def _check_on_table(table: Table, obstacles: list[Obstacle], goal: Goal) -> None:
+    """Obstacles stand on the table (centre on its top); the goal region is no larger than
+    the table."""
+    for i, box in enumerate(obstacles):
+        if not bool(table.contains(box.pose[:2])):
+            _fail(f"obstacles[{i}].pose", f"obstacle '{box.name}' at ({box.pose[0]:.3g}, "
+                                          f"{box.pose[1]:.3g}) is off the table; its centre "
+                                          f"must lie on the table top ({table.describe()})")
+    largest = float(max(table.size))
+    if goal.radius > largest:
+        _fail("goal.radius", f"{goal.radius:g} m is larger than the table ({largest:g} m); the "
+                             f"goal region must be at most the table's size")
 
 
 def _check_unique_names(entries: list[tuple[str, str]]) -> None:
@@ -607,4 +648,4 @@ def _parse_goal(value: Any, object_names: list[str]) -> Goal:
     if name not in object_names:
         _fail("goal.object", f"no object named '{name}'; objects are {object_names}")
     return Goal(name, _vector(data["position"], "goal.position", 2, "[x, y] (m)"),
-                _positive(data.get("radius", DEFAULT_GOAL_RADIUS), "goal.radius", "m"))
+                _bounded(data.get("radius", DEFAULT_GOAL_RADIUS), "goal.radius", "goal.radius"))

@@ -54,6 +54,7 @@ from mcap.exceptions import McapError
 from mcap.reader import make_reader
 
 from rearrangement_planner.model.errors import RearrangementError
+from rearrangement_planner.model.files import FileProblem, parse_yaml
 from rearrangement_planner.model.resources import NODE_NAME, share_dir
 
 INPUT_METADATA = "rearrangement_input"
@@ -141,9 +142,9 @@ class Bag:
                            f"ground truth); only bags written by make_bags have one")
         try:
             return {"planner_parameters": json.loads(record["planner_parameters"]),
-                    "world": yaml.safe_load(record["world"]),
+                    "world": parse_yaml(record["world"], "the bag's world"),
                     "description": record.get("description", "")}
-        except (KeyError, ValueError, yaml.YAMLError) as exc:
+        except (KeyError, ValueError, FileProblem) as exc:
             raise BagError(f"{self.path}: metadata '{INPUT_METADATA}' is malformed: "
                            f"{exc}") from None
 

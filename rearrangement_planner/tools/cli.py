@@ -9,6 +9,7 @@ from __future__ import annotations
 import argparse
 import json
 import logging
+import os
 import sys
 import time
 from pathlib import Path
@@ -17,6 +18,7 @@ from typing import Any
 import numpy as np
 
 from rearrangement_planner.model.errors import RearrangementError
+from rearrangement_planner.model.files import quote
 from rearrangement_planner.physics.validation import load_scene
 from rearrangement_planner.planning.interface import PlannerOptions, Progress
 from rearrangement_planner.planning.pipeline import PlanOutput, plan_scene
@@ -136,6 +138,9 @@ def main(argv: list[str] | None = None) -> int:
             raise RearrangementError(f"--shortcut-attempts must be >= 1, got "
                                      f"{args.shortcut_attempts}")
         options = _options(args)
+        for option, path in (("--json", args.json), ("--record", args.record),
+                             ("--plot", args.plot)):
+            _check_output(option, path)
         scene = load_scene(args.scene)
     except RearrangementError as exc:
         print(f"rearrangement-plan: {exc}", file=sys.stderr)
@@ -154,7 +159,14 @@ def main(argv: list[str] | None = None) -> int:
         if str(args.json) == "-":
             print(text)
         else:
-            args.json.write_text(text + "\n")
+            try:
+                args.json.write_text(text + "\n")
+            except OSError as exc:
+                print(f"rearrangement-plan: cannot write --json {args.json}: "
+                      f"{exc.strerror or exc}; the result follows on standard output",
+                      file=sys.stderr)
+                print(text)
+                return 2
     if args.plot is not None:
         _plot(output, args.plot, args.seed)
     if args.record is not None:
@@ -164,6 +176,32 @@ def main(argv: list[str] | None = None) -> int:
                                           "goal_distance_m")}
         print(json.dumps(summary), file=sys.stderr)
     return 0 if result.solved else 1
+
+
+def _check_output(option: str, path: Path | None) -> None:
+    """Before planning: an output path must be a file we can create or overwrite, in an
+    existing folder (--record creates missing folders), so a bad path costs no plan.
+    RearrangementError names the option."""
+    if path is None or (option == "--json" and str(path) == "-"):
+        return
+    shown = quote(str(path))
+    try:
+        if path.is_dir():
+            raise RearrangementError(f"{option} {shown} is a folder; give a file path")
+        if path.exists() and not os.access(path, os.W_OK):
+            raise RearrangementError(f"{option} {shown}: the file is not writable")
+        folder = path.absolute().parent
+        if not folder.exists() and option != "--record":
+            raise RearrangementError(f"{option} {shown}: the folder {quote(str(folder))} does "
+                                     f"not exist")
+        while not folder.exists():
+            folder = folder.parent
+        if not folder.is_dir():
+            raise RearrangementError(f"{option} {shown}: {quote(str(folder))} is not a folder")
+        if not os.access(folder, os.W_OK | os.X_OK):
+            raise RearrangementError(f"{option} {shown}: cannot write in {quote(str(folder))}")
+    except OSError as exc:
+        raise RearrangementError(f"{option} {shown}: {exc.strerror or exc}") from None
 
 
 def _plot(output: PlanOutput, path: Path, seed: int) -> None:
@@ -194,7 +232,7 @@ def _record(output: PlanOutput, args: argparse.Namespace) -> None:
     try:
         path = record_plan(args.record, output, plan_id=f"cli-{args.seed}",
                            parameters=parameters,
-                           planning_frame=output.scene.robot.config.base_frame)
+                           planning_frame="world")
     except RecordingError as exc:
         print(f"rearrangement-plan: recording failed: {exc}", file=sys.stderr)
         return

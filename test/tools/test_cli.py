@@ -115,14 +115,29 @@ def test_shortcut_and_record_from_the_cli(tmp_path):
     assert "/rearrangement_planner/trajectory" in topics and "rearrangement_plan" in metadata
 
 
-def test_recording_failure_keeps_the_plan(tmp_path, capsys):
+def test_a_record_path_under_a_file_is_refused_before_planning(tmp_path, capsys):
     blocker = tmp_path / "file"
     blocker.write_text("")
+    code = main([str(scenes_dir() / "easy_push.yaml"), "--record", str(blocker / "x.mcap"),
+                 "--quiet"])
+    assert code == 2 and "is not a folder" in capsys.readouterr().err
+
+
+def test_recording_failure_keeps_the_plan(tmp_path, capsys, monkeypatch):
+    """A recording that fails while writing (disk full, ...) is reported; the plan, its JSON
+    and the exit code stand (DESIGN §7)."""
+    from rearrangement_planner.io import plan_record
+    from rearrangement_planner.io.recording import RecordingError
+
+    def full(*args, **kwargs):
+        raise RecordingError("No space left on device")
+
+    monkeypatch.setattr(plan_record, "record_plan", full)
     out = tmp_path / "plan.json"
-    code = main([str(scenes_dir() / "easy_push.yaml"), "--json", str(out), "--record",
-                 str(blocker / "x.mcap"), "--quiet"])
+    code = main([str(scenes_dir() / "easy_push.yaml"), "--seed", "1", "--json", str(out),
+                 "--record", str(tmp_path / "x.mcap"), "--quiet"])
     assert code == 0 and json.loads(out.read_text())["solved"] is True
-    assert "recording failed" in capsys.readouterr().err
+    assert "recording failed: No space left on device" in capsys.readouterr().err
 
 
 @pytest.mark.parametrize("option, value", [("--shortcut", "-1"),
