@@ -31,6 +31,9 @@ class ParameterSpec:
     low: float | None = None
     high: float | None = None
     read_only: bool = False
+    empty_type: str = "string"
+    """The element type of an empty-list default ("string" or "double"): `[]` has no ROS
+    type of its own."""
 
     def descriptor(self) -> ParameterDescriptor:
         descriptor = ParameterDescriptor(description=self.description, read_only=self.read_only)
@@ -100,11 +103,13 @@ def declare_parameters(node: Node, parameters: tuple[ParameterSpec, ...]) -> Non
     for spec in parameters:
         if spec.default == ():
             # An empty list has no ROS type (rclpy would guess a byte array, and rcl's YAML
-            # parser drops `[]`): declare the type, then set the empty default.
-            declared = node.declare_parameter(spec.name, Parameter.Type.STRING_ARRAY,
-                                              spec.descriptor())
+            # parser drops `[]`): declare the type, then set the empty default (which is why
+            # such a parameter cannot be read-only).
+            kind = {"string": Parameter.Type.STRING_ARRAY,
+                    "double": Parameter.Type.DOUBLE_ARRAY}[spec.empty_type]
+            declared = node.declare_parameter(spec.name, kind, spec.descriptor())
             if declared.type_ is Parameter.Type.NOT_SET:
-                node.set_parameters([Parameter(spec.name, Parameter.Type.STRING_ARRAY, [])])
+                node.set_parameters([Parameter(spec.name, kind, [])])
         else:
             node.declare_parameter(spec.name, spec.default, spec.descriptor())
 

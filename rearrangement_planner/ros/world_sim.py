@@ -67,7 +67,6 @@ from rclpy.exceptions import InvalidParameterTypeException, InvalidParameterValu
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.logging import get_logger
 from rclpy.node import Node
-from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
 from sensor_msgs.msg import JointState
 from std_msgs.msg import String
@@ -93,7 +92,11 @@ from rearrangement_planner.model.scene import Scene
 from rearrangement_planner.model.state import State, wrap_angle
 from rearrangement_planner.physics.step import Physics, PhysicsOptions
 from rearrangement_planner.physics.validation import load_scene
-from rearrangement_planner.ros.parameters import ParameterSpec
+from rearrangement_planner.ros.parameters import (
+    ParameterSpec,
+    declare_parameters,
+    read_parameters,
+)
 
 NODE_NAME = "world_sim"
 MAX_SUBSTEP = 0.001
@@ -105,7 +108,7 @@ PARAMETERS: tuple[ParameterSpec, ...] = (
           "YAML path; the planner node's `scene`. Its goal judges the outcome until a goal "
           "arrives on goal_topic.", read_only=True),
     _Spec("start_configuration", (), "Initial arm configuration (rad, planning-joint order), "
-          "read at start-up; [] = the scene's."),
+          "read at start-up; [] = the scene's.", empty_type="double"),
     _Spec("rate", 50.0, "Controller update and joint_states rate, Hz (each update advances the "
           "trajectory by 1/rate s).", 1.0, 1000.0, read_only=True),
     _Spec("object_rate", 30.0, "Object pose publishing rate, Hz.", 0.1, 1000.0,
@@ -138,17 +141,6 @@ PARAMETERS: tuple[ParameterSpec, ...] = (
 )
 
 
-def _declare(node: Node, spec: ParameterSpec) -> None:
-    if spec.default == ():
-        # An empty list has no ROS type (rclpy would guess a byte array): declare the type,
-        # then set the empty default (which is why such a parameter cannot be read-only).
-        declared = node.declare_parameter(spec.name, Parameter.Type.DOUBLE_ARRAY,
-                                          spec.descriptor())
-        if declared.type_ is Parameter.Type.NOT_SET:
-            node.set_parameters([Parameter(spec.name, Parameter.Type.DOUBLE_ARRAY, [])])
-    else:
-        node.declare_parameter(spec.name, spec.default, spec.descriptor())
-
 
 class WorldSim(Node):
     """The `world_sim` node (module docstring). Raises `RearrangementError` when the scene or
@@ -168,11 +160,11 @@ class WorldSim(Node):
     def _setup(self) -> None:
         for spec in PARAMETERS:
             try:
-                _declare(self, spec)
+                declare_parameters(self, (spec,))
             except (InvalidParameterValueException, InvalidParameterTypeException) as exc:
                 raise InputError(f"parameter {spec.name}", f"{exc}; {spec.description}"
                                  ) from None
-        p = {spec.name: self.get_parameter(spec.name).value for spec in PARAMETERS}
+        p = read_parameters(self, PARAMETERS)
         self._nominal = load_scene(p["scene"])
         robot = self._nominal.robot
         start = None
