@@ -70,7 +70,8 @@ def object_outline(obj: MovableObject | Obstacle, pose: np.ndarray,
 
 def plot_top_view(scene: Scene, object_paths: np.ndarray, ee_path: np.ndarray,
                   out_path: str | Path, title: str = "",
-                  start_states_only: bool = False) -> Path:
+                  start_states_only: bool = False,
+                  executed_paths: np.ndarray | None = None) -> Path:
     """Draw the top view of a plan in `scene` (DESIGN §8) and write it to `out_path` as a PNG
     of 840 x 720 pixels (7 x 6 in at 120 dpi); return the path written.
 
@@ -79,7 +80,10 @@ def plot_top_view(scene: Scene, object_paths: np.ndarray, ee_path: np.ndarray,
     end. `ee_path` (N, 2) is the end-effector (x, y) (m) along the plan; N = 0 draws none.
     With `start_states_only` only the start is drawn (objects filled at ``object_paths[0]``,
     the end-effector's first point), as for a scene preview or an unsolved problem. `title`
-    defaults to the scene's name. The PNG format is used whatever the suffix; the folder of
+    defaults to the scene's name. `executed_paths` (T', M, 3), the object poses when the plan
+    was executed in another engine (`execution.mujoco_check`), are drawn beside the plan's:
+    dotted centre paths and dotted outlines at their end. The PNG format is used whatever the
+    suffix; the folder of
     `out_path` must exist. Raises `PlotError` (a `ValueError`) naming the argument whose shape
     or values are wrong, before anything is written.
     """
@@ -91,6 +95,8 @@ def plot_top_view(scene: Scene, object_paths: np.ndarray, ee_path: np.ndarray,
     FigureCanvasAgg(fig)
     ax = fig.add_subplot()
     handles = _draw_scene(ax, scene, paths, ee, start_states_only)
+    if executed_paths is not None and not start_states_only:
+        handles += _draw_executed(ax, scene, _checked_object_paths(scene, executed_paths))
 
     ax.set_xlim(*_limits(scene, paths, ee, axis=0))
     ax.set_ylim(*_limits(scene, paths, ee, axis=1))
@@ -207,6 +213,18 @@ def _style_handles(scene: Scene, has_tool: bool, start_only: bool) -> list[Artis
                    markeredgewidth=1.5, linestyle="none", label="end effector end"),
         ]
     return style_handles
+
+
+def _draw_executed(ax: Axes, scene: Scene, executed: np.ndarray) -> list[Artist]:
+    """The executed object paths and end poses, dotted, in the objects' colours."""
+    for i, obj in enumerate(scene.objects):
+        colour = _object_colour(scene, i)
+        ax.plot(executed[:, i, 0], executed[:, i, 1], color=colour, linestyle=":",
+                linewidth=1.4, zorder=6)
+        ax.add_patch(Polygon(object_outline(obj, executed[-1, i]), closed=True, fill=False,
+                             edgecolor=colour, linestyle=":", linewidth=1.6, zorder=6))
+    return [Line2D([], [], color="0.3", linestyle=":", linewidth=1.4,
+                   label="executed (MuJoCo): path, end")]
 
 
 def _fill(ax: Axes, obj: MovableObject, pose: np.ndarray, colour: str) -> None:

@@ -169,3 +169,21 @@ def test_record_needs_no_ros(tmp_path):
 
     topics = {m.channel.topic for m in read_ros2_messages(str(mcap))}
     assert {"/rearrangement_planner/trajectory", "/rearrangement_planner/markers"} <= topics
+
+
+def test_check_execution_reports_the_mujoco_outcome(tmp_path, capsys):
+    out, png = tmp_path / "plan.json", tmp_path / "plan.png"
+    code = main(["easy_push", "--seed", "1", "--trees", "1", "--check-execution", "--trials",
+                 "2", "--json", str(out), "--plot", str(png)])
+    execution = json.loads(out.read_text())["execution"]
+    assert code == 0 and png.stat().st_size > 10_000
+    assert set(execution) == {"ideal", "servo", "perturbed"}
+    assert execution["ideal"]["goal_radius_m"] == 0.08 and "reached" in execution["servo"]
+    assert execution["perturbed"]["trials"] == 2
+    assert "executed in MuJoCo (ideal arm): goal object" in capsys.readouterr().err
+
+
+def test_trials_need_check_execution(capsys):
+    assert main(["easy_push", "--trials", "3", "--quiet"]) == 2
+    assert "--trials must be between 0 and 1000 and goes with --check-execution" \
+        in capsys.readouterr().err

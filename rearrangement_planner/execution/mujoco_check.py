@@ -1,0 +1,457 @@
+"""The execution check in an independent engine (DESIGN §10): a plan's joint trajectory played
+open loop in MuJoCo, with the arm's real collision meshes, the table, the obstacles and the
+objects as free rigid bodies with their masses and frictions, the way a user's joint trajectory
+controller would play it.
+
+    report = check_execution(output.scene, output.trajectory, output.trajectory_states)
+    report.reached, report.goal_distance_m, report.objects[0].max_error_m, report.tipped
+
+The arm (`ExecutionOptions.arm`) follows the positions linearly interpolated between the
+trajectory points, as a joint trajectory controller given positions does (and as
+`open_loop.Command` does):
+- "ideal": kinematic; before every step the arm's joint positions and velocities are written
+  from the reference, and a huge joint armature keeps contact impulses from slowing it;
+- "servo": position actuators (kp, kv, the Panda's effort limits, gravity compensated, a
+  velocity feed-forward) that contacts can slow or deflect.
+
+The robot model is the Panda of the `example-robot-data` package (URDF + collision STL meshes,
+the franka_ros geometry): the planner's own contact capsules are what is being checked, so they
+must not be reused here. Frames as in the scene: the robot base frame, the table top at
+`table.height`. Units: m, rad, s, kg.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import importlib.metadata
+import math
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from functools import cache
+from pathlib import Path
+from typing import Any
+
+import mujoco
+import numpy as np
+
+from rearrangement_planner.execution.open_loop import Command
+from rearrangement_planner.model.errors import RearrangementError
+from rearrangement_planner.model.scene import MovableObject, Obstacle, Scene
+from rearrangement_planner.model.state import State
+from rearrangement_planner.planning.trajectory import Trajectory
+
+ARM_JOINTS = tuple(f"panda_joint{i}" for i in range(1, 8))
+FINGER_JOINTS = ("panda_finger_joint1", "panda_finger_joint2")
+ARM, OBJECT, STATIC = 1, 2, 4
+"""Collision classes (contype bits). Arm: hits objects and the static world, not itself.
+Objects: hit the arm and each other; object-table contact is an explicit pair carrying the
+object's support friction. Table: hits the arm. Obstacles: hit the arm and the objects."""
+TABLE_THICKNESS = 0.05
+ERROR_THRESHOLD = 0.01
+"""Predicted-vs-executed distance (m) past which an object's prediction counts as lost."""
+
+
+class ExecutionCheckError(RearrangementError):
+    """The check cannot run (no real-geometry model for the robot, a malformed trajectory)."""
+
+
+@dataclass(frozen=True)
+class ExecutionOptions:
+    arm: str = "ideal"
+    """'ideal' (kinematic arm) or 'servo' (position actuators)."""
+    timestep: float = 0.001
+    """MuJoCo step, s (1 and 2 ms agree within 1 mm on easy_push)."""
+    settle: float = 0.3
+    """Simulated time before the trajectory starts (the objects settle on the table), s."""
+    hold: float = 0.5
+    """Simulated time after its end (the objects come to rest), s."""
+    tip_angle: float = math.radians(30.0)
+    """An object whose axis ends tilted more than this (rad) has toppled."""
+    kp: tuple[float, ...] = (3000.0,) * 4 + (1000.0,) * 3
+    """Servo stiffness per joint, N m/rad."""
+    kv: tuple[float, ...] = (150.0,) * 4 + (40.0,) * 3
+    """Servo damping per joint, N m s/rad."""
+    effort: tuple[float, ...] = (87.0,) * 4 + (12.0,) * 3
+    """Joint torque limits, N m (the Panda's)."""
+
+    def __post_init__(self) -> None:
+        if self.arm not in ("ideal", "servo"):
+            raise ValueError(f"arm must be 'ideal' or 'servo', not {self.arm!r}")
+        if not 0.0001 <= self.timestep <= 0.01:
+            raise ValueError(f"timestep must be in [0.0001, 0.01] s, got {self.timestep}")
+
+
+@dataclass(frozen=True)
+class ObjectOutcome:
+    """What happened to one object."""
+
+    name: str
+    pose: tuple[float, float, float]
+    """Executed final pose (x, y, yaw)."""
+    predicted: tuple[float, float, float] | None
+    """The plan's final pose, if a prediction was given."""
+    final_error_m: float | None
+    """Executed vs predicted final centre distance."""
+    max_error_m: float | None
+    """Largest predicted-vs-executed centre distance at the trajectory points."""
+    error_from_s: float | None
+    """Trajectory time at which that distance first exceeded ERROR_THRESHOLD (None: never)."""
+    moved_m: float
+    max_tilt_deg: float
+    toppled: bool
+
+
+@dataclass(frozen=True)
+class ExecutionReport:
+    """One execution (DESIGN §10)."""
+
+    arm: str
+    reached: bool
+    """The goal object ended inside its goal region and nothing toppled."""
+    goal_distance_m: float
+    goal_radius_m: float
+    objects: tuple[ObjectOutcome, ...]
+    object_contacts: tuple[str, ...]
+    """Pairs 'a<->b' of objects that touched (the planner does not model it)."""
+    arm_collisions: dict[str, float] = field(default_factory=dict)
+    """'link->table' or 'link->obstacle': deepest penetration, m (the plan hits the world)."""
+    max_tracking_error_rad: float = 0.0
+    sim_time_s: float = 0.0
+    wall_time_s: float = 0.0
+    executed_paths: np.ndarray = field(default_factory=lambda: np.zeros((0, 0, 3)))
+    """(T, M, 3) executed object poses (x, y, yaw) at the T trajectory points."""
+
+    @property
+    def toppled(self) -> tuple[str, ...]:
+        return tuple(o.name for o in self.objects if o.toppled)
+
+    def to_dict(self) -> dict[str, Any]:
+        record = {k: v for k, v in self.__dict__.items()
+                  if k not in ("objects", "executed_paths")}
+        record["object_contacts"] = list(self.object_contacts)
+        record["toppled"] = list(self.toppled)
+        record["objects"] = {o.name: {k: v for k, v in o.__dict__.items() if k != "name"}
+                             for o in self.objects}
+        return record
+
+
+# -- the model ------------------------------------------------------------------------------------
+
+
+@cache
+def panda_description() -> Path:
+    """The `panda_description` folder of the installed `example-robot-data` package."""
+    try:
+        dist = importlib.metadata.distribution("example-robot-data")
+    except importlib.metadata.PackageNotFoundError:
+        raise ExecutionCheckError("the execution check needs the example-robot-data package "
+                                  "(the Panda's collision meshes)") from None
+    for f in dist.files or []:
+        if str(f).endswith("panda_description/urdf/panda.urdf"):
+            return Path(str(dist.locate_file(f))).resolve().parent.parent
+    raise ExecutionCheckError("example-robot-data has no panda_description/urdf/panda.urdf")
+
+
+def _panda_urdf() -> str:
+    """The URDF with a <mujoco><compiler> element: meshes from the collision STLs
+    (`strippath` turns the package:// URIs into file names), visual DAE meshes dropped,
+    panda_hand and panda_hand_tcp kept as bodies."""
+    folder = panda_description()
+    text = (folder / "urdf" / "panda.urdf").read_text()
+    compiler = (f'<mujoco><compiler meshdir="{folder / "meshes" / "collision"}" '
+                f'strippath="true" discardvisual="true" balanceinertia="true" '
+                f'fusestatic="false" autolimits="true"/></mujoco>')
+    head, tag, tail = text.partition("<robot ")
+    end = tail.index(">") + 1
+    return head + tag + tail[:end] + "\n" + compiler + tail[end:]
+
+
+def build_model(scene: Scene, options: ExecutionOptions) -> mujoco.MjModel:
+    """The arm (real collision meshes, fingers closed and rigid as the planner's hand), the
+    table, the obstacles and the objects as free bodies."""
+    if scene.robot.name != "panda":
+        raise ExecutionCheckError(f"no real-geometry model for robot '{scene.robot.name}': the "
+                                  f"execution check knows the Panda (example-robot-data)")
+    spec = mujoco.MjSpec.from_string(_panda_urdf())
+    spec.option.timestep = options.timestep
+    spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
+    spec.option.cone = mujoco.mjtCone.mjCONE_ELLIPTIC
+    for equality in list(spec.equalities):        # the fingers' <mimic>
+        spec.delete(equality)
+    for name in FINGER_JOINTS:
+        spec.delete(spec.joint(name))
+    _set_up_arm(spec, options)
+    _add_world(spec, scene)
+    return spec.compile()
+
+
+def _set_up_arm(spec: mujoco.MjSpec, options: ExecutionOptions) -> None:
+    for body in spec.bodies:
+        if body.name.startswith("panda_"):
+            body.gravcomp = 1.0
+            for geom in body.geoms:
+                geom.contype, geom.conaffinity = ARM, OBJECT | STATIC
+                geom.friction = [0.01, 0.005, 0.0001]   # max() mixing: the object's friction
+    for i, name in enumerate(ARM_JOINTS):
+        joint = spec.joint(name)
+        joint.damping = [0.0, 0.0, 0.0]
+        joint.armature = 1e4 if options.arm == "ideal" else 0.1
+        if options.arm == "servo":
+            actuator = spec.add_actuator(name=f"servo_{name}", target=name,
+                                         trntype=mujoco.mjtTrn.mjTRN_JOINT)
+            actuator.set_to_position(kp=options.kp[i], kv=options.kv[i])
+            actuator.forcelimited = True
+            actuator.forcerange = [-options.effort[i], options.effort[i]]
+
+
+def _add_world(spec: mujoco.MjSpec, scene: Scene) -> None:
+    world, table, top = spec.worldbody, scene.table, scene.table.height
+    slab = world.add_geom(name="table", type=mujoco.mjtGeom.mjGEOM_BOX,
+                          size=[table.size[0] / 2, table.size[1] / 2, TABLE_THICKNESS / 2],
+                          pos=[table.center[0], table.center[1], top - TABLE_THICKNESS / 2])
+    slab.contype, slab.conaffinity = STATIC, ARM
+    for box in scene.obstacles:
+        geom = _prism(world, box, at=(box.pose[0], box.pose[1], top + box.height / 2))
+        geom.contype, geom.conaffinity = STATIC, ARM | OBJECT
+    for obj in scene.objects:
+        body = world.add_body(name=obj.name, pos=[obj.pose[0], obj.pose[1], top + obj.height / 2],
+                              quat=_yaw_quaternion(obj.pose[2]))
+        body.add_freejoint(name=obj.name)
+        geom = _prism(body, obj, at=None)
+        geom.mass = obj.mass
+        geom.contype, geom.conaffinity = OBJECT, ARM | OBJECT
+        geom.friction = [obj.pusher_friction, 0.005, 0.0001]
+        spec.add_pair(geomname1="table", geomname2=obj.name, condim=3,
+                      friction=[obj.support_friction] * 2 + [0.005, 0.0001, 0.0001])
+
+
+def _prism(parent: Any, prism: MovableObject | Obstacle, at: Sequence[float] | None) -> Any:
+    kwargs: dict[str, Any] = {"name": prism.name}
+    if at is not None:
+        kwargs.update(pos=list(at), quat=_yaw_quaternion(prism.pose[2]))
+    half = np.asarray(prism.size, dtype=float) / 2
+    if prism.shape == "box":
+        return parent.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=half.tolist(), **kwargs)
+    return parent.add_geom(type=mujoco.mjtGeom.mjGEOM_CYLINDER,
+                           size=[half[0], half[2], 0.0], **kwargs)
+
+
+def _yaw_quaternion(yaw: float) -> list[float]:
+    return [math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2)]
+
+
+# -- the execution --------------------------------------------------------------------------------
+
+
+def check_execution(scene: Scene, trajectory: Trajectory,
+                    predicted: Sequence[State] | None = None,
+                    options: ExecutionOptions | None = None) -> ExecutionReport:
+    """Play `trajectory` open loop in MuJoCo on `scene` (module doc). `predicted`, the planner's
+    state at every trajectory point (`PlanOutput.trajectory_states`), is compared with what
+    happens, object by object."""
+    options = options or ExecutionOptions()
+    if predicted is not None and len(predicted) != len(trajectory):
+        raise ExecutionCheckError(f"{len(predicted)} predicted states for {len(trajectory)} "
+                                  f"trajectory points")
+    started = time.perf_counter()
+    run = _Run(build_model(scene, options), scene, trajectory, predicted, options)
+    run.play()
+    return run.report(time.perf_counter() - started)
+
+
+def _command(trajectory: Trajectory) -> Command:
+    """The trajectory in ARM_JOINTS order, as the controller plays it."""
+    names = list(trajectory.joint_names)
+    missing = [n for n in ARM_JOINTS if n not in names]
+    if missing:
+        raise ExecutionCheckError(f"the trajectory has no {', '.join(missing)}")
+    order = [names.index(n) for n in ARM_JOINTS]
+    return Command(np.asarray(trajectory.times, dtype=float),
+                   np.asarray(trajectory.positions, dtype=float)[:, order])
+
+
+class _Run:
+    """One simulated execution and its bookkeeping."""
+
+    def __init__(self, model: mujoco.MjModel, scene: Scene, trajectory: Trajectory,
+                 predicted: Sequence[State] | None, options: ExecutionOptions):
+        self.model, self.scene, self.options = model, scene, options
+        self.data = mujoco.MjData(model)
+        self.command = _command(trajectory)
+        self.predicted = predicted
+        self.qadr = np.array([model.joint(n).qposadr[0] for n in ARM_JOINTS])
+        self.vadr = np.array([model.joint(n).dofadr[0] for n in ARM_JOINTS])
+        self.bodies = [model.body(o.name).id for o in scene.objects]
+        self.geom_body = model.geom_bodyid
+        self.is_arm = np.array([model.body(b).name.startswith("panda_")
+                                for b in self.geom_body])
+        self.is_static = model.geom_contype == STATIC
+        self.feedforward = np.asarray(options.kv) / np.asarray(options.kp)
+        m = len(scene.objects)
+        self.max_tilt, self.max_error = np.zeros(m), np.zeros(m)
+        self.error_from: list[float | None] = [None] * m
+        self.next_point = 0
+        self.executed: list[list[tuple[float, float, float]]] = []
+        self.contacts: set[str] = set()
+        self.collisions: dict[str, float] = {}
+        self.tracking = 0.0
+
+    def play(self) -> None:
+        opts, data = self.options, self.data
+        data.qpos[self.qadr] = self.command.sample(0.0)
+        mujoco.mj_forward(self.model, data)
+        data.ctrl[:] = self.command.sample(0.0) if opts.arm == "servo" else data.ctrl
+        steps = int(round((opts.settle + self.command.duration + opts.hold) / opts.timestep))
+        for k in range(steps):
+            t = k * opts.timestep - opts.settle          # trajectory time at the step's start
+            self._drive(t)
+            mujoco.mj_step(self.model, data)
+            self._observe(t + opts.timestep)
+
+    def _drive(self, t: float) -> None:
+        """Ideal: jump to the reference and move along it through the step. Servo: track
+        q_ref + kv/kp * qdot_ref (the feed-forward cancels the damping's lag)."""
+        command, data, dt = self.command, self.data, self.options.timestep
+        if self.options.arm == "ideal":
+            here, there = command.sample(t), command.sample(t + dt)
+            data.qpos[self.qadr] = here
+            data.qvel[self.vadr] = (there - here) / dt
+        else:
+            data.ctrl[:] = command.sample(t) + self.feedforward * command.velocity(t)
+
+    def _observe(self, t: float) -> None:
+        data = self.data
+        if 0.0 <= t <= self.command.duration:
+            self.tracking = max(self.tracking, float(np.max(np.abs(
+                data.qpos[self.qadr] - self.command.sample(t)))))
+        for i, body in enumerate(self.bodies):
+            self.max_tilt[i] = max(self.max_tilt[i], _tilt(data, body))
+        if data.ncon:
+            self._contacts()
+        times = self.command.times       # predicted[i] is the state at times[i]
+        while self.next_point < len(times) and times[self.next_point] <= t:
+            self.executed.append([_planar_pose(data, body) for body in self.bodies])
+            if self.predicted is not None:
+                self._compare(self.next_point, t)
+            self.next_point += 1
+
+    def _compare(self, point: int, t: float) -> None:
+        """Executed vs predicted object positions at trajectory point `point`."""
+        assert self.predicted is not None
+        expected = self.predicted[point].objects[:, :2]
+        for i, body in enumerate(self.bodies):
+            error = float(np.hypot(*(self.data.xpos[body][:2] - expected[i])))
+            self.max_error[i] = max(self.max_error[i], error)
+            if error > ERROR_THRESHOLD and self.error_from[i] is None:
+                self.error_from[i] = round(t, 3)
+
+    def _contacts(self) -> None:
+        model, body_of = self.model, self.geom_body
+        for (g1, g2), distance in zip(self.data.contact.geom, self.data.contact.dist,
+                                      strict=True):
+            if self.is_arm[g1] or self.is_arm[g2]:
+                arm, other = (g1, g2) if self.is_arm[g1] else (g2, g1)
+                if self.is_static[other]:
+                    key = f"{model.body(body_of[arm]).name}->{model.geom(other).name}"
+                    self.collisions[key] = max(self.collisions.get(key, 0.0), -float(distance))
+            elif not (self.is_static[g1] or self.is_static[g2]):
+                pair = sorted((model.body(body_of[g1]).name, model.body(body_of[g2]).name))
+                self.contacts.add("<->".join(pair))
+
+    def report(self, wall_time: float) -> ExecutionReport:
+        scene, data, opts = self.scene, self.data, self.options
+        outcomes = tuple(self._outcome(i, obj) for i, obj in enumerate(scene.objects))
+        goal = outcomes[scene.goal_index]
+        distance = scene.goal.distance(np.asarray(goal.pose[:2]))
+        reached = distance <= scene.goal.radius and not any(o.toppled for o in outcomes)
+        sim_time = float(data.time)
+        paths = np.array(self.executed, dtype=float).reshape(-1, len(self.bodies), 3)
+        return ExecutionReport(opts.arm, bool(reached), distance, scene.goal.radius, outcomes,
+                               tuple(sorted(self.contacts)), dict(self.collisions),
+                               self.tracking, sim_time, wall_time, paths)
+
+    def _outcome(self, i: int, obj: MovableObject) -> ObjectOutcome:
+        body = self.bodies[i]
+        pose = _planar_pose(self.data, body)
+        predicted = final = largest = None
+        if self.predicted is not None:
+            x, y, yaw = (float(v) for v in self.predicted[-1].objects[i])
+            predicted = (x, y, yaw)
+            final = float(math.hypot(pose[0] - predicted[0], pose[1] - predicted[1]))
+            largest = max(float(self.max_error[i]), final)
+        tilt = _tilt(self.data, body)
+        return ObjectOutcome(obj.name, pose, predicted, final, largest, self.error_from[i],
+                             float(math.hypot(pose[0] - obj.pose[0], pose[1] - obj.pose[1])),
+                             math.degrees(float(self.max_tilt[i])),
+                             tilt > self.options.tip_angle)
+
+
+def _planar_pose(data: mujoco.MjData, body: int) -> tuple[float, float, float]:
+    """(x, y, yaw) of a body; yaw of its x axis projected on the table."""
+    rotation = data.xmat[body]
+    return (float(data.xpos[body][0]), float(data.xpos[body][1]),
+            math.atan2(float(rotation[3]), float(rotation[0])))
+
+
+def _tilt(data: mujoco.MjData, body: int) -> float:
+    """Angle (rad) between a body's z axis and the vertical."""
+    return math.acos(max(-1.0, min(1.0, float(data.xmat[body][8]))))
+
+
+# -- perturbed executions -------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Perturbation:
+    """The spread of the perturbed executions (DESIGN §10): each object's frictions scaled by
+    U(1 - friction, 1 + friction), its mass by U(1 - mass, 1 + mass), its pose offset by
+    N(0, pose_noise) m in x and y and N(0, yaw_noise) rad in yaw."""
+
+    friction: float = 0.3
+    mass: float = 0.2
+    pose_noise: float = 0.005
+    yaw_noise: float = math.radians(2.0)
+
+    def apply(self, scene: Scene, rng: np.random.Generator) -> Scene:
+        objects = []
+        for obj in scene.objects:
+            offset = rng.normal(0.0, 1.0, 3) * [self.pose_noise, self.pose_noise, self.yaw_noise]
+            scale = rng.uniform(1.0 - self.friction, 1.0 + self.friction, 2)
+            objects.append(dataclasses.replace(
+                obj, pose=np.asarray(obj.pose) + offset,
+                mass=obj.mass * rng.uniform(1.0 - self.mass, 1.0 + self.mass),
+                support_friction=obj.support_friction * scale[0],
+                pusher_friction=obj.pusher_friction * scale[1]))
+        return dataclasses.replace(scene, objects=tuple(objects))
+
+
+@dataclass(frozen=True)
+class PerturbedReport:
+    """`trials` perturbed executions of one trajectory."""
+
+    trials: int
+    reached: int
+    reports: tuple[ExecutionReport, ...]
+
+    @property
+    def success_rate(self) -> float:
+        return self.reached / self.trials if self.trials else 0.0
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"trials": self.trials, "reached": self.reached,
+                "success_rate": self.success_rate,
+                "goal_distance_m": [r.goal_distance_m for r in self.reports],
+                "toppled": [list(r.toppled) for r in self.reports]}
+
+
+def check_perturbed(scene: Scene, trajectory: Trajectory, trials: int, seed: int = 0,
+                    options: ExecutionOptions | None = None,
+                    perturbation: Perturbation | None = None) -> PerturbedReport:
+    """`trials` executions of `trajectory` in worlds perturbed by `perturbation` (drawn from
+    `seed`): how often the goal object still reaches its region."""
+    rng = np.random.default_rng(seed)
+    perturbation = perturbation or Perturbation()
+    reports = tuple(check_execution(perturbation.apply(scene, rng), trajectory, None, options)
+                    for _ in range(trials))
+    return PerturbedReport(trials, sum(r.reached for r in reports), reports)

@@ -1,0 +1,126 @@
+"""The execution check in MuJoCo (DESIGN §10, issue 18): a straight push moves a box as the
+quasistatic model predicts and leaves an untouched object where it was; a real plan is played
+ideal and servo-driven, compared with its prediction point by point; perturbed executions;
+the reasons it refuses to run. Headless, CPU only."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import yaml
+
+from rearrangement_planner.execution.mujoco_check import (
+    ExecutionCheckError,
+    ExecutionOptions,
+    Perturbation,
+    check_execution,
+    check_perturbed,
+)
+from rearrangement_planner.execution.open_loop import Command, OpenLoopExecution
+from rearrangement_planner.physics.step import Physics, PhysicsOptions
+from rearrangement_planner.physics.validation import load_scene, parse_scene
+from rearrangement_planner.planning import PCRRTOptions, plan_scene
+from rearrangement_planner.planning.manifold import default_push_configuration, ik_on_manifold
+from rearrangement_planner.planning.trajectory import Trajectory
+
+BOX = {"name": "box", "shape": "box", "size": [0.06, 0.08, 0.12], "pose": [0.46, 0.0, 0.0],
+       "mass": 0.4, "support_friction": 0.4, "pusher_friction": 0.3}
+BYSTANDER = {"name": "bystander", "shape": "cylinder", "radius": 0.03, "height": 0.1,
+             "pose": [0.5, 0.3, 0.0]}
+
+
+@pytest.fixture(scope="module")
+def straight_push(panda):
+    """The tool on the pushing manifold moving along +x from 0.40 to 0.55 m at 5 cm/s (IK
+    every 5 mm), a box 3 cm ahead of the finger tips, a cylinder well aside: the scene, the
+    trajectory and the quasistatic prediction (world_sim's physics, 1 mm substeps)."""
+    xs = np.arange(0.40, 0.55 + 1e-9, 0.005)
+    q = default_push_configuration(panda, 0.0)
+    path = []
+    for x in xs:
+        q = ik_on_manifold(panda, float(x), 0.0, 0.0, 0.0, q)
+        path.append(q)
+    positions = np.vstack([path[:1], path])
+    times = np.concatenate([[0.0], 1.0 + np.arange(len(xs)) * 0.1])
+    data = {"table": {"center": [0.55, 0.0], "size": [0.8, 1.2], "height": 0.0},
+            "start_configuration": positions[0].tolist(), "objects": [BOX, BYSTANDER],
+            "goal": {"object": "box", "position": [0.59, 0.0], "radius": 0.02}}
+    scene = parse_scene(data, robot=panda)
+    trajectory = Trajectory(panda.joint_names, times, positions, np.zeros_like(positions))
+    execution = OpenLoopExecution(Physics(scene, PhysicsOptions(max_substep=0.001)),
+                                  scene.initial_state(), Command(times, positions), period=0.01)
+    execution.run()
+    assert execution.invalid is None
+    return scene, trajectory, execution.state
+
+
+def test_a_straight_push_moves_the_box_as_the_quasistatic_model_predicts(straight_push):
+    scene, trajectory, predicted = straight_push
+    report = check_execution(scene, trajectory, [predicted] * len(trajectory))
+    box, bystander = report.objects
+    moved = np.asarray(box.pose[:2]) - scene.objects[0].pose[:2]
+    expected = predicted.objects[0, :2] - scene.objects[0].pose[:2]
+    assert expected[0] > 0.10 and abs(expected[1]) < 1e-3            # pushed ~13 cm along x
+    # MuJoCo's box goes 1.0 cm further: the real finger pads reach 9.5 mm past the tool point,
+    # where the planner's finger capsule ends (the model fix of issue 18 item 2 is left).
+    assert np.linalg.norm(moved - expected) < 0.015, (moved, expected)
+    assert abs(box.pose[2]) < 0.02 and not box.toppled and box.max_tilt_deg < 2.0
+    assert bystander.moved_m < 1e-3 and not bystander.toppled
+    assert report.arm_collisions == {} and report.object_contacts == ()
+
+
+def test_servo_arm_tracks_the_straight_push_like_the_ideal_arm(straight_push):
+    scene, trajectory, _ = straight_push
+    ideal = check_execution(scene, trajectory)
+    servo = check_execution(scene, trajectory, options=ExecutionOptions(arm="servo"))
+    assert servo.max_tracking_error_rad < 0.01
+    assert ideal.max_tracking_error_rad < 1e-6
+    np.testing.assert_allclose(servo.objects[0].pose[:2], ideal.objects[0].pose[:2], atol=0.003)
+
+
+def test_a_real_plan_is_compared_with_its_prediction_point_by_point(panda):
+    scene = load_scene("easy_push", robot=panda)
+    output = plan_scene(scene, "pc-rrt", PCRRTOptions(time_limit=60), seed=1)
+    report = check_execution(scene, output.trajectory, output.trajectory_states)
+    (target,) = report.objects
+    assert report.executed_paths.shape == (len(output.trajectory), 1, 3)
+    np.testing.assert_allclose(report.executed_paths[-1, 0, :2], target.pose[:2], atol=0.01)
+    assert target.max_error_m >= target.final_error_m > 0.0
+    assert report.reached == (report.goal_distance_m <= scene.goal.radius)
+    record = report.to_dict()
+    assert set(record["objects"]["target"]) >= {"final_error_m", "error_from_s", "toppled"}
+
+
+def test_perturbed_executions_are_reproducible_and_counted(straight_push):
+    scene, trajectory, _ = straight_push
+    small = Perturbation(friction=0.1, mass=0.1, pose_noise=0.002, yaw_noise=0.01)
+    first = check_perturbed(scene, trajectory, trials=2, seed=3, perturbation=small)
+    again = check_perturbed(scene, trajectory, trials=2, seed=3, perturbation=small)
+    assert first.trials == 2 and 0 <= first.reached <= 2
+    assert [r.goal_distance_m for r in first.reports] == [r.goal_distance_m
+                                                          for r in again.reports]
+    assert first.reports[0].goal_distance_m != first.reports[1].goal_distance_m
+
+
+def test_a_tipping_push_topples_the_box(straight_push, panda):
+    """A tall, light box on a grippy table, pushed at the tool's height: it falls over."""
+    scene, trajectory, _ = straight_push
+    data = yaml.safe_load(yaml.safe_dump(scene.to_dict()))
+    data["objects"][0].update(size=[0.04, 0.08, 0.25], support_friction=1.0, mass=0.2)
+    tall = parse_scene(data, robot=panda)
+    report = check_execution(tall, trajectory)
+    assert report.objects[0].toppled and "box" in report.toppled and not report.reached
+
+
+def test_the_check_refuses_what_it_cannot_model(straight_push):
+    scene, trajectory, predicted = straight_push
+    with pytest.raises(ExecutionCheckError, match="3 predicted states for"):
+        check_execution(scene, trajectory, [predicted] * 3)
+    bad = Trajectory(("a", "b", "c", "d", "e", "f", "g"), trajectory.times,
+                     trajectory.positions, trajectory.velocities)
+    with pytest.raises(ExecutionCheckError, match="the trajectory has no panda_joint1"):
+        check_execution(scene, bad)
+    with pytest.raises(ValueError, match="arm must be 'ideal' or 'servo'"):
+        ExecutionOptions(arm="loose")
+
+
