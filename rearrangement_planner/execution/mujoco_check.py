@@ -35,7 +35,7 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from rearrangement_planner.execution.open_loop import Command
+from rearrangement_planner.execution.open_loop import Command, InvalidStep
 from rearrangement_planner.model.errors import RearrangementError
 from rearrangement_planner.model.scene import MovableObject, Obstacle, Scene
 from rearrangement_planner.model.state import State
@@ -255,8 +255,9 @@ def check_execution(scene: Scene, trajectory: Trajectory,
         raise ExecutionCheckError(f"{len(predicted)} predicted states for {len(trajectory)} "
                                   f"trajectory points")
     started = time.perf_counter()
-    run = _Run(build_model(scene, options), scene, trajectory, predicted, options)
-    run.play()
+    run = _Run(build_model(scene, options), scene, _command(trajectory), predicted, options)
+    run.begin()
+    run.advance(run.command.duration + options.hold)
     return run.report(time.perf_counter() - started)
 
 
@@ -274,11 +275,11 @@ def _command(trajectory: Trajectory) -> Command:
 class _Run:
     """One simulated execution and its bookkeeping."""
 
-    def __init__(self, model: mujoco.MjModel, scene: Scene, trajectory: Trajectory,
+    def __init__(self, model: mujoco.MjModel, scene: Scene, command: Command,
                  predicted: Sequence[State] | None, options: ExecutionOptions):
         self.model, self.scene, self.options = model, scene, options
         self.data = mujoco.MjData(model)
-        self.command = _command(trajectory)
+        self.command = command
         self.predicted = predicted
         self.qadr = np.array([model.joint(n).qposadr[0] for n in ARM_JOINTS])
         self.vadr = np.array([model.joint(n).dofadr[0] for n in ARM_JOINTS])
@@ -296,18 +297,31 @@ class _Run:
         self.contacts: set[str] = set()
         self.collisions: dict[str, float] = {}
         self.tracking = 0.0
+        self.steps = 0
 
-    def play(self) -> None:
-        opts, data = self.options, self.data
-        data.qpos[self.qadr] = self.command.sample(0.0)
-        mujoco.mj_forward(self.model, data)
-        data.ctrl[:] = self.command.sample(0.0) if opts.arm == "servo" else data.ctrl
-        steps = int(round((opts.settle + self.command.duration + opts.hold) / opts.timestep))
-        for k in range(steps):
-            t = k * opts.timestep - opts.settle          # trajectory time at the step's start
+    def begin(self) -> None:
+        """The arm at the trajectory's first point, the objects where the scene has them."""
+        self.data.qpos[self.qadr] = self.command.sample(0.0)
+        mujoco.mj_forward(self.model, self.data)
+        if self.options.arm == "servo":
+            self.data.ctrl[:] = self.command.sample(0.0)
+
+    def advance(self, until: float) -> int:
+        """Step until trajectory time `until` (the first `settle` s hold the start); returns
+        the steps taken."""
+        opts, taken = self.options, 0
+        while self.steps * opts.timestep - opts.settle < until - 1e-9:
+            t = self.steps * opts.timestep - opts.settle    # trajectory time at the step's start
             self._drive(t)
-            mujoco.mj_step(self.model, data)
+            mujoco.mj_step(self.model, self.data)
+            self.steps += 1
+            taken += 1
             self._observe(t + opts.timestep)
+        return taken
+
+    def poses(self) -> np.ndarray:
+        """(M, 3) object poses (x, y, yaw) now."""
+        return np.array([_planar_pose(self.data, body) for body in self.bodies]).reshape(-1, 3)
 
     def _drive(self, t: float) -> None:
         """Ideal: jump to the reference and move along it through the step. Servo: track
@@ -455,3 +469,46 @@ def check_perturbed(scene: Scene, trajectory: Trajectory, trials: int, seed: int
     reports = tuple(check_execution(perturbation.apply(scene, rng), trajectory, None, options)
                     for _ in range(trials))
     return PerturbedReport(trials, sum(r.reached for r in reports), reports)
+
+
+# -- world_sim's engine ---------------------------------------------------------------------------
+
+
+class MujocoExecution:
+    """`open_loop.OpenLoopExecution`'s interface over MuJoCo: world_sim's `engine:=mujoco`
+    executes a controller command here, one controller update at a time. An object that
+    topples ends the execution (`invalid`, reason 'object_toppled')."""
+
+    def __init__(self, world: Scene, start: State, command: Command, period: float,
+                 options: ExecutionOptions | None = None):
+        self.options = options or ExecutionOptions(settle=0.0, hold=0.0)
+        scene = world.with_start(start.q, start.objects)
+        self.command, self.period, self.start, self.state = command, float(period), start, start
+        self.t, self.updates, self.steps = 0.0, 0, 0
+        self.invalid: InvalidStep | None = None
+        self._run = _Run(build_model(scene, self.options), scene, command, None, self.options)
+        self._run.begin()
+
+    @property
+    def done(self) -> bool:
+        return self.invalid is not None or self.t >= self.command.duration
+
+    def update(self) -> None:
+        if self.done:
+            return
+        t_end = min((self.updates + 1) * self.period, self.command.duration)
+        self.steps += self._run.advance(t_end)
+        self.t = t_end
+        self.updates += 1
+        run = self._run
+        self.state = State(run.data.qpos[run.qadr].copy(), run.poses())
+        for i, body in enumerate(run.bodies):
+            tilt = _tilt(run.data, body)
+            if tilt > self.options.tip_angle:
+                self.invalid = InvalidStep("object_toppled", f"'{run.scene.objects[i].name}' "
+                                           f"tilted {math.degrees(tilt):.0f} deg", t_end)
+                return
+
+    def run(self) -> None:
+        while not self.done:
+            self.update()

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -79,6 +79,23 @@ class InvalidStep:
     detail: str
     time_from_start: float
     """Trajectory time (s) of the configuration the arm could not move to."""
+
+
+class Execution(Protocol):
+    """What world_sim needs of an execution engine (`OpenLoopExecution` here, or
+    `mujoco_check.MujocoExecution`)."""
+
+    command: Command
+    start: State
+    state: State
+    t: float
+    steps: int
+    invalid: InvalidStep | None
+
+    @property
+    def done(self) -> bool: ...
+
+    def update(self) -> None: ...
 
 
 class OpenLoopExecution:
@@ -153,7 +170,7 @@ class ExecutionRecord:
     outcome: dict[str, Any] | None = None
 
 
-def execution_outcome(status: str, execution: OpenLoopExecution, goal: Goal,
+def execution_outcome(status: str, execution: Execution, goal: Goal,
                       names: tuple[str, ...], number: int, wall_time: float,
                       settings: dict[str, Any]) -> dict[str, Any]:
     """The ~/outcome JSON object of a finished (or stopped) execution."""

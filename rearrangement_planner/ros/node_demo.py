@@ -51,6 +51,10 @@ def build_parser() -> argparse.ArgumentParser:
     world = parser.add_argument_group(
         "simulated world", "make world_sim differ from what the planner sees, to probe "
                            "open-loop robustness")
+    world.add_argument("--engine", choices=("mujoco", "quasistatic"), default="mujoco",
+                       help="world_sim's physics: mujoco (default: an independent engine, the "
+                            "arm's real collision meshes, free rigid objects) or quasistatic "
+                            "(the planner's own model)")
     world.add_argument("--pose-noise", type=float, default=0.0, metavar="M",
                        help="std dev of the true objects' offset from their published poses, "
                             "m (default 0)")
@@ -97,6 +101,7 @@ def main(argv: list[str] | None = None) -> int:
         try:
             world = session.add(WorldSim(context=session.context, parameter_overrides=[
                 Parameter("scene", value=args.scene),
+                Parameter("engine", value=args.engine),
                 Parameter("time_scale", value=float(args.time_scale)),
                 Parameter("pose_noise", value=float(args.pose_noise)),
                 Parameter("friction_scale", value=float(args.friction_scale)),
@@ -136,8 +141,9 @@ def _run(session, world, planner, scene, args, planning_radius: float, plot_path
         perturbed = (f", pose noise {args.pose_noise:g} m (seed {args.world_seed}), friction "
                      f"x{args.friction_scale:g}"
                      if args.pose_noise > 0 or args.friction_scale != 1.0 else "")
-        print(f"world_sim: {scene.source}, {len(scene.objects)} objects, joint states 50 Hz, "
-              f"object poses 30 Hz, time scale {args.time_scale:g}{perturbed}", flush=True)
+        print(f"world_sim: {scene.source}, {len(scene.objects)} objects, {args.engine} physics, "
+              f"joint states 50 Hz, object poses 30 Hz, time scale {args.time_scale:g}"
+              f"{perturbed}", flush=True)
         print(f"planning (seed {args.seed}, time limit {args.time_limit:g} s, goal "
               f"'{scene.goal.object}' within {planning_radius:.3f} m of "
               f"({scene.goal.position[0]:.2f}, {scene.goal.position[1]:.2f})) ...", flush=True)
@@ -157,7 +163,8 @@ def _run(session, world, planner, scene, args, planning_radius: float, plot_path
         outcome = outcomes.wait_next(seen, seconds / args.time_scale * 3 + 30.0)
         print(f"outcome: {outcome['message']}")
         _plot(world, outcome, plot_path,
-              f"{Path(scene.source).stem}: open loop in world_sim, {outcome['status']}")
+              f"{Path(scene.source).stem}: open loop in world_sim ({args.engine}), "
+              f"{outcome['status']}")
         print(f"top view: {plot_path}")
         return 0 if outcome["status"] == "SUCCEEDED" else 1
     except BagError as exc:

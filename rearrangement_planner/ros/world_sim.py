@@ -75,12 +75,14 @@ from trajectory_msgs.msg import JointTrajectory
 
 from msg_adapters import objects_to_pose_array, pose_stamped_to_goal
 from msg_adapters.command import command_from_msg
+from rearrangement_planner.execution.mujoco_check import MujocoExecution
 from rearrangement_planner.execution.open_loop import (
     ABORTED,
     CANCELLED,
     PREEMPTED,
     REJECTED,
     SUCCEEDED,
+    Execution,
     ExecutionRecord,
     Goal,
     OpenLoopExecution,
@@ -124,6 +126,9 @@ PARAMETERS: tuple[ParameterSpec, ...] = (
           "objects (the world then differs from the planner's model).", 0.0, 100.0,
           read_only=True),
     _Spec("seed", 0, "Seed of the pose offsets.", 0, 2**31 - 1, read_only=True),
+    _Spec("engine", "quasistatic", "Physics of the simulated world: 'quasistatic' (the planner's "
+          "own model, stepped at max_substep) or 'mujoco' (an independent engine: the arm's "
+          "real collision meshes, objects as free rigid bodies; DESIGN §10).", read_only=True),
     _Spec("max_substep", MAX_SUBSTEP, "Largest motion (m) of any point of the arm's contact "
           "shapes within one physics substep. Finer than the planner's 4 mm so that the "
           "simulated world is converged: its result no longer depends on the step size or on "
@@ -150,7 +155,7 @@ class WorldSim(Node):
         super().__init__(NODE_NAME, **kwargs)
         self._lock = threading.Lock()   # held by every callback; `stop` waits for it
         self._stopped = False
-        self._execution: OpenLoopExecution | None = None
+        self._execution: Execution | None = None
         try:
             self._setup()
         except BaseException:
@@ -177,12 +182,17 @@ class WorldSim(Node):
         self._world, self._offsets = perturbed_world(
             self._nominal, start, p["pose_noise"], p["yaw_noise"], p["friction_scale"],
             int(p["seed"]))
+        if p["engine"] not in ("quasistatic", "mujoco"):
+            raise InputError("parameter engine", f"is {p['engine']!r}; use 'quasistatic' or "
+                                                 f"'mujoco'")
+        self._engine = p["engine"]
         self._physics = Physics(self._world, PhysicsOptions(max_substep=p["max_substep"]))
         self._frame = p["frame_id"] or robot.config.base_frame
         self._period = 1.0 / p["rate"]
         self._heights = np.array([self._world.table.height + 0.5 * o.height
                                   for o in self._world.objects])
-        self._settings = {"time_scale": None, "max_substep_m": p["max_substep"],
+        self._settings = {"time_scale": None, "engine": p["engine"],
+                          "max_substep_m": p["max_substep"],
                           "pose_noise_m": p["pose_noise"],
                           "yaw_noise_rad": p["yaw_noise"],
                           "friction_scale": p["friction_scale"], "seed": int(p["seed"])}
@@ -345,7 +355,10 @@ class WorldSim(Node):
         if self._execution is not None:
             self._finish(PREEMPTED)
         self._time_scale = float(self.get_parameter("time_scale").value)
-        self._execution = OpenLoopExecution(self._physics, self._state, command, self._period)
+        self._execution = (
+            MujocoExecution(self._world, self._state, command, self._period)
+            if self._engine == "mujoco"
+            else OpenLoopExecution(self._physics, self._state, command, self._period))
         self._record = ExecutionRecord(self._count, command, [self._state.objects],
                                        [self._world.robot.tool_pose(self._state.q)[:2, 3]])
         self._records.append(self._record)
