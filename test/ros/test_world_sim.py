@@ -429,7 +429,7 @@ def test_node_demo_exit_code_is_the_open_loop_outcome(tmp_path, monkeypatch, cap
 
     monkeypatch.setenv("ROS_DOMAIN_ID", str(DOMAIN_ID))
     common = ["--scene", "easy_push", "--seed", "1", "--time-limit", "20", "--time-scale", "20",
-              "--record-dir", str(tmp_path)]
+              "--record-dir", str(tmp_path), "--engine", "quasistatic"]
     plot = tmp_path / "demo.png"
     assert node_demo.main([*common, "--plot", str(plot)]) == 0
     out = capsys.readouterr().out
@@ -441,6 +441,12 @@ def test_node_demo_exit_code_is_the_open_loop_outcome(tmp_path, monkeypatch, cap
     assert node_demo.main([*common, "--pose-noise", "0.01", "--world-seed", "1"]) == 1
     out = capsys.readouterr().out
     assert "outcome: execution 1: GOAL_NOT_REACHED" in out and "outside radius" in out
+
+    # make demo's default world is MuJoCo: the exit code is what happened there.
+    code = node_demo.main([*common[:-1], "mujoco"])
+    out = capsys.readouterr().out
+    assert "mujoco physics" in out and "outcome: execution 1: " in out
+    assert code == (0 if "outcome: execution 1: SUCCEEDED" in out else 1)
 
     for bad, named in ((["--time-scale", "0"], "--time-scale"),
                        (["--goal-margin", "0.5"], "--goal-margin"),
