@@ -35,7 +35,7 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from rearrangement_planner.execution.open_loop import Command, InvalidStep
+from rearrangement_planner.execution.open_loop import Command, InvalidStep, Updates
 from rearrangement_planner.model.errors import RearrangementError
 from rearrangement_planner.model.scene import MovableObject, Obstacle, Scene
 from rearrangement_planner.model.state import State
@@ -474,7 +474,7 @@ def check_perturbed(scene: Scene, trajectory: Trajectory, trials: int, seed: int
 # -- world_sim's engine ---------------------------------------------------------------------------
 
 
-class MujocoExecution:
+class MujocoExecution(Updates):
     """`open_loop.OpenLoopExecution`'s interface over MuJoCo: world_sim's `engine:=mujoco`
     executes a controller command here, one controller update at a time. An object that
     topples ends the execution (`invalid`, reason 'object_toppled')."""
@@ -489,14 +489,10 @@ class MujocoExecution:
         self._run = _Run(build_model(scene, self.options), scene, command, None, self.options)
         self._run.begin()
 
-    @property
-    def done(self) -> bool:
-        return self.invalid is not None or self.t >= self.command.duration
-
     def update(self) -> None:
         if self.done:
             return
-        t_end = min((self.updates + 1) * self.period, self.command.duration)
+        t_end = self.next_end()
         self.steps += self._run.advance(t_end)
         self.t = t_end
         self.updates += 1
@@ -508,7 +504,3 @@ class MujocoExecution:
                 self.invalid = InvalidStep("object_toppled", f"'{run.scene.objects[i].name}' "
                                            f"tilted {math.degrees(tilt):.0f} deg", t_end)
                 return
-
-    def run(self) -> None:
-        while not self.done:
-            self.update()

@@ -98,7 +98,34 @@ class Execution(Protocol):
     def update(self) -> None: ...
 
 
-class OpenLoopExecution:
+class Updates:
+    """The controller-update clock shared by the execution engines: `update()` advances the
+    trajectory time `t` by `period` s (the last update to the command's end); `run()` executes
+    to the end, or to the first invalid step, at once."""
+
+    command: Command
+    period: float
+    t: float
+    updates: int
+    invalid: InvalidStep | None
+
+    @property
+    def done(self) -> bool:
+        return self.invalid is not None or self.t >= self.command.duration
+
+    def next_end(self) -> float:
+        """The trajectory time the next update ends at."""
+        return min((self.updates + 1) * self.period, self.command.duration)
+
+    def update(self) -> None:
+        raise NotImplementedError
+
+    def run(self) -> None:
+        while not self.done:
+            self.update()
+
+
+class OpenLoopExecution(Updates):
     """One command executed open loop on the simulated world, one controller update at a time.
 
     `update()` advances the trajectory time by `period` s: the arm moves through every point
@@ -119,15 +146,11 @@ class OpenLoopExecution:
         self.invalid: InvalidStep | None = None
         self.moved: set[int] = set()
 
-    @property
-    def done(self) -> bool:
-        return self.invalid is not None or self.t >= self.command.duration
-
     def update(self) -> None:
         if self.done:
             return
         times = self.command.times
-        t_end = min((self.updates + 1) * self.period, self.command.duration)
+        t_end = self.next_end()
         crossed = np.flatnonzero((times > self.t) & (times < t_end))
         targets = [(float(times[k]), self.command.positions[k]) for k in crossed]
         targets.append((t_end, self.command.sample(t_end)))
@@ -143,10 +166,6 @@ class OpenLoopExecution:
             self.t = t
         self.updates += 1
 
-    def run(self) -> None:
-        """Execute to the end (or the first invalid step) at once."""
-        while not self.done:
-            self.update()
 
 
 @dataclass(frozen=True)
