@@ -87,12 +87,15 @@ class DARRT:
              iteration_gate: IterationGate | None = None) -> PlanResult:
         """The `Planner` protocol (as `PCRRT.plan`)."""
         search = Search(self.options, seed, cancel, progress, iteration_gate)
+        invalid = search.goal_invalid(self.scene)
+        if invalid is not None:
+            return invalid
         start = start or self.scene.initial_state()
         problem = self.physics.check_state(start)
         if problem is not None:
             return PlanResult(Outcome.START_INVALID, f"start state invalid: {problem[1]}", seed)
         search.best = self._goal_distance(start)
-        if search.best <= self.scene.goal.radius:
+        if search.best <= self.options.goal_radius(self.scene):
             return PlanResult(Outcome.SUCCEEDED, "start already in the goal region", seed,
                               (start,), best_goal_distance=search.best)
         if not self._free(start.q, start.objects):
@@ -155,7 +158,7 @@ class DARRT:
         scene, opts = self.scene, self.options
         lo, hi = scene.table.lower, scene.table.upper
         if obj == scene.goal_index and rng.random() < opts.goal_bias:
-            r = scene.goal.radius * math.sqrt(rng.random())
+            r = self.options.goal_radius(scene) * math.sqrt(rng.random())
             a = rng.uniform(-math.pi, math.pi)
             target = self._goal_xy + r * np.array([math.cos(a), math.sin(a)])
         else:
@@ -226,7 +229,7 @@ class DARRT:
                 break
             x = State(q, objects)
             states.append(x)
-            if self._goal_distance(x) <= self.scene.goal.radius:
+            if self._goal_distance(x) <= self.options.goal_radius(self.scene):
                 break
         return states
 
@@ -319,7 +322,7 @@ class DARRT:
         return float(np.hypot(*(state.objects[self.scene.goal_index, :2] - self._goal_xy)))
 
     def _first_at_goal(self, segment: list[State]) -> int | None:
-        radius = self.scene.goal.radius
+        radius = self.options.goal_radius(self.scene)
         for k, s in enumerate(segment):
             if self._goal_distance(s) <= radius:
                 return k

@@ -62,6 +62,11 @@ class PlannerOptions(Settings):
     """Iteration budget (a TIMEOUT when exhausted)."""
     goal_bias: float = setting(0.2, low=0.0, high=1.0)
     """Probability of sampling the goal object inside the goal region."""
+    goal_margin: float = setting(0.0, low=0.0, high=0.5)
+    """How far inside its goal region the goal object must end, m: a plan is found when the
+    object's centre is within radius - goal_margin of the goal point (DESIGN §6 "goal margin":
+    open-loop execution never reproduces the prediction exactly, so a plan ending on the
+    region's edge misses it). 0 = on entering the region, as in the paper."""
     dt: float = setting(0.1, low=0.001, high=1.0)
     """Propagation step, s (Δt of Algorithm 2 of King et al.)."""
     progress_period: float = setting(0.25, low=0.0, high=60.0)
@@ -70,6 +75,11 @@ class PlannerOptions(Settings):
     """Independent trees grown at once on separate processes, the plan found in the fewest
     iterations winning (`planning.parallel`, OR-parallel RRT); 1 = one tree in this process.
     Honoured by `plan_scene` (the CLI, the node and the benchmarks), not by `plan()` itself."""
+
+    def goal_radius(self, scene: Scene) -> float:
+        """The radius (m) a plan must bring the goal object within: the region's less the
+        margin."""
+        return scene.goal.radius - self.goal_margin
 
     @classmethod
     def adopt(cls: type[_O], options: PlannerOptions | None) -> _O:

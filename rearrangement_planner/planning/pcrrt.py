@@ -194,7 +194,7 @@ class PCRRT:
         """Ends a propagation early: GOAL (the goal object is in the goal region), CANCEL, or
         TIMEOUT (past the `time.monotonic()` deadline: an action that would run past the time
         limit is cut, so a plan is never found after its budget)."""
-        radius = self.scene.goal.radius
+        radius = self.options.goal_radius(self.scene)
         g = self.scene.goal_index
 
         def stop(state: State) -> StopReason | None:
@@ -231,7 +231,7 @@ class PCRRT:
             objects = np.column_stack([rng.uniform(lo[0], hi[0], m), rng.uniform(lo[1], hi[1], m),
                                        rng.uniform(-math.pi, math.pi, m)])
             if rng.random() < opts.goal_bias:
-                r = scene.goal.radius * math.sqrt(rng.random())
+                r = opts.goal_radius(scene) * math.sqrt(rng.random())
                 a = rng.uniform(-math.pi, math.pi)
                 objects[scene.goal_index, :2] = self._goal_xy + r * np.array([math.cos(a),
                                                                               math.sin(a)])
@@ -287,11 +287,14 @@ class _Run(Search):
     def begin(self, start: State) -> PlanResult | None:
         """Check the start and plan the approach onto the manifold; a result ends the plan."""
         planner, seed = self.planner, self.seed
+        invalid = self.goal_invalid(planner.scene)
+        if invalid is not None:
+            return invalid
         problem = planner.physics.check_state(start)
         if problem is not None:
             return PlanResult(Outcome.START_INVALID, f"start state invalid: {problem[1]}", seed)
         self.best = planner.goal_distance(start)
-        if self.best <= planner.scene.goal.radius:
+        if self.best <= planner.options.goal_radius(planner.scene):
             return PlanResult(Outcome.SUCCEEDED, "start already in the goal region", seed,
                               (start,), plan_time=self.elapsed(), best_goal_distance=self.best)
         approach, why = approach_path(planner.physics, start, self.rng)

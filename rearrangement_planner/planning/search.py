@@ -11,6 +11,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from rearrangement_planner.model.scene import Scene
 from rearrangement_planner.model.state import State
 from rearrangement_planner.planning.interface import (
     SUPERSEDED,
@@ -58,6 +59,14 @@ class Search:
         if self.iteration_gate is not None and not self.iteration_gate(self.iterations + 1):
             return self.failure(Outcome.CANCELLED, SUPERSEDED)
         return None
+
+    def goal_invalid(self, scene: Scene) -> PlanResult | None:
+        """GOAL_INVALID when the goal margin leaves no region to reach."""
+        if self.options.goal_radius(scene) > 0.0:
+            return None
+        return PlanResult(Outcome.GOAL_INVALID, f"goal_margin {self.options.goal_margin:g} m "
+                                                f"leaves nothing of the goal region (radius "
+                                                f"{scene.goal.radius:g} m)", self.seed)
 
     def elapsed(self) -> float:
         return time.monotonic() - self.t0

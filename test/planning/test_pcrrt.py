@@ -10,7 +10,7 @@ import pytest
 from rearrangement_planner.model.resources import scenes_dir
 from rearrangement_planner.physics.step import Physics
 from rearrangement_planner.physics.validation import load_scene
-from rearrangement_planner.planning import PCRRT, Outcome, PCRRTOptions
+from rearrangement_planner.planning import PCRRT, Outcome, PCRRTOptions, StopReason
 from rearrangement_planner.planning.propagation import replay
 
 
@@ -210,3 +210,27 @@ def test_clear_blockers_pushes_the_blocking_object_out_of_the_line(panda):
         replayed, problem = replay(planner.physics, start, arm)
         assert problem == ""
         np.testing.assert_allclose(replayed[-1].objects, end, atol=1e-12)
+
+
+def test_a_state_on_the_goal_boundary_is_refused_by_the_margin(easy):
+    """DESIGN §6 goal margin: with goal_margin the goal object must end well inside its
+    region; a state whose centre is on the region's edge ends no plan."""
+    goal = np.asarray(easy.goal.position)
+    g = easy.goal_index
+    objects = easy.object_poses
+    objects[g, :2] = goal + np.array([easy.goal.radius - 1e-4, 0.0])     # just inside the edge
+    on_edge = easy.initial_state().with_objects(objects)
+    plain = PCRRT(easy, PCRRTOptions()).stop_check(lambda: False, math.inf)
+    margin = PCRRT(easy, PCRRTOptions(goal_margin=0.03)).stop_check(lambda: False, math.inf)
+    assert plain(on_edge) is StopReason.GOAL and margin(on_edge) is None
+
+
+def test_a_plan_with_a_margin_ends_well_inside_the_region(easy):
+    result = PCRRT(easy, PCRRTOptions(time_limit=60.0, goal_margin=0.03)).plan(seed=1)
+    end = result.states[-1].objects[easy.goal_index, :2]
+    assert result.solved and easy.goal.distance(end) <= easy.goal.radius - 0.03
+
+
+def test_a_margin_as_large_as_the_region_is_goal_invalid(easy):
+    result = PCRRT(easy, PCRRTOptions(goal_margin=easy.goal.radius)).plan(seed=0)
+    assert result.outcome is Outcome.GOAL_INVALID and "goal_margin" in result.message
