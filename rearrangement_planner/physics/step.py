@@ -57,6 +57,7 @@ class Invalid(str, Enum):
     CONTACT_FROM_ABOVE = "contact_from_above"
     JAMMING = "jamming"
     RESIDUAL_PENETRATION = "residual_penetration"
+    TIPPING = "object_would_tip"
 
 
 @dataclass(frozen=True)
@@ -69,6 +70,11 @@ class PhysicsOptions:
     """|n_z| of a contact normal above which the arm presses on an object from above (45 deg)."""
     overlap_tolerance: float = 1e-4
     """Object-object and object-obstacle penetration (m) still counted as touching."""
+    tipping: bool = False
+    """Refuse a push that would tip its object over (the quasistatic tipping condition,
+    `tips_over`). Off by default until its effect on executed success is measured (it changes
+    plans: the default scene's seed-4 plan tips the target on the way); off = objects never tip,
+    as in King et al."""
     static_objects: frozenset[str] = frozenset()
     """Names of movable objects treated as static obstacles: any arm contact with one is
     invalid (`Invalid.ARM_OBSTACLE`). The Static RRT baseline makes every object but the goal
@@ -96,6 +102,26 @@ def object_limit_surface_c(obj: MovableObject) -> float:
         assert radius is not None  # MovableObject.radius is a float for every cylinder
         return pushing.limit_surface_c("cylinder", radius)
     return pushing.limit_surface_c("box", obj.size)
+
+
+def tips_over(obj: MovableObject, twist: np.ndarray, height: float) -> bool:
+    """The quasistatic tipping condition (DESIGN §5): an object sliding under a horizontal push
+    at `height` (m above the table) carries the friction load mu_s m g at the table; it tips
+    about its leading bottom edge when the push's moment mu_s m g h exceeds gravity's m g d,
+    d the footprint's extent from the centre along the motion (support function): tips when
+    mu_s h > d. `twist` (dx, dy, dtheta) is the object-frame motion; a pure rotation (no
+    translation) never tips. Conservative: friction at the pusher, which pulls the edge down,
+    is left out (MuJoCo tips a 6 cm box pushed at 7 cm between mu_s 0.5 and 0.6; this says 0.43)."""
+    dx, dy = float(twist[0]), float(twist[1])
+    speed = math.hypot(dx, dy)
+    if speed < 1e-12:
+        return False
+    ux, uy = dx / speed, dy / speed
+    if obj.shape == "cylinder":
+        lever = 0.5 * float(obj.size[0])
+    else:
+        lever = 0.5 * (abs(ux) * float(obj.size[0]) + abs(uy) * float(obj.size[1]))
+    return obj.support_friction * height > lever
 
 
 class Physics:
@@ -292,6 +318,12 @@ class Physics:
                     f"'{self._names[obj]}' is jammed between {', '.join(links)}")
         if not result.twist.any():
             return None
+        if self.options.tipping:
+            height = max(c.point[2] for c in contacts) - self.scene.table.height
+            if tips_over(self.scene.objects[obj], result.twist, height):
+                return (Invalid.TIPPING,
+                        f"'{self._names[obj]}' would tip over: pushed {height * 100:.1f} cm "
+                        f"above the table")
         return pushing.apply_twist(pose, result.twist)
 
     def _object_checks(self, objects: np.ndarray, which) -> tuple[Invalid, str] | None:

@@ -321,3 +321,48 @@ def test_check_state_reports_a_resting_state(whole_arm_scene):
     problem = physics.check_state(bad)
     assert problem is not None and problem[0] in (Invalid.OBJECT_OVERLAP,
                                                   Invalid.RESIDUAL_PENETRATION)
+
+
+# --------------------------------------------------------------------------------------------
+# Tipping (DESIGN §5, issue 18 item 2)
+# --------------------------------------------------------------------------------------------
+
+
+def test_the_tipping_condition_depends_on_height_friction_and_footprint(panda):
+    from rearrangement_planner.physics.step import tips_over
+
+    tall = make_scene([{**box("tall", [0.5, 0.0, 0.0], size=(0.04, 0.08, 0.25)),
+                        "support_friction": 1.0}], panda.home, robot=panda).objects[0]
+    along_x, along_y = np.array([1e-3, 0.0, 0.0]), np.array([0.0, 1e-3, 0.0])
+    assert tips_over(tall, along_x, 0.09)                  # mu h = 0.09 > 0.02 (half of 4 cm)
+    assert not tips_over(tall, along_x, 0.015)             # a low push slides it
+    assert not tips_over(tall, along_y, 0.035)             # 0.035 < 0.04: the wide side leads
+    assert not tips_over(tall, np.array([0.0, 0.0, 0.01]), 0.2)   # turning in place
+
+
+def test_a_tipping_push_is_invalid_and_the_same_push_slides_without_the_check(panda):
+    """The hand, on the pushing plane (tool 7 cm up), pushes a tall narrow box on a grippy
+    table along +x: with the tipping check the first pushing step is invalid (object_would_tip);
+    without it the box slides (the model of King et al.)."""
+    from rearrangement_planner.planning.manifold import ik_on_manifold
+
+    q = default_push_configuration(panda, 0.0)
+    path = []
+    for x in np.arange(0.40, 0.50, 0.005):
+        q = ik_on_manifold(panda, float(x), 0.0, 0.0, 0.0, q)
+        path.append(q)
+    tall = {**box("tall", [0.46, 0.0, 0.0], size=(0.04, 0.08, 0.25)), "support_friction": 1.0}
+    scene = make_scene([tall], path[0], robot=panda)
+    reasons = {}
+    for tipping in (True, False):
+        physics = Physics(scene, PhysicsOptions(tipping=tipping))
+        state, reason = scene.initial_state(), None
+        for q_next in path[1:]:
+            result = physics.step(state, q_next)
+            if not result.valid:
+                reason = result.reason
+                break
+            state = result.state
+        reasons[tipping] = (reason, state.objects[0, 0] - 0.46)
+    assert reasons[True][0] is Invalid.TIPPING
+    assert reasons[False][0] is None and reasons[False][1] > 0.01
