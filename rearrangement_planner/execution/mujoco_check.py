@@ -22,7 +22,6 @@ must not be reused here. Frames as in the scene: the robot base frame, the table
 
 from __future__ import annotations
 
-import dataclasses
 import importlib.metadata
 import math
 import time
@@ -37,6 +36,7 @@ import numpy as np
 
 from rearrangement_planner.execution.open_loop import Command, InvalidStep, Updates
 from rearrangement_planner.model.errors import RearrangementError
+from rearrangement_planner.model.perturbation import Perturbation
 from rearrangement_planner.model.scene import MovableObject, Obstacle, Scene
 from rearrangement_planner.model.state import State
 from rearrangement_planner.planning.trajectory import Trajectory
@@ -414,30 +414,6 @@ def _tilt(data: mujoco.MjData, body: int) -> float:
 
 
 # -- perturbed executions -------------------------------------------------------------------------
-
-
-@dataclass(frozen=True)
-class Perturbation:
-    """The spread of the perturbed executions (DESIGN §10): each object's frictions scaled by
-    U(1 - friction, 1 + friction), its mass by U(1 - mass, 1 + mass), its pose offset by
-    N(0, pose_noise) m in x and y and N(0, yaw_noise) rad in yaw."""
-
-    friction: float = 0.3
-    mass: float = 0.2
-    pose_noise: float = 0.005
-    yaw_noise: float = math.radians(2.0)
-
-    def apply(self, scene: Scene, rng: np.random.Generator) -> Scene:
-        objects = []
-        for obj in scene.objects:
-            offset = rng.normal(0.0, 1.0, 3) * [self.pose_noise, self.pose_noise, self.yaw_noise]
-            scale = rng.uniform(1.0 - self.friction, 1.0 + self.friction, 2)
-            objects.append(dataclasses.replace(
-                obj, pose=np.asarray(obj.pose) + offset,
-                mass=obj.mass * rng.uniform(1.0 - self.mass, 1.0 + self.mass),
-                support_friction=obj.support_friction * scale[0],
-                pusher_friction=obj.pusher_friction * scale[1]))
-        return dataclasses.replace(scene, objects=tuple(objects))
 
 
 @dataclass(frozen=True)

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import dataclasses
 import threading
+import time
 from dataclasses import dataclass
 
 import numpy as np
@@ -16,9 +17,15 @@ import numpy as np
 from rearrangement_planner.model.scene import Scene
 from rearrangement_planner.model.state import State
 from rearrangement_planner.physics.step import Physics
-from rearrangement_planner.planning.interface import PlannerOptions, PlanResult, ProgressCallback
-from rearrangement_planner.planning.parallel import plan_race
+from rearrangement_planner.planning.interface import (
+    Outcome,
+    PlannerOptions,
+    PlanResult,
+    ProgressCallback,
+)
+from rearrangement_planner.planning.parallel import plan_race, tree_seed
 from rearrangement_planner.planning.registry import make_planner, planner_spec
+from rearrangement_planner.planning.robustness import robustness
 from rearrangement_planner.planning.settings import Settings, setting
 from rearrangement_planner.planning.shortcut import shortcut
 from rearrangement_planner.planning.trajectory import (
@@ -27,6 +34,10 @@ from rearrangement_planner.planning.trajectory import (
     Trajectory,
     time_parameterize,
 )
+
+CANDIDATE_SEED_OFFSET = 1000
+"""Candidate k > 0 of a robust search plans with `tree_seed(seed, CANDIDATE_SEED_OFFSET + k)`
+(apart from the seeds of raced trees)."""
 
 
 @dataclass(frozen=True)
@@ -45,6 +56,15 @@ class PipelineOptions(Settings):
     pushing)."""
     max_joint_acceleration: float = setting(0.0, low=0.0, high=100.0)
     """Joint acceleration limit of the trajectory, rad/s^2; 0 = none."""
+    min_robustness: float = setting(0.0, low=0.0, high=1.0)
+    """Accept a plan only if it reaches the goal in at least this share of `rollouts`
+    perturbed worlds (object poses 5 mm / 2 deg, friction x0.7-1.3, mass x0.8-1.2) in the
+    planner's physics (`planning.robustness`); otherwise plan another candidate, up to
+    `candidates`, and keep the most robust. 0 = accept the first plan, unchecked."""
+    rollouts: int = setting(10, low=1, high=1000)
+    """Perturbed rollouts per candidate plan (with min_robustness > 0)."""
+    candidates: int = setting(3, low=1, high=20)
+    """Most candidate plans planned for min_robustness, within the one time limit."""
 
     @property
     def timing(self) -> TimingOptions:
@@ -93,6 +113,8 @@ class PlanOutput:
     metrics_before_shortcut: PathMetrics | None = None
     shortcut_time: float = 0.0
     """Seconds spent shortcutting."""
+    robustness: float | None = None
+    """Share of the perturbed rollouts the plan reached the goal in (None: not measured)."""
 
     @property
     def solved(self) -> bool:
@@ -123,6 +145,7 @@ class PlanOutput:
                                    for i, o in enumerate(scene.objects)},
             "trajectory": trajectory_dict(self.trajectory) if self.trajectory else None,
             "shortcut_time_s": self.shortcut_time,
+            "robustness": self.robustness,
             "before_shortcut": (self.metrics_before_shortcut.to_dict()
                                 if self.metrics_before_shortcut else None),
         }
@@ -164,7 +187,8 @@ def plan_scene(scene: Scene, planner: str = "pc-rrt", options: PlannerOptions | 
                progress: ProgressCallback | None = None,
                shortcut_time: float = 0.0, timing: TimingOptions | None = None,
                physics: Physics | None = None,
-               shortcut_attempts: int | None = None) -> PlanOutput:
+               shortcut_attempts: int | None = None,
+               robust: PipelineOptions | None = None) -> PlanOutput:
     """Plan `scene` (from `start`, default the scene's initial state) with `options.trees`
     trees (`parallel.plan_race` when more than one), shortcut the path for up
     to `shortcut_time` s or `shortcut_attempts` attempts (whichever ends first; an attempt
@@ -173,16 +197,22 @@ def plan_scene(scene: Scene, planner: str = "pc-rrt", options: PlannerOptions | 
 
     Planners whose registry entry says so are not shortcut (DARRT: its Push primitive holds
     the object rigidly, a different world model from the quasistatic physics that
-    shortcutting re-simulates)."""
+    shortcutting re-simulates).
+
+    With `robust.min_robustness` > 0 a plan is accepted only if it reaches the goal in that
+    share of `robust.rollouts` perturbed rollouts (`planning.robustness`); up to
+    `robust.candidates` plans are planned within the time limit and the most robust wins; if
+    none is robust enough the request fails (a fragile open-loop plan is not a plan)."""
     spec = planner_spec(planner)
     physics = physics or Physics(scene)
-    if options is not None and options.trees > 1:
-        result = plan_race(planner, scene, options, seed, start, cancel, progress, physics)
+    search = _Search(planner, scene, options, start, cancel, progress, physics)
+    score = None
+    if robust is not None and robust.min_robustness > 0:
+        result, score = _robust_search(search, seed, robust)
     else:
-        result = make_planner(planner, scene, options, physics).plan(
-            start=start, seed=seed, cancel=cancel, progress=progress)
+        result = search.run(seed)
     if not result.solved:
-        return PlanOutput(scene, planner, result)
+        return PlanOutput(scene, planner, result, robustness=score)
     before = PathMetrics.of(scene, result.states)
     spent = 0.0
     if shortcut_time > 0 and len(result.states) > 2 and spec.shortcut:
@@ -196,4 +226,62 @@ def plan_scene(scene: Scene, planner: str = "pc-rrt", options: PlannerOptions | 
     states = _states_at_points(result.states, trajectory)
     return PlanOutput(scene, planner, result, trajectory, states,
                       PathMetrics.of(scene, result.states),
-                      before if shortcut_time > 0 else None, spent)
+                      before if shortcut_time > 0 else None, spent, score)
+
+
+@dataclass(frozen=True)
+class _Search:
+    """One search of a request, repeatable with another seed (the candidates)."""
+
+    planner: str
+    scene: Scene
+    options: PlannerOptions | None
+    start: State | None
+    cancel: threading.Event | None
+    progress: ProgressCallback | None
+    physics: Physics
+
+    def run(self, seed: int, time_limit: float | None = None) -> PlanResult:
+        options = self.options
+        if time_limit is not None:
+            options = dataclasses.replace(planner_spec(self.planner).options(options),
+                                          time_limit=time_limit)
+        if options is not None and options.trees > 1:
+            return plan_race(self.planner, self.scene, options, seed, self.start, self.cancel,
+                             self.progress, self.physics)
+        return make_planner(self.planner, self.scene, options, self.physics).plan(
+            start=self.start, seed=seed, cancel=self.cancel, progress=self.progress)
+
+
+def _robust_search(search: _Search, seed: int, robust: PipelineOptions
+                   ) -> tuple[PlanResult, float | None]:
+    """Candidates (seed, then derived seeds) until one is robust enough; the most robust."""
+    t0 = time.monotonic()
+    budget = planner_spec(search.planner).options(search.options).time_limit
+    world = planner_spec(search.planner).physics(search.scene, search.physics).options
+    best: tuple[PlanResult, float] | None = None
+    last: PlanResult | None = None
+    for k in range(robust.candidates):
+        remaining = budget - (time.monotonic() - t0)
+        if remaining <= 0.001:
+            break
+        candidate_seed = seed if k == 0 else tree_seed(seed, CANDIDATE_SEED_OFFSET + k)
+        last = search.run(candidate_seed, remaining)
+        if not last.solved:
+            continue
+        score = robustness(search.scene, last.states, robust.rollouts, candidate_seed,
+                           physics_options=world)
+        if best is None or score > best[1]:
+            best = (last, score)
+        if score >= robust.min_robustness:
+            return last, score
+    if best is None:
+        assert last is not None or budget <= 0.001
+        return last or PlanResult(Outcome.TIMEOUT, "no time for a candidate", seed), None
+    fragile, score = best
+    return dataclasses.replace(
+        fragile, outcome=Outcome.TIMEOUT, states=(),
+        message=f"no plan reached min_robustness {robust.min_robustness:g} within "
+                f"{robust.candidates} candidates: the most robust reached the goal in "
+                f"{score:.0%} of {robust.rollouts} perturbed rollouts",
+        plan_time=time.monotonic() - t0), score

@@ -70,6 +70,7 @@ from rearrangement_planner.ros.plan_request import (
     record,
     result_markers,
     run_plan,
+    summary_line,
 )
 
 EXECUTOR_THREADS = 6
@@ -363,13 +364,10 @@ class PlannerNode(Node):
         self._markers_pub.publish(result_markers(scene, output, frame, self._stamp()))
 
         r = output.result if output is not None else None    # None: NO_STATE, nothing ran
-        plan_time, iterations = (r.plan_time, r.iterations) if r else (0.0, 0)
-        summary = (f"plan {job.plan_id}: {outcome} in {plan_time:.2f} s, {iterations} "
-                   f"iterations, mcap {recording}")
-        if outcome != Outcome.SUCCEEDED.value:
-            summary += f"; {message}"
+        summary = summary_line(job.plan_id, outcome, message, output, recording,
+                               params["rollouts"])
         final = PlannerStatus(FINAL_STATES.get(outcome, "failed"), summary, outcome,
-                              job.plan_id, iterations, r.tree_size if r else 0,
+                              job.plan_id, r.iterations if r else 0, r.tree_size if r else 0,
                               r.best_goal_distance if r else math.inf,
                               time.monotonic() - job.started)
         with self._lock:

@@ -48,6 +48,8 @@ class PlanSettings:
     seed: int
     shortcut_time: float
     shortcut_attempts: int | None
+    pipeline: PipelineOptions
+    """Everything after the search (shortcutting, timing, the robustness check)."""
 
 
 def plan_settings(params: dict[str, Any]) -> PlanSettings:
@@ -63,7 +65,7 @@ def plan_settings(params: dict[str, Any]) -> PlanSettings:
     except ValueError as exc:
         raise InputError(f"parameter {str(exc).split()[0]}", str(exc)) from None
     return PlanSettings(params["planner"], options, pipeline.timing, int(params["seed"]),
-                        pipeline.shortcut_time, pipeline.shortcut_attempts or None)
+                        pipeline.shortcut_time, pipeline.shortcut_attempts or None, pipeline)
 
 
 
@@ -183,7 +185,8 @@ def run_plan(job: Job, params: dict[str, Any], configured: Scene,
                             physics=physics,
                             cancel=job.cancel, progress=progress,
                             shortcut_time=settings.shortcut_time, timing=settings.timing,
-                            shortcut_attempts=settings.shortcut_attempts)
+                            shortcut_attempts=settings.shortcut_attempts,
+                            robust=settings.pipeline)
         return output.result.outcome.value, output.result.message, scene, output, inputs
     except InputError as exc:
         outcome, message = Outcome.INVALID_INPUT.value, str(exc)
@@ -228,6 +231,21 @@ def record(job: Job, output: PlanOutput | None, params: dict[str, Any], frame: s
         return str(written), None
     return (f"not recorded: {reason}",
             f"plan {job.plan_id}: recording to {path} failed: {reason}")
+
+
+def summary_line(plan_id: str, outcome: str, message: str, output: PlanOutput | None,
+                 recording: str, rollouts: int) -> str:
+    """The one-line answer of ~/plan (and the final ~/status message): "plan ID: OUTCOME in
+    T s, N iterations, mcap PATH", then "; why" unless it succeeded, then the robustness."""
+    r = output.result if output is not None else None
+    plan_time, iterations = (r.plan_time, r.iterations) if r else (0.0, 0)
+    summary = (f"plan {plan_id}: {outcome} in {plan_time:.2f} s, {iterations} iterations, "
+               f"mcap {recording}")
+    if outcome != Outcome.SUCCEEDED.value:
+        summary += f"; {message}"
+    if output is not None and output.robustness is not None:
+        summary += f"; robustness {output.robustness:.0%} of {rollouts} perturbed rollouts"
+    return summary
 
 
 def result_markers(scene: Scene, output: PlanOutput | None, frame: str,

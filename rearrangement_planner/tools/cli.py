@@ -21,7 +21,7 @@ from rearrangement_planner.model.errors import RearrangementError
 from rearrangement_planner.model.files import quote
 from rearrangement_planner.physics.validation import load_scene
 from rearrangement_planner.planning.interface import PlannerOptions, Progress
-from rearrangement_planner.planning.pipeline import PlanOutput, plan_scene
+from rearrangement_planner.planning.pipeline import PipelineOptions, PlanOutput, plan_scene
 from rearrangement_planner.planning.registry import PLANNERS, PRODUCT_DEFAULTS, planner_spec
 
 DEFAULT_TREES = PRODUCT_DEFAULTS["trees"]
@@ -72,6 +72,14 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--plot", type=Path, metavar="OUT.png",
                         help="write a top view PNG: table, objects at start and end, their "
                              "paths, the end-effector path and the goal region")
+    parser.add_argument("--min-robustness", type=float, default=0.0, metavar="R",
+                        help="accept a plan only if it reaches the goal in this share (0-1) of "
+                             "perturbed rollouts in the planner's physics; up to --candidates "
+                             "plans compete, the most robust wins (default 0: off)")
+    parser.add_argument("--rollouts", type=int, default=10, metavar="N",
+                        help="perturbed rollouts per candidate (default 10)")
+    parser.add_argument("--candidates", type=int, default=3, metavar="K",
+                        help="most candidate plans for --min-robustness (default 3)")
     parser.add_argument("--check-execution", action="store_true",
                         help="execute the plan open loop in MuJoCo with the arm's real collision "
                              "meshes (ideal and servo-driven arm) and report whether the goal "
@@ -150,6 +158,12 @@ def main(argv: list[str] | None = None) -> int:
             raise RearrangementError(f"--shortcut-attempts must be >= 1, got "
                                      f"{args.shortcut_attempts}")
         options = _options(args)
+        try:
+            robust = PipelineOptions(min_robustness=args.min_robustness, rollouts=args.rollouts,
+                                     candidates=args.candidates)
+        except ValueError as exc:
+            raise RearrangementError(f"--min-robustness/--rollouts/--candidates: {exc}") \
+                from None
         for option, path in (("--json", args.json), ("--record", args.record),
                              ("--plot", args.plot)):
             _check_output(option, path)
@@ -160,7 +174,8 @@ def main(argv: list[str] | None = None) -> int:
     started = time.monotonic()
     output = plan_scene(scene, args.planner, options,
                         seed=args.seed, progress=_progress_printer(args.quiet),
-                        shortcut_time=args.shortcut, shortcut_attempts=args.shortcut_attempts)
+                        shortcut_time=args.shortcut, shortcut_attempts=args.shortcut_attempts,
+                        robust=robust)
     result = output.result
     if not args.quiet:
         print(f"\r{result.outcome.value}: {result.message} "

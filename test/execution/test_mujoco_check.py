@@ -12,11 +12,11 @@ import yaml
 from rearrangement_planner.execution.mujoco_check import (
     ExecutionCheckError,
     ExecutionOptions,
-    Perturbation,
     check_execution,
     check_perturbed,
 )
 from rearrangement_planner.execution.open_loop import Command, OpenLoopExecution
+from rearrangement_planner.model.perturbation import Perturbation
 from rearrangement_planner.physics.step import Physics, PhysicsOptions
 from rearrangement_planner.physics.validation import load_scene, parse_scene
 from rearrangement_planner.planning import PCRRTOptions, plan_scene

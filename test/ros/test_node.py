@@ -520,3 +520,26 @@ def test_fresh_node_without_state_says_no_state(ros):
     finally:
         ros["executor"].remove_node(fresh)
         fresh.destroy_node()
+
+
+def test_robustness_is_in_the_answer_the_status_and_the_recording(ros):
+    """With min_robustness the plan's robustness (DESIGN §6) is reported in the ~/plan answer,
+    the final ~/status message and the MCAP metadata statistics."""
+    client = ros["client"]
+    client.wait_inputs_flowing()
+    client.set(min_robustness=0.1, rollouts=5)
+    try:
+        t0 = time.monotonic()
+        response = client.call("plan")
+    finally:
+        client.set(min_robustness=0.0, rollouts=10)
+    assert response.success, response.message
+    assert re.search(r"; robustness \d+% of 5 perturbed rollouts$", response.message)
+    status = client.wait_status(t0, lambda s: s.state == "succeeded")
+    assert "robustness" in status.message
+    from mcap.reader import make_reader
+
+    with open(parse_summary(response.message)[4], "rb") as f:
+        metadata = {m.name: m.metadata for m in make_reader(f).iter_metadata()}
+    statistics = json.loads(metadata["rearrangement_plan"]["statistics"])
+    assert 0.1 <= statistics["robustness"] <= 1.0

@@ -1,0 +1,71 @@
+"""Robust plans (DESIGN §6, issue 18 item 3): a plan's robustness is the share of perturbed
+worlds in which its arm path, replayed through the planner's physics, still brings the goal
+object into its region; the pipeline accepts a plan only at min_robustness."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from rearrangement_planner.model.perturbation import Perturbation
+from rearrangement_planner.model.state import State
+from rearrangement_planner.physics.step import Physics
+from rearrangement_planner.physics.validation import load_scene
+from rearrangement_planner.planning import PCRRTOptions, StopReason, plan_scene
+from rearrangement_planner.planning.manifold import ik_on_manifold
+from rearrangement_planner.planning.pipeline import PipelineOptions
+from rearrangement_planner.planning.push_policy import push_policy_prop
+from rearrangement_planner.planning.robustness import robustness
+
+
+@pytest.fixture(scope="module")
+def easy(panda):
+    return load_scene("easy_push", robot=panda)
+
+
+def _push_until(scene, distance: float) -> list[State]:
+    """The closed-loop push of the box towards the goal centre from just behind it, stopped as
+    soon as its centre is within `distance` (m) of the goal point: the start and every step."""
+    physics = Physics(scene)
+    g = scene.goal_index
+    centre, goal = scene.object_poses[g, :2], np.asarray(scene.goal.position)
+    u = (goal - centre) / np.linalg.norm(goal - centre)
+    tool = centre - u * 0.13          # clear of the box in every perturbed world
+    q = ik_on_manifold(scene.robot, tool[0], tool[1], math.atan2(u[1], u[0]), 0.0,
+                       scene.robot.home, rng=np.random.default_rng(0))
+    start = State(q, scene.object_poses)
+
+    def stop(x: State) -> StopReason | None:
+        near = np.linalg.norm(x.objects[g, :2] - goal) <= distance
+        return StopReason.GOAL if near else None
+
+    result = push_policy_prop(physics, start, g, goal, 200, 0.1, 0.1, np.zeros(7), stop)
+    assert result.stopped is StopReason.GOAL
+    return [start, *result.states]
+
+
+def test_a_plan_ending_on_the_goal_edge_is_fragile_and_one_ending_inside_is_robust(easy):
+    edge = _push_until(easy, easy.goal.radius - 0.001)
+    inside = _push_until(easy, 0.02)
+    fragile = robustness(easy, edge, rollouts=20, seed=0)
+    robust = robustness(easy, inside, rollouts=20, seed=0)
+    assert fragile < 0.8 <= robust, (fragile, robust)
+    assert robustness(easy, edge, rollouts=20, seed=0) == fragile          # reproducible
+    nothing = Perturbation(friction=0.0, mass=0.0, pose_noise=0.0, yaw_noise=0.0)
+    assert robustness(easy, edge, rollouts=3, seed=0, perturbation=nothing) == 1.0
+
+
+def test_the_pipeline_accepts_only_robust_enough_plans(easy):
+    options = PCRRTOptions(time_limit=60.0)
+    lenient = plan_scene(easy, "pc-rrt", options, seed=1,
+                         robust=PipelineOptions(min_robustness=0.5, rollouts=10, candidates=1))
+    assert lenient.solved and lenient.robustness is not None and lenient.robustness >= 0.5
+    assert lenient.to_dict()["robustness"] == lenient.robustness
+    strict = plan_scene(easy, "pc-rrt", options, seed=1,
+                        robust=PipelineOptions(min_robustness=1.0, rollouts=10, candidates=1))
+    if strict.robustness is not None and strict.robustness < 1.0:
+        assert not strict.solved and "no plan reached min_robustness 1" in strict.result.message
+    unchecked = plan_scene(easy, "pc-rrt", options, seed=1)
+    assert unchecked.robustness is None and unchecked.to_dict()["robustness"] is None
