@@ -219,7 +219,8 @@ def plan_scene(scene: Scene, planner: str = "pc-rrt", options: PlannerOptions | 
         # Shortcutting re-simulates the pushes in the planner's own world (the Static RRT's
         # non-goal objects stay obstacles there, so a shortcut cannot push them either).
         short = shortcut(spec.physics(scene, physics), result.states, shortcut_time, seed=seed,
-                         cancel=cancel, max_attempts=shortcut_attempts)
+                         cancel=cancel, max_attempts=shortcut_attempts,
+                         goal_radius=spec.options(options).goal_radius(scene))
         result = dataclasses.replace(result, states=tuple(short.states))
         spent = short.elapsed
     trajectory = time_parameterize(scene.robot, result.arm_path, timing or TimingOptions())

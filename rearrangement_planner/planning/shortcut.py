@@ -51,15 +51,18 @@ def path_length(states) -> float:
 
 def shortcut(physics: Physics, states, time_limit: float, seed: int = 0,
              cancel: threading.Event | None = None, max_attempts: int | None = None,
-             dt: float = 0.1) -> ShortcutResult:
+             dt: float = 0.1, goal_radius: float | None = None) -> ShortcutResult:
     """Shortcut `states` (a valid plan ending in the goal: consecutive states one physics step
     apart) for up to `time_limit` s or `max_attempts` attempts. Never lengthens the path and
-    never loses the goal; a state list that does not end in the goal is returned unchanged."""
+    never loses the goal, which is the goal object's centre within `goal_radius` (m; default
+    the region's, less the planner's goal margin when the pipeline passes it); a state list
+    that does not end in the goal is returned unchanged."""
     t0 = time.monotonic()
     scene = physics.scene
+    radius = scene.goal.radius if goal_radius is None else goal_radius
     path = list(states)
     before = path_length(path)
-    if len(path) < 3 or not _at_goal(scene, path[-1]):
+    if len(path) < 3 or not _at_goal(scene, path[-1], radius):
         return ShortcutResult(tuple(path), 0, 0, time.monotonic() - t0, before, before)
     table_height = scene.table.height
     # The approach onto the plane (if any) is kept: shortcuts connect on-plane states only.
@@ -88,7 +91,7 @@ def shortcut(physics: Physics, states, time_limit: float, seed: int = 0,
         if new_piece >= old_piece - 1e-9:
             continue
         candidate = _resimulate(physics, path[:i + 1], bridge,
-                                [s.q for s in path[j + 1:]])
+                                [s.q for s in path[j + 1:]], radius)
         if candidate is None:
             continue
         new_length = path_length(candidate)
@@ -126,7 +129,7 @@ def connect(physics: Physics, q_a: np.ndarray, q_b: np.ndarray, dt: float = 0.1,
 
 
 def _resimulate(physics: Physics, prefix: list[State], bridge: list[np.ndarray],
-                rest: list[np.ndarray]) -> list[State] | None:
+                rest: list[np.ndarray], radius: float) -> list[State] | None:
     """prefix + the states along bridge and rest re-simulated; None if a step is invalid or the
     goal is not reached. The path is cut at the first state in the goal region."""
     scene = physics.scene
@@ -138,10 +141,10 @@ def _resimulate(physics: Physics, prefix: list[State], bridge: list[np.ndarray],
             return None
         x = result.state
         out.append(x)
-        if _at_goal(scene, x):
+        if _at_goal(scene, x, radius):
             return out
     return None
 
 
-def _at_goal(scene, state: State) -> bool:
-    return scene.goal.reached(state.objects[scene.goal_index, :2])
+def _at_goal(scene, state: State, radius: float) -> bool:
+    return scene.goal.distance(state.objects[scene.goal_index, :2]) <= radius

@@ -94,3 +94,15 @@ def test_pipeline_reports_lengths_before_and_after(easy):
     assert out.metrics == PathMetrics.of(easy, out.result.states)
     assert len(out.trajectory_states) == len(out.trajectory)
     np.testing.assert_array_equal(out.trajectory.positions[-1], out.result.states[-1].q)
+
+
+def test_shortcutting_keeps_the_goal_margin():
+    """A plan made with goal_margin ends within radius - margin, and so does its shortcut (the
+    shortcut judges the goal by the planner's radius, not the region's)."""
+    scene = load_scene("easy_push")
+    output = plan_scene(scene, "pc-rrt", PCRRTOptions(time_limit=60.0, goal_margin=0.03), seed=0,
+                        shortcut_time=60.0, shortcut_attempts=40)
+    end = output.result.states[-1].objects[scene.goal_index, :2]
+    assert output.solved and output.metrics.path_length_rad \
+        <= output.metrics_before_shortcut.path_length_rad
+    assert scene.goal.distance(end) <= scene.goal.radius - 0.03
