@@ -87,17 +87,10 @@ class DARRT:
              iteration_gate: IterationGate | None = None) -> PlanResult:
         """The `Planner` protocol (as `PCRRT.plan`)."""
         search = Search(self.options, seed, cancel, progress, iteration_gate)
-        invalid = search.goal_invalid(self.scene)
-        if invalid is not None:
-            return invalid
         start = start or self.scene.initial_state()
-        problem = self.physics.check_state(start)
-        if problem is not None:
-            return PlanResult(Outcome.START_INVALID, f"start state invalid: {problem[1]}", seed)
-        search.best = self._goal_distance(start)
-        if search.best <= self.options.goal_radius(self.scene):
-            return PlanResult(Outcome.SUCCEEDED, "start already in the goal region", seed,
-                              (start,), best_goal_distance=search.best)
+        ended = search.check_start(self.physics, start)
+        if ended is not None:
+            return ended
         if not self._free(start.q, start.objects):
             return PlanResult(Outcome.START_INVALID, "start configuration touches an object; "
                               "DARRT's transit primitives need a collision-free start", seed)

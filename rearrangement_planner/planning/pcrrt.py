@@ -287,16 +287,9 @@ class _Run(Search):
     def begin(self, start: State) -> PlanResult | None:
         """Check the start and plan the approach onto the manifold; a result ends the plan."""
         planner, seed = self.planner, self.seed
-        invalid = self.goal_invalid(planner.scene)
-        if invalid is not None:
-            return invalid
-        problem = planner.physics.check_state(start)
-        if problem is not None:
-            return PlanResult(Outcome.START_INVALID, f"start state invalid: {problem[1]}", seed)
-        self.best = planner.goal_distance(start)
-        if self.best <= planner.options.goal_radius(planner.scene):
-            return PlanResult(Outcome.SUCCEEDED, "start already in the goal region", seed,
-                              (start,), plan_time=self.elapsed(), best_goal_distance=self.best)
+        ended = self.check_start(planner.physics, start)
+        if ended is not None:
+            return ended
         approach, why = approach_path(planner.physics, start, self.rng)
         if approach is None:
             return PlanResult(Outcome.START_INVALID, why, seed, plan_time=self.elapsed(),

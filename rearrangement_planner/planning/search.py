@@ -11,8 +11,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from rearrangement_planner.model.scene import Scene
 from rearrangement_planner.model.state import State
+from rearrangement_planner.physics.step import Physics
 from rearrangement_planner.planning.interface import (
     SUPERSEDED,
     CancelFlag,
@@ -60,13 +60,24 @@ class Search:
             return self.failure(Outcome.CANCELLED, SUPERSEDED)
         return None
 
-    def goal_invalid(self, scene: Scene) -> PlanResult | None:
-        """GOAL_INVALID when the goal margin leaves no region to reach."""
-        if self.options.goal_radius(scene) > 0.0:
-            return None
-        return PlanResult(Outcome.GOAL_INVALID, f"goal_margin {self.options.goal_margin:g} m "
-                                                f"leaves nothing of the goal region (radius "
-                                                f"{scene.goal.radius:g} m)", self.seed)
+    def check_start(self, physics: Physics, start: State) -> PlanResult | None:
+        """The checks every plan begins with; a result ends the plan: GOAL_INVALID when the
+        goal margin leaves no region to reach, START_INVALID for an invalid start state,
+        SUCCEEDED when the start is already in the goal. Sets `best`."""
+        scene, seed = physics.scene, self.seed
+        radius = self.options.goal_radius(scene)
+        if radius <= 0.0:
+            return PlanResult(Outcome.GOAL_INVALID, f"goal_margin {self.options.goal_margin:g} "
+                                                    f"m leaves nothing of the goal region "
+                                                    f"(radius {scene.goal.radius:g} m)", seed)
+        problem = physics.check_state(start)
+        if problem is not None:
+            return PlanResult(Outcome.START_INVALID, f"start state invalid: {problem[1]}", seed)
+        self.best = scene.goal.distance(start.objects[scene.goal_index, :2])
+        if self.best <= radius:
+            return PlanResult(Outcome.SUCCEEDED, "start already in the goal region", seed,
+                              (start,), plan_time=self.elapsed(), best_goal_distance=self.best)
+        return None
 
     def elapsed(self) -> float:
         return time.monotonic() - self.t0
