@@ -67,6 +67,7 @@ from rearrangement_planner.ros.plan_request import (
     Job,
     configured_scene,
     object_ids,
+    planning_status,
     record,
     result_markers,
     run_plan,
@@ -171,13 +172,15 @@ class PlannerNode(Node):
         self._status_pub.publish(status_to_diagnostics(status, self._stamp()))
 
     def _planning_status(self, job: Job, message: str) -> PlannerStatus:
-        p, now = self._progress, time.monotonic()
-        elapsed = now - job.started if job.started is not None else 0.0
-        if p is None:
-            return PlannerStatus("planning", message, plan_id=job.plan_id, elapsed=elapsed)
-        return PlannerStatus("planning", message, plan_id=job.plan_id, iterations=p.iterations,
-                             tree_size=p.tree_size, best_goal_distance=p.best_goal_distance,
-                             elapsed=elapsed)
+        return planning_status(job, self._progress, message)
+
+    def last_inputs(self) -> dict[str, Any]:
+        """The last accepted message of each input ('joint_states', 'object_poses', 'goal';
+        None before the first): what the next plan starts from."""
+        with self._lock:
+            latest = {"joint_states": self._joint, "object_poses": self._objects,
+                      "goal": self._goal}
+        return {k: (v.msg if v is not None else None) for k, v in latest.items()}
 
     def _report(self, message: str) -> None:
         """Log a problem and put it on ~/status (state unchanged); the same message at most

@@ -28,10 +28,12 @@ from rearrangement_planner.planning.interface import (
     Outcome,
     PlannerOptions,
     PlanResult,
+    Progress,
     ProgressCallback,
 )
 from rearrangement_planner.planning.pipeline import PipelineOptions, PlanOutput, plan_scene
 from rearrangement_planner.planning.registry import options_from, planner_spec
+from rearrangement_planner.planning.status import PlannerStatus
 from rearrangement_planner.planning.trajectory import TimingOptions
 
 NO_STATE = "NO_STATE"
@@ -231,6 +233,16 @@ def record(job: Job, output: PlanOutput | None, params: dict[str, Any], frame: s
         return str(written), None
     return (f"not recorded: {reason}",
             f"plan {job.plan_id}: recording to {path} failed: {reason}")
+
+
+def planning_status(job: Job, progress: Progress | None, message: str) -> PlannerStatus:
+    """The ~/status of a running plan: its id, the message and the planner's progress."""
+    elapsed = time.monotonic() - job.started if job.started is not None else 0.0
+    if progress is None:
+        return PlannerStatus("planning", message, plan_id=job.plan_id, elapsed=elapsed)
+    return PlannerStatus("planning", message, plan_id=job.plan_id,
+                         iterations=progress.iterations, tree_size=progress.tree_size,
+                         best_goal_distance=progress.best_goal_distance, elapsed=elapsed)
 
 
 def summary_line(plan_id: str, outcome: str, message: str, output: PlanOutput | None,

@@ -69,6 +69,21 @@ SUMMARY = re.compile(r"^plan (\S+): ([A-Z_]+) in ([\d.]+) s, (\d+) iterations, m
                      r"(?:; .*)?$")
 
 
+INPUT_WAIT = 10.0
+"""Seconds `run_bag` waits for the planner node to take the bag's last inputs."""
+
+
+def _caught_up(planner: Any, bag: Bag) -> bool:
+    """Whether the node's last joint state and object poses are the bag's last ones."""
+    latest = planner.last_inputs()
+    for key in ("joint_states", "object_poses"):
+        topic = next(t for t in bag.topics if t.endswith(key))
+        got = latest[key]
+        if got is None or got.header.stamp != bag.last(topic).header.stamp:
+            return False
+    return True
+
+
 class BagError(RearrangementError):
     """A bag cannot be read or replayed; the message names the file and the problem."""
 
@@ -598,9 +613,11 @@ def run_bag(bag: Bag | str | os.PathLike[str], session: Session, *, rate: float 
         timings["setup"] = time.monotonic() - t0
         playback = player.play()
         timings["playback"] = playback.wall_time
-        # A player that fell behind means a busy process: the node's subscriptions may be
-        # behind as well. Give them that much longer (within the node's 1 s state_timeout).
-        time.sleep(settle + min(playback.max_lag, 0.4))
+        # Plan from the bag's last state: wait until the node has taken the last joint state
+        # and object poses the player sent (a busy process lags; a message the node rejects
+        # or best-effort lost ends the wait at INPUT_WAIT), then the settle time.
+        wait_until(lambda: _caught_up(planner, bag), INPUT_WAIT)
+        time.sleep(settle)
         reply = client.plan(timeout=float(parameters.get("time_limit", 30.0)) + 60.0)
         timings["plan"] = reply.wall_time
         run = BagRun(bag, parameters, playback, reply, timings=timings)
