@@ -336,13 +336,18 @@ CSV_COLUMNS = (
     "path_length_rad_before", "path_length_rad_after",
     "ee_path_length_m_before", "ee_path_length_m_after",
     "object_displacement_m_before", "object_displacement_m_after",
-    "shortcut_time_s", "pushing_links", "non_goal_objects_moved", "trial_wall_s",
+    "shortcut_time_s", "pushing_links", "non_goal_objects_moved",
+    "executed_ideal", "executed_servo", "executed_goal_distance_m", "trial_wall_s",
 )
 """trials.csv: one row per trial. goal_distance_m: the goal object's final distance from the
 goal point (solved) or the least distance reached (not solved). *_before / *_after: of the path
 before and after shortcutting (equal when not shortcut; empty when not solved). pushing_links:
 the arm links that moved objects along the final path, ';'-separated (DESIGN §6).
 non_goal_objects_moved: how many objects other than the goal object the path moves (> 1 mm).
+executed_ideal / executed_servo: 1 when the solved plan, executed open loop in MuJoCo
+(`execution.mujoco_check`, ideal / servo-driven arm), reaches the goal region with nothing
+toppled, else 0 (empty when not solved); executed_goal_distance_m: the goal object's final
+distance there (ideal arm).
 trial_wall_s: the whole trial (planning, shortcutting, timing, replay) on the wall clock."""
 
 MOVED_TOLERANCE = 1e-3   # m, an object counts as moved beyond this distance from its start
@@ -415,8 +420,22 @@ def run_trial(trial: Trial, shortcut_time: float, shortcut_attempts: int | None)
     row["shortcut_time_s"] = _num(output.shortcut_time, 3)
     row["pushing_links"] = ";".join(sorted(links))
     row["non_goal_objects_moved"] = str(len(moved)) if result.solved else ""
+    row.update(_executed(output))
     row["trial_wall_s"] = _num(time.monotonic() - t0, 3)
     return row
+
+
+def _executed(output) -> dict[str, str]:
+    """The executed_* columns: the plan played open loop in MuJoCo, both arms."""
+    if output.trajectory is None:
+        return {"executed_ideal": "", "executed_servo": "", "executed_goal_distance_m": ""}
+    from rearrangement_planner.execution.mujoco_check import ExecutionOptions, check_execution
+
+    reports = {arm: check_execution(output.scene, output.trajectory, None,
+                                    ExecutionOptions(arm=arm)) for arm in ("ideal", "servo")}
+    return {"executed_ideal": str(int(reports["ideal"].reached)),
+            "executed_servo": str(int(reports["servo"].reached)),
+            "executed_goal_distance_m": _num(reports["ideal"].goal_distance_m)}
 
 
 def _replay_physics(scene):
@@ -767,6 +786,7 @@ def _planner_summary(rows: Sequence[dict], planner: str, protocol: dict,
         "success_at_budget": {f"{b:g}": _rounded(success_at(rows, b))
                               for b in budgets(time_limit)},
         "by_objects": by_objects,
+        "executed": _executed_summary(solved),
         "non_goal_objects_moved_mean": _rounded(float(np.mean(
             [int(r["non_goal_objects_moved"]) for r in solved]))) if solved else None,
         "pushing_links": {
@@ -779,6 +799,16 @@ def _planner_summary(rows: Sequence[dict], planner: str, protocol: dict,
                      else "not shortcut"),
     }
     return summary
+
+
+def _executed_summary(solved: Sequence[dict]) -> dict[str, Any]:
+    """Solved plans that also reach the goal executed open loop in MuJoCo (DESIGN §10)."""
+    ideal = [r for r in solved if r["executed_ideal"] != ""]
+    return {"checked": len(ideal),
+            "reached_ideal": sum(r["executed_ideal"] == "1" for r in ideal),
+            "reached_servo": sum(r["executed_servo"] == "1" for r in ideal),
+            "reached_ideal_share": _rounded(sum(r["executed_ideal"] == "1" for r in ideal)
+                                            / len(ideal)) if ideal else None}
 
 
 def _beats(a: dict, b: dict) -> dict[str, bool]:

@@ -199,10 +199,15 @@ def test_summary_success_at_budget_shortcut_means_and_pushing_links():
                 "seeds": [0], "time_limit": 60.0, "shortcut_time_s": 5.0,
                 "shortcut_attempts": 100, "quick": False}
     rows[1]["shortcut_time_s"] = "5.0"   # ran out of time before its attempt bound
+    for row, ideal, servo in ((rows[0], "1", "1"), (rows[1], "0", "1"), (rows[3], "0", "0")):
+        row.update(executed_ideal=ideal, executed_servo=servo, executed_goal_distance_m="0.2")
     summary = benchmark.summarize(rows, protocol, {"panda_hand", "panda_link7"})
     json.dumps(summary)   # JSON-safe
     pc, darrt = summary["planners"]["pc-rrt"], summary["planners"]["darrt"]
     assert (pc["trials"], pc["solved"], pc["solved_share"]) == (4, 3, 0.75)
+    # executed open loop in MuJoCo: 1 of the 3 solved plans with the ideal arm, 2 with servo
+    assert pc["executed"] == {"checked": 3, "reached_ideal": 1, "reached_servo": 2,
+                              "reached_ideal_share": round(1 / 3, 4)}
     assert pc["solved_after_time_limit"] == 0
     assert pc["plan_time_s"]["median"] == 5.0
     # a trial counts at budget t when solved with plan time <= t (Fig. 7)
@@ -297,6 +302,10 @@ def test_tiny_protocol_writes_csv_json_and_plots_and_resumes(tmp_path, capsys):
             assert float(r["path_length_rad_after"]) <= float(r["path_length_rad_before"])
             assert float(r["goal_distance_m"]) <= 0.1
             assert r["non_goal_objects_moved"] == "0"   # one object: the goal object alone
+            assert r["executed_ideal"] in ("0", "1") and r["executed_servo"] in ("0", "1")
+            assert float(r["executed_goal_distance_m"]) >= 0.0
+        else:
+            assert r["executed_ideal"] == r["executed_servo"] == ""
             assert "panda_hand" in r["pushing_links"].split(";") or r["pushing_links"]
     summary = json.loads((out / "summary.json").read_text())
     assert {"protocol", "trials", "planners", "end_effector_links", "pc_rrt_vs", "targets",
