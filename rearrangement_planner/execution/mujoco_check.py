@@ -167,6 +167,12 @@ def _panda_urdf() -> str:
     return head + tag + tail[:end] + "\n" + compiler + tail[end:]
 
 
+def arm_model() -> mujoco.MjModel:
+    """The Panda alone as `build_model` loads it (real collision meshes and finger boxes, all
+    joints free): what the planner's contact shapes are fitted to (config/robots/panda.yaml)."""
+    return mujoco.MjModel.from_xml_string(_panda_urdf())
+
+
 def build_model(scene: Scene, options: ExecutionOptions) -> mujoco.MjModel:
     """The arm (real collision meshes, fingers closed and rigid as the planner's hand), the
     table, the obstacles and the objects as free bodies."""

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from xml.etree import ElementTree
 
@@ -54,6 +54,19 @@ class ContactShape:
     kind: str
     dims: tuple[float, ...]
     offset: np.ndarray
+
+    def grown(self, delta: float) -> ContactShape:
+        """The shape with every surface moved outward by `delta` m (inward if negative): a
+        radius changes by delta, a length or a box extent by 2 delta (kept above 0.1 mm)."""
+        if self.kind == "box":
+            dims = tuple(max(d + 2 * delta, 1e-4) for d in self.dims)
+        elif self.kind == "sphere":
+            dims = (max(self.dims[0] + delta, 1e-4),)
+        elif self.kind == "capsule":
+            dims = (max(self.dims[0] + delta, 1e-4), self.dims[1])
+        else:
+            dims = (max(self.dims[0] + delta, 1e-4), max(self.dims[1] + 2 * delta, 1e-4))
+        return replace(self, dims=dims)
 
     @property
     def bounding_radius(self) -> float:
@@ -254,6 +267,7 @@ class RobotModel:
         self._cached_q: bytes | None = None
         self._jacobians_ready = False
         self._cached_shape_poses: np.ndarray | None = None
+        self._tool_reach: float | None = None
 
     # -- construction -----------------------------------------------------------------------
 
@@ -274,6 +288,12 @@ class RobotModel:
     def copy(self) -> RobotModel:
         """An independent model (own Pinocchio data) for another thread."""
         return RobotModel(self.config, urdf_xml=self.urdf_xml)
+
+    def grown(self, delta: float) -> RobotModel:
+        """The same arm with every contact shape grown by `delta` m (`ContactShape.grown`): a
+        contact-geometry offset of the robustness rollouts (`model.perturbation`)."""
+        shapes = tuple(s.grown(delta) for s in self.config.contact_shapes)
+        return RobotModel(replace(self.config, contact_shapes=shapes), urdf_xml=self.urdf_xml)
 
     # -- basic facts ------------------------------------------------------------------------
 
@@ -305,6 +325,32 @@ class RobotModel:
     def within_limits(self, q: np.ndarray, tol: float = 0.0) -> bool:
         q = np.asarray(q, dtype=float)
         return bool(((q >= self.lower - tol) & (q <= self.upper + tol)).all())
+
+    @property
+    def tool_reach(self) -> float:
+        """How far (m) the contact shapes that move rigidly with the tool frame reach past the
+        tool point along the tool's z axis, 0 if none does: the Panda's finger pads end 9.6 mm
+        past panda_hand_tcp. A pusher that should stop short of an object stops by this much
+        more than the tool point."""
+        if self._tool_reach is None:
+            self._tool_reach = self._reach_past_tool()
+        return self._tool_reach
+
+    def _reach_past_tool(self) -> float:
+        tool_joint = self.model.frames[self.tool_frame_id].parentJoint
+        tool_inv = np.linalg.inv(self.tool_pose(self.home))
+        reach = 0.0
+        for s, fid, pose in zip(self.contact_shapes, self._shape_frame_ids,
+                                self.shape_poses(self.home)):
+            if self.model.frames[int(fid)].parentJoint != tool_joint:
+                continue
+            local = tool_inv @ pose
+            if s.kind == "capsule":
+                ends = local[2, 3] + np.array([-0.5, 0.5]) * s.dims[1] * local[2, 2]
+                reach = max(reach, float(ends.max()) + s.dims[0])
+            else:
+                reach = max(reach, float(local[2, 3]) + s.bounding_radius)
+        return reach
 
     # -- kinematics -------------------------------------------------------------------------
 

@@ -47,7 +47,7 @@ from rearrangement_planner.planning.tree import Tree
 
 TRANSIT_STEP = 0.02      # rad, joint-space resolution of transit motions (collision checks)
 PUSH_STEP = 0.01         # m, tool travel per push step
-STANDOFF = 0.005         # m, gap between the tool and the carried object's surface
+STANDOFF = 0.005         # m, gap between the finger tips and the carried object's surface
 
 
 @dataclass(frozen=True)
@@ -184,7 +184,8 @@ class DARRT:
         (The hand model has no cavity to cage an object in: the object sits at the finger
         tips and is carried rigidly from there.)"""
         pose = state.objects[obj]
-        xy = pose[:2] - direction * (self._extent(obj, pose, -direction) + STANDOFF)
+        back = self._extent(obj, pose, -direction) + self.robot.tool_reach + STANDOFF
+        xy = pose[:2] - direction * back
         yaw = math.atan2(direction[1], direction[0])
         q = ik_on_manifold(self.robot, float(xy[0]), float(xy[1]), yaw, self._table_height,
                            state.q, rng=rng, restarts=3)

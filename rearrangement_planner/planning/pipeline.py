@@ -203,31 +203,33 @@ def plan_scene(scene: Scene, planner: str = "pc-rrt", options: PlannerOptions | 
     share of `robust.rollouts` perturbed rollouts (`planning.robustness`); up to
     `robust.candidates` plans are planned within the time limit and the most robust wins; if
     none is robust enough the request fails (a fragile open-loop plan is not a plan)."""
-    spec = planner_spec(planner)
     physics = physics or Physics(scene)
-    search = _Search(planner, scene, options, start, cancel, progress, physics)
+    search = _Search(planner, scene, options, start, cancel, progress, physics,
+                     shortcut_time, shortcut_attempts)
     score = None
     if robust is not None and robust.min_robustness > 0:
-        result, score = _robust_search(search, seed, robust)
+        candidate, score = _robust_search(search, seed, robust)
     else:
-        result = search.run(seed)
+        candidate = search.finish(search.run(seed), seed)
+    result = candidate.result
     if not result.solved:
         return PlanOutput(scene, planner, result, robustness=score)
-    before = PathMetrics.of(scene, result.states)
-    spent = 0.0
-    if shortcut_time > 0 and len(result.states) > 2 and spec.shortcut:
-        # Shortcutting re-simulates the pushes in the planner's own world (the Static RRT's
-        # non-goal objects stay obstacles there, so a shortcut cannot push them either).
-        short = shortcut(spec.physics(scene, physics), result.states, shortcut_time, seed=seed,
-                         cancel=cancel, max_attempts=shortcut_attempts,
-                         goal_radius=spec.options(options).goal_radius(scene))
-        result = dataclasses.replace(result, states=tuple(short.states))
-        spent = short.elapsed
     trajectory = time_parameterize(scene.robot, result.arm_path, timing or TimingOptions())
     states = _states_at_points(result.states, trajectory)
     return PlanOutput(scene, planner, result, trajectory, states,
                       PathMetrics.of(scene, result.states),
-                      before if shortcut_time > 0 else None, spent, score)
+                      candidate.before if shortcut_time > 0 else None, candidate.shortcut_time,
+                      score)
+
+
+@dataclass(frozen=True)
+class _Candidate:
+    """A search's result, shortcut: what the robustness rollouts judge and the answer holds."""
+
+    result: PlanResult
+    before: PathMetrics | None = None
+    """The path before shortcutting."""
+    shortcut_time: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -241,6 +243,8 @@ class _Search:
     cancel: threading.Event | None
     progress: ProgressCallback | None
     physics: Physics
+    shortcut_time: float
+    shortcut_attempts: int | None
 
     def run(self, seed: int, time_limit: float | None = None) -> PlanResult:
         options = self.options
@@ -253,14 +257,36 @@ class _Search:
         return make_planner(self.planner, self.scene, options, self.physics).plan(
             start=self.start, seed=seed, cancel=self.cancel, progress=self.progress)
 
+    def finish(self, result: PlanResult, seed: int) -> _Candidate:
+        """A solved `result` shortcut for up to shortcut_time s or shortcut_attempts attempts
+        (whichever ends first; an attempt bound that ends first makes it reproducible).
+        Planners whose registry entry says so are not shortcut (DARRT: its Push primitive
+        holds the object rigidly, a different world model from the quasistatic physics that
+        shortcutting re-simulates)."""
+        if not result.solved:
+            return _Candidate(result)
+        before = PathMetrics.of(self.scene, result.states)
+        spec = planner_spec(self.planner)
+        if self.shortcut_time <= 0 or len(result.states) <= 2 or not spec.shortcut:
+            return _Candidate(result, before)
+        # Shortcutting re-simulates the pushes in the planner's own world (the Static RRT's
+        # non-goal objects stay obstacles there, so a shortcut cannot push them either).
+        short = shortcut(spec.physics(self.scene, self.physics), result.states,
+                         self.shortcut_time, seed=seed, cancel=self.cancel,
+                         max_attempts=self.shortcut_attempts,
+                         goal_radius=spec.options(self.options).goal_radius(self.scene))
+        return _Candidate(dataclasses.replace(result, states=tuple(short.states)), before,
+                          short.elapsed)
+
 
 def _robust_search(search: _Search, seed: int, robust: PipelineOptions
-                   ) -> tuple[PlanResult, float | None]:
-    """Candidates (seed, then derived seeds) until one is robust enough; the most robust."""
+                   ) -> tuple[_Candidate, float | None]:
+    """Candidates (seed, then derived seeds), each shortcut, until one is robust enough; else
+    the most robust. The rollouts judge the shortcut path: the one the answer holds."""
     t0 = time.monotonic()
     budget = planner_spec(search.planner).options(search.options).time_limit
     world = planner_spec(search.planner).physics(search.scene, search.physics).options
-    best: tuple[PlanResult, float] | None = None
+    best: tuple[_Candidate, float] | None = None
     last: PlanResult | None = None
     for k in range(robust.candidates):
         remaining = budget - (time.monotonic() - t0)
@@ -270,19 +296,21 @@ def _robust_search(search: _Search, seed: int, robust: PipelineOptions
         last = search.run(candidate_seed, remaining)
         if not last.solved:
             continue
-        score = robustness(search.scene, last.states, robust.rollouts, candidate_seed,
-                           physics_options=world)
+        candidate = search.finish(last, candidate_seed)
+        score = robustness(search.scene, candidate.result.states, robust.rollouts,
+                           candidate_seed, physics_options=world)
         if best is None or score > best[1]:
-            best = (last, score)
+            best = (candidate, score)
         if score >= robust.min_robustness:
-            return last, score
+            return candidate, score
     if best is None:
         assert last is not None or budget <= 0.001
-        return last or PlanResult(Outcome.TIMEOUT, "no time for a candidate", seed), None
+        return _Candidate(last or PlanResult(Outcome.TIMEOUT, "no time for a candidate",
+                                             seed)), None
     fragile, score = best
-    return dataclasses.replace(
-        fragile, outcome=Outcome.TIMEOUT, states=(),
+    return _Candidate(dataclasses.replace(
+        fragile.result, outcome=Outcome.TIMEOUT, states=(),
         message=f"no plan reached min_robustness {robust.min_robustness:g} within "
                 f"{robust.candidates} candidates: the most robust reached the goal in "
                 f"{score:.0%} of {robust.rollouts} perturbed rollouts",
-        plan_time=time.monotonic() - t0), score
+        plan_time=time.monotonic() - t0)), score

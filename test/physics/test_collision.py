@@ -571,7 +571,7 @@ def test_touching_configurations_do_not_abort_the_process() -> None:
         scene = Scene(robot, robot.home, Table((0.55, 0), (0.8, 1.2), 0.0), (), (can, box),
                       Goal("can", (0.5, -0.3)))
         world = CollisionWorld(scene)
-        radius = 0.035          # panda_hand's first capsule
+        radius = 0.033          # panda_hand's first capsule
         s = [i for i, c in enumerate(robot.contact_shapes) if c.dims[0] == radius][0]
         shapes = np.tile(np.eye(4), (len(robot.contact_shapes), 1, 1))
         shapes[:, :3, 3] = [0, 0, 10]

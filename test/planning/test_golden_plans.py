@@ -1,9 +1,12 @@
-"""Plans recorded before the package was reorganised (issue 17): the same scene, planner, seed
-and options must give the same trajectory, final object poses and search statistics after it.
+"""Recorded plans: the same scene, planner, seed and options must give the same trajectory,
+final object poses and search statistics, bit for bit, across changes that mean to keep plans
+(the reorganisation of issue 17; the compiled core of issue 19).
 
-test/planning/data/golden_plans.npz was written by the code at commit 4b9d3b9 with exactly the calls
-below (`plan_scene`, 600 iterations, 10 shortcut attempts). A change that alters plans on
-purpose must say so and regenerate the file (`python test/planning/test_golden_plans.py`)."""
+test/planning/data/golden_plans.npz holds exactly the calls below (`plan_scene`, 600
+iterations, 10 shortcut attempts). Recorded at 4b9d3b9 (before the reorganisation, identical
+after it); re-recorded for the contact shapes fitted to the Panda's real meshes (issue 18). A
+change that alters plans on purpose must say so and regenerate the file
+(`python test/planning/test_golden_plans.py`)."""
 
 from __future__ import annotations
 

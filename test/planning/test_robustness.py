@@ -41,7 +41,7 @@ def _push_until(scene, distance: float) -> list[State]:
         near = np.linalg.norm(x.objects[g, :2] - goal) <= distance
         return StopReason.GOAL if near else None
 
-    result = push_policy_prop(physics, start, g, goal, 200, 0.1, 0.1, np.zeros(7), stop)
+    result = push_policy_prop(physics, start, g, goal, 1000, 0.02, 0.1, np.zeros(7), stop)
     assert result.stopped is StopReason.GOAL
     return [start, *result.states]
 
@@ -53,14 +53,15 @@ def test_a_plan_ending_on_the_goal_edge_is_fragile_and_one_ending_inside_is_robu
     robust = robustness(easy, inside, rollouts=20, seed=0)
     assert fragile < 0.8 <= robust, (fragile, robust)
     assert robustness(easy, edge, rollouts=20, seed=0) == fragile          # reproducible
-    nothing = Perturbation(friction=0.0, mass=0.0, pose_noise=0.0, yaw_noise=0.0)
+    nothing = Perturbation(friction=0.0, mass=0.0, pose_noise=0.0, yaw_noise=0.0,
+                           contact_offset=0.0)
     assert robustness(easy, edge, rollouts=3, seed=0, perturbation=nothing) == 1.0
 
 
 def test_the_pipeline_accepts_only_robust_enough_plans(easy):
-    options = PCRRTOptions(time_limit=60.0)
+    options = PCRRTOptions(time_limit=60.0, goal_margin=0.03)
     lenient = plan_scene(easy, "pc-rrt", options, seed=1,
-                         robust=PipelineOptions(min_robustness=0.5, rollouts=10, candidates=1))
+                         robust=PipelineOptions(min_robustness=0.5, rollouts=10, candidates=8))
     assert lenient.solved and lenient.robustness is not None and lenient.robustness >= 0.5
     assert lenient.to_dict()["robustness"] == lenient.robustness
     strict = plan_scene(easy, "pc-rrt", options, seed=1,
@@ -69,3 +70,20 @@ def test_the_pipeline_accepts_only_robust_enough_plans(easy):
         assert not strict.solved and "no plan reached min_robustness 1" in strict.result.message
     unchecked = plan_scene(easy, "pc-rrt", options, seed=1)
     assert unchecked.robustness is None and unchecked.to_dict()["robustness"] is None
+
+
+def test_a_contact_offset_grows_or_shrinks_every_shape_of_the_arm_alike(easy):
+    """Perturbation.contact_offset: one U(-d, d) draw per world moves every shape's surface."""
+    radii = np.array([s.dims[0] for s in easy.robot.contact_shapes])
+    rng = np.random.default_rng(3)
+    offsets = []
+    for _ in range(20):
+        world = Perturbation(0.0, 0.0, 0.0, 0.0, contact_offset=0.005).apply(easy, rng)
+        grown = np.array([s.dims[0] for s in world.robot.contact_shapes]) - radii
+        assert np.allclose(grown, grown[0]) and abs(grown[0]) <= 0.005
+        assert [s.dims[1] for s in world.robot.contact_shapes] == \
+            [s.dims[1] for s in easy.robot.contact_shapes]            # capsule axes unchanged
+        offsets.append(grown[0])
+    assert min(offsets) < -0.002 and max(offsets) > 0.002
+    same = Perturbation(contact_offset=0.0).apply(easy, np.random.default_rng(3))
+    assert same.robot is easy.robot
