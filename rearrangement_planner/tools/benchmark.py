@@ -698,9 +698,11 @@ TARGETS = {"solved_share_at_60s": 0.95, "median_plan_time_s": 5.0,
 """Issue #7's targets for PC-RRT."""
 
 PAPER: dict[str, Any] = {"solved_share_at_300s": {"pc-rrt": 0.75, "darrt": 0.39},
-                         "shortcut_arm_path_reduction": 0.14}
+                         "shortcut_arm_path_reduction": 0.14,
+                         "executed_real_robot_share": {"pc-rrt": 0.78}}
 """King et al. §V: PC-RRT 75 % and DARRT 39 % solved at 300 s (Fig. 7), Static RRT below
-PC-RRT (Fig. 4), shortcutting -14 % manipulator path length (Fig. 8a)."""
+PC-RRT (Fig. 4), shortcutting -14 % manipulator path length (Fig. 8a); PC-RRT plans of four
+scenes executed open loop on the real robot reached the goal in 31 of 40 trials (Table I)."""
 
 
 def budgets(time_limit: float) -> list[float]:

@@ -314,7 +314,7 @@ def test_tiny_protocol_writes_csv_json_and_plots_and_resumes(tmp_path, capsys):
     for planner in ("pc-rrt", "static-rrt"):
         assert {"solved_share", "plan_time_s", "success_at_budget", "by_objects",
                 "pushing_links", "shortcut"} <= set(summary["planners"][planner])
-    for name in ("success_vs_budget", "plan_time", "shortcut", "by_objects"):
+    for name in ("success_vs_budget", "plan_time", "shortcut", "by_objects", "executed"):
         png = (out / f"{name}.png").read_bytes()
         assert png.startswith(b"\x89PNG") and len(png) > 5000
     assert "| pc-rrt |" in captured.out and "4/4 trials" in captured.err
