@@ -341,7 +341,7 @@ class RobotModel:
         tool_inv = np.linalg.inv(self.tool_pose(self.home))
         reach = 0.0
         for s, fid, pose in zip(self.contact_shapes, self._shape_frame_ids,
-                                self.shape_poses(self.home)):
+                                self.shape_poses(self.home), strict=True):
             if self.model.frames[int(fid)].parentJoint != tool_joint:
                 continue
             local = tool_inv @ pose

@@ -67,6 +67,11 @@ class PlannerOptions(Settings):
     object's centre is within radius - goal_margin of the goal point (DESIGN §6 "goal margin":
     open-loop execution never reproduces the prediction exactly, so a plan ending on the
     region's edge misses it). 0 = on entering the region, as in the paper."""
+    tipping: bool = setting(False)
+    """Refuse a push that would tip an object over (the quasistatic tipping condition,
+    `physics.step.tips_over`: push height, support friction, footprint along the push), so
+    plans slide objects rather than topple them. Off = objects never tip, as in King et al.
+    Honoured by `plan_scene` (the CLI, the node and the benchmarks)."""
     dt: float = setting(0.1, low=0.001, high=1.0)
     """Propagation step, s (Δt of Algorithm 2 of King et al.)."""
     progress_period: float = setting(0.25, low=0.0, high=60.0)

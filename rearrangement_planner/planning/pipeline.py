@@ -203,7 +203,8 @@ def plan_scene(scene: Scene, planner: str = "pc-rrt", options: PlannerOptions | 
     share of `robust.rollouts` perturbed rollouts (`planning.robustness`); up to
     `robust.candidates` plans are planned within the time limit and the most robust wins; if
     none is robust enough the request fails (a fragile open-loop plan is not a plan)."""
-    physics = physics or Physics(scene)
+    physics = _with_tipping(physics or Physics(scene),
+                            planner_spec(planner).options(options).tipping)
     search = _Search(planner, scene, options, start, cancel, progress, physics,
                      shortcut_time, shortcut_attempts)
     score = None
@@ -220,6 +221,14 @@ def plan_scene(scene: Scene, planner: str = "pc-rrt", options: PlannerOptions | 
                       PathMetrics.of(scene, result.states),
                       candidate.before if shortcut_time > 0 else None, candidate.shortcut_time,
                       score)
+
+
+def _with_tipping(physics: Physics, tipping: bool) -> Physics:
+    """`physics`, with its tipping check as the planner options say."""
+    if physics.options.tipping == tipping:
+        return physics
+    return Physics(physics.scene, dataclasses.replace(physics.options, tipping=tipping),
+                   physics.robot)
 
 
 @dataclass(frozen=True)

@@ -17,13 +17,12 @@ before planning: rosbag2 MCAP (profile ros2, ros2msg schemas, cdr, offered_qos_p
 - `/rearrangement_planner/goal` (geometry_msgs/PoseStamped): the goal point, as clicked in RViz.
 
 A metadata record `rearrangement_input` holds the planner node parameters to replay the bag
-with (`planner_parameters`, JSON: scene, seed, time limit, goal radius), the ground truth it
+with (`planner_parameters`, JSON: scene, seed, time limit, goal margin), the ground truth it
 was recorded from (`world`, a scene YAML: true arm and object poses, the bag's goal and the
-acceptance radius) and a description. The planner's goal radius is the acceptance radius
-minus `goal_margin`: open-loop execution never reproduces the planner's physics exactly
-(perception noise, a controller that interpolates at its own rate), and PC-RRT stops as soon
-as the goal object's centre enters its region, so a plan made for the acceptance radius itself
-ends on its boundary.
+acceptance radius) and a description. The planner plans for the acceptance radius minus its
+`goal_margin` (the node's parameter): open-loop execution never reproduces the planner's
+physics exactly (perception noise, a controller that interpolates at its own rate), so a plan
+ending on the region's boundary would miss it.
 
 Then every bag is replayed into a planner node in this process (`replay.run_bag`) and the
 node's MCAP of the plan is kept as `bags/plans/<bag>.plan.mcap`: the reference the regression
@@ -52,6 +51,7 @@ import yaml
 from rearrangement_planner.io.recording import McapRecorder
 from rearrangement_planner.model.scene import Scene
 from rearrangement_planner.physics.validation import load_scene, parse_scene
+from rearrangement_planner.planning.interface import PlannerOptions
 
 EPOCH_NS = 1_700_000_000 * 1_000_000_000
 """Log time of the first message of every bag (2023-11-14 22:13:20 UTC)."""
@@ -93,8 +93,8 @@ class BagSpec:
     """Std dev of the perception error of x, y and z, m."""
     yaw_noise: float = 8e-3
     """Std dev of the perception error of yaw (and a tenth of it as tilt), rad."""
-    goal_margin: float = 0.02
-    """The planner's goal radius is the scene's minus this, m (module docstring)."""
+    goal_margin: float = PlannerOptions().goal_margin
+    """The planner's `goal_margin` parameter, m (module docstring)."""
     time_limit: float = 20.0
     """Planner time limit, s."""
     glitches: bool = False
@@ -269,7 +269,7 @@ def bag_messages(spec: BagSpec, world: Scene) -> list[_Message]:
 
 def input_metadata(spec: BagSpec, world: Scene) -> dict[str, str]:
     parameters = {"scene": spec.scene, "seed": spec.seed, "time_limit": spec.time_limit,
-                  "goal_radius": round(world.goal.radius - spec.goal_margin, 6)}
+                  "goal_margin": spec.goal_margin}
     return {"planner_parameters": json.dumps(parameters, sort_keys=True),
             "world": yaml.safe_dump(world.to_dict(), sort_keys=False),
             "description": spec.description}

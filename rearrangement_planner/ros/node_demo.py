@@ -9,9 +9,9 @@ quasistatic physics, faster than real time (`--time-scale`). Prints the plan sum
 world_sim's outcome (goal object distance, in the region or not, objects moved), the MCAP of
 the plan and a top view PNG of the execution (the objects' true paths and the tool path).
 
-The planner plans for the goal radius minus `--goal-margin`, world_sim judges the scene's
-radius: PC-RRT stops as soon as the goal object's centre enters its region, and open-loop
-execution at the controller's rate never reproduces the planner's physics steps exactly.
+The planner plans for the goal radius minus its `goal_margin` (`--goal-margin`, default the
+node's parameter), world_sim judges the scene's radius: open-loop execution never reproduces
+the planner's physics exactly, so a plan ending on the region's edge would miss it.
 
 Exit code 0 when the goal object ends inside its goal region, 1 otherwise, 2 for bad
 arguments. ROS_DOMAIN_ID is taken from the environment; discovery defaults to this machine
@@ -46,8 +46,9 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--time-scale", type=float, default=10.0, metavar="K",
                         help="world_sim runs the trajectory K times faster than real time "
                              "(default 10)")
-    parser.add_argument("--goal-margin", type=float, default=0.02, metavar="M",
-                        help="plan for the goal radius minus M metres (default 0.02)")
+    parser.add_argument("--goal-margin", type=float, default=None, metavar="M",
+                        help="the planner's goal_margin: plan for the goal radius minus M "
+                             "metres (default: the node's, config/planner.yaml)")
     world = parser.add_argument_group(
         "simulated world", "make world_sim differ from what the planner sees, to probe "
                            "open-loop robustness")
@@ -87,7 +88,7 @@ def main(argv: list[str] | None = None) -> int:
             if not 0 <= value <= high:
                 raise RearrangementError(f"{flag} must be in [0, {high:g}], got {value}")
         scene = load_scene(args.scene)
-        if not 0 <= args.goal_margin < scene.goal.radius:
+        if args.goal_margin is not None and not 0 <= args.goal_margin < scene.goal.radius:
             raise RearrangementError(f"--goal-margin must be in [0, {scene.goal.radius:g}) "
                                      f"(the goal radius), got {args.goal_margin}")
         args.record_dir.mkdir(parents=True, exist_ok=True)
@@ -95,7 +96,8 @@ def main(argv: list[str] | None = None) -> int:
         print(f"node_demo: {exc}", file=sys.stderr)
         return 2
     plot_path = args.plot or args.record_dir / f"{Path(scene.source).stem}.png"
-    planning_radius = scene.goal.radius - args.goal_margin
+    margin = [] if args.goal_margin is None else [Parameter("goal_margin",
+                                                            value=float(args.goal_margin))]
 
     with Session(name="demo") as session:
         try:
@@ -109,11 +111,11 @@ def main(argv: list[str] | None = None) -> int:
             planner = session.add(PlannerNode(context=session.context, parameter_overrides=[
                 Parameter("scene", value=args.scene), Parameter("seed", value=args.seed),
                 Parameter("time_limit", value=float(args.time_limit)),
-                Parameter("goal_radius", value=float(planning_radius)),
-                Parameter("record_dir", value=str(args.record_dir.resolve()))]))
+                Parameter("record_dir", value=str(args.record_dir.resolve())), *margin]))
         except RearrangementError as exc:
             print(f"node_demo: {exc}", file=sys.stderr)
             return 2
+        planning_radius = scene.goal.radius - planner.get_parameter("goal_margin").value
         return _run(session, world, planner, scene, args, planning_radius, plot_path)
 
 

@@ -58,7 +58,7 @@ def _outside(robot, q, link_points, link):
     frame = robot.frame_pose(q, link)
     world = link_points @ frame[:3, :3].T + frame[:3, 3]
     best = np.full(len(world), np.inf)
-    for shape, pose in zip(robot.contact_shapes, robot.shape_poses(q)):
+    for shape, pose in zip(robot.contact_shapes, robot.shape_poses(q), strict=True):
         assert shape.kind == "capsule"
         radius, length = shape.dims
         a = pose[:3, 3] - 0.5 * length * pose[:3, 2]

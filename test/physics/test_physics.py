@@ -117,8 +117,9 @@ def test_the_hand_pushing_the_target_moves_it_along(panda, push_q):
 @pytest.mark.parametrize("calls", [10, 100])
 def test_chopping_a_motion_gives_the_same_result(whole_arm_scene, calls):
     """One call, 10 calls or 100 calls along the same joint-space line: same object poses within
-    2 mm and 0.05 rad (cylinders: yaw is weakly determined) over a 0.6 rad sweep that pushes both objects ~20 cm (substeps bound the
-    shape motion, so the chopping hardly matters; 1.2 mm measured with 100 calls)."""
+    2 mm and 0.05 rad (cylinders: their yaw is weakly determined) over a 0.6 rad sweep that
+    pushes both objects ~20 cm (substeps bound the shape motion, so the chopping hardly
+    matters; 1.2 mm measured with 100 calls)."""
     physics = Physics(whole_arm_scene)
     start = whole_arm_scene.initial_state()
     goal_q = start.q.copy()

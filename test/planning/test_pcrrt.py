@@ -234,3 +234,26 @@ def test_a_plan_with_a_margin_ends_well_inside_the_region(easy):
 def test_a_margin_as_large_as_the_region_is_goal_invalid(easy):
     result = PCRRT(easy, PCRRTOptions(goal_margin=easy.goal.radius)).plan(seed=0)
     assert result.outcome is Outcome.GOAL_INVALID and "goal_margin" in result.message
+
+
+def test_the_tipping_setting_keeps_plans_from_toppling_the_goal_object(panda):
+    """`tipping` (a planner setting, honoured by plan_scene): a 4 cm x 4 cm x 20 cm post on a
+    grippy table tips under any push at the hand's height, so with the check on no plan can
+    move it; with it off (objects never tip) the same request is solved."""
+    from rearrangement_planner.physics.validation import parse_scene
+    from rearrangement_planner.planning import plan_scene
+
+    easy = load_scene("easy_push", robot=panda)
+    post = {"name": "post", "shape": "box", "size": [0.04, 0.04, 0.2], "mass": 0.3,
+            "support_friction": 0.8, "pusher_friction": 0.3,
+            "pose": easy.objects[easy.goal_index].pose.tolist()}
+    scene = parse_scene({"table": {"center": list(easy.table.center),
+                                   "size": list(easy.table.size), "height": 0.0},
+                         "start_configuration": easy.start_configuration.tolist(),
+                         "objects": [post], "goal": {"object": "post",
+                                                      "position": list(easy.goal.position),
+                                                      "radius": easy.goal.radius}}, robot=panda)
+    for tipping, solved in ((False, True), (True, False)):
+        options = PCRRTOptions(time_limit=60.0, max_iterations=300, tipping=tipping)
+        output = plan_scene(scene, "pc-rrt", options, seed=1)
+        assert output.solved is solved, (tipping, output.result.message)
