@@ -38,6 +38,7 @@ from rearrangement_planner.planning.interface import (
     PlannerOptions,
     PlanResult,
     ProgressCallback,
+    planning_physics,
 )
 from rearrangement_planner.planning.manifold import ik_on_manifold, project_step, tool_planar_pose
 from rearrangement_planner.planning.push_policy import support_distance
@@ -73,7 +74,7 @@ class DARRT:
                  physics: Physics | None = None):
         self.scene = scene
         self.options = DARRTOptions.adopt(options)
-        self.physics = physics or Physics(scene)
+        self.physics = planning_physics(scene, self.options, physics)
         self.robot = self.physics.robot
         self.world = self.physics.world
         self._goal_xy = np.asarray(scene.goal.position, dtype=float)

@@ -71,7 +71,7 @@ class PlannerOptions(Settings):
     """Refuse a push that would tip an object over (the quasistatic tipping condition,
     `physics.step.tips_over`: push height, support friction, footprint along the push), so
     plans slide objects rather than topple them. Off = objects never tip, as in King et al.
-    Honoured by `plan_scene` (the CLI, the node and the benchmarks)."""
+    (`PhysicsOptions(tipping=True)` given with the physics switches it on too.)"""
     dt: float = setting(0.1, low=0.001, high=1.0)
     """Propagation step, s (Δt of Algorithm 2 of King et al.)."""
     progress_period: float = setting(0.25, low=0.0, high=60.0)
@@ -97,6 +97,16 @@ class PlannerOptions(Settings):
         mine = {f.name for f in dataclasses.fields(cls)}
         return cls(**{f.name: getattr(options, f.name) for f in dataclasses.fields(options)
                       if f.name in mine})
+
+
+def planning_physics(scene: Scene, options: PlannerOptions,
+                     physics: Physics | None = None) -> Physics:
+    """The physics a planner plans in: `physics` (default the scene's), with the tipping check
+    on when the options' `tipping` or the physics' own options say so."""
+    base = physics or Physics(scene)
+    if base.options.tipping or not options.tipping:
+        return base
+    return Physics(base.scene, dataclasses.replace(base.options, tipping=True), base.robot)
 
 
 @dataclass(frozen=True)

@@ -43,6 +43,7 @@ from rearrangement_planner.planning.interface import (
     PlanResult,
     ProgressCallback,
     StopReason,
+    planning_physics,
 )
 from rearrangement_planner.planning.propagation import (
     Action,
@@ -111,7 +112,7 @@ class PCRRT:
                  physics: Physics | None = None):
         self.scene = scene
         self.options = PCRRTOptions.adopt(options)
-        self.physics = physics or Physics(scene)
+        self.physics = planning_physics(scene, self.options, physics)
         self.robot = self.physics.robot
         weights = np.full(len(scene.objects), self.options.object_weight)
         weights[scene.goal_index] = self.options.goal_weight

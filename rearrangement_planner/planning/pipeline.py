@@ -8,6 +8,7 @@ timed trajectory -> predicted object poses along it -> the result record of DESI
 from __future__ import annotations
 
 import dataclasses
+import math
 import threading
 import time
 from dataclasses import dataclass
@@ -22,6 +23,7 @@ from rearrangement_planner.planning.interface import (
     PlannerOptions,
     PlanResult,
     ProgressCallback,
+    planning_physics,
 )
 from rearrangement_planner.planning.parallel import plan_race, tree_seed
 from rearrangement_planner.planning.registry import make_planner, planner_spec
@@ -58,9 +60,10 @@ class PipelineOptions(Settings):
     """Joint acceleration limit of the trajectory, rad/s^2; 0 = none."""
     min_robustness: float = setting(0.0, low=0.0, high=1.0)
     """Accept a plan only if it reaches the goal in at least this share of `rollouts`
-    perturbed worlds (object poses 5 mm / 2 deg, friction x0.7-1.3, mass x0.8-1.2) in the
-    planner's physics (`planning.robustness`); otherwise plan another candidate, up to
-    `candidates`, and keep the most robust. 0 = accept the first plan, unchecked."""
+    perturbed worlds (object poses 5 mm / 2 deg, friction x0.7-1.3, mass x0.8-1.2, the arm's
+    contact shapes +-5 mm) in the planner's physics (`planning.robustness`); otherwise plan
+    another candidate, up to `candidates`; if none is robust enough the request fails. 0 =
+    accept the first plan, unchecked."""
     rollouts: int = setting(10, low=1, high=1000)
     """Perturbed rollouts per candidate plan (with min_robustness > 0)."""
     candidates: int = setting(3, low=1, high=20)
@@ -203,8 +206,7 @@ def plan_scene(scene: Scene, planner: str = "pc-rrt", options: PlannerOptions | 
     share of `robust.rollouts` perturbed rollouts (`planning.robustness`); up to
     `robust.candidates` plans are planned within the time limit and the most robust wins; if
     none is robust enough the request fails (a fragile open-loop plan is not a plan)."""
-    physics = _with_tipping(physics or Physics(scene),
-                            planner_spec(planner).options(options).tipping)
+    physics = planning_physics(scene, planner_spec(planner).options(options), physics)
     search = _Search(planner, scene, options, start, cancel, progress, physics,
                      shortcut_time, shortcut_attempts)
     score = None
@@ -221,14 +223,6 @@ def plan_scene(scene: Scene, planner: str = "pc-rrt", options: PlannerOptions | 
                       PathMetrics.of(scene, result.states),
                       candidate.before if shortcut_time > 0 else None, candidate.shortcut_time,
                       score)
-
-
-def _with_tipping(physics: Physics, tipping: bool) -> Physics:
-    """`physics`, with its tipping check as the planner options say."""
-    if physics.options.tipping == tipping:
-        return physics
-    return Physics(physics.scene, dataclasses.replace(physics.options, tipping=tipping),
-                   physics.robot)
 
 
 @dataclass(frozen=True)
@@ -266,9 +260,10 @@ class _Search:
         return make_planner(self.planner, self.scene, options, self.physics).plan(
             start=self.start, seed=seed, cancel=self.cancel, progress=self.progress)
 
-    def finish(self, result: PlanResult, seed: int) -> _Candidate:
-        """A solved `result` shortcut for up to shortcut_time s or shortcut_attempts attempts
-        (whichever ends first; an attempt bound that ends first makes it reproducible).
+    def finish(self, result: PlanResult, seed: int, time_left: float = math.inf) -> _Candidate:
+        """A solved `result` shortcut for up to shortcut_time s (and `time_left`) or
+        shortcut_attempts attempts (whichever ends first; an attempt bound that ends first
+        makes it reproducible).
         Planners whose registry entry says so are not shortcut (DARRT: its Push primitive
         holds the object rigidly, a different world model from the quasistatic physics that
         shortcutting re-simulates)."""
@@ -276,12 +271,13 @@ class _Search:
             return _Candidate(result)
         before = PathMetrics.of(self.scene, result.states)
         spec = planner_spec(self.planner)
-        if self.shortcut_time <= 0 or len(result.states) <= 2 or not spec.shortcut:
+        seconds = min(self.shortcut_time, time_left)
+        if seconds <= 0 or len(result.states) <= 2 or not spec.shortcut:
             return _Candidate(result, before)
         # Shortcutting re-simulates the pushes in the planner's own world (the Static RRT's
         # non-goal objects stay obstacles there, so a shortcut cannot push them either).
         short = shortcut(spec.physics(self.scene, self.physics), result.states,
-                         self.shortcut_time, seed=seed, cancel=self.cancel,
+                         seconds, seed=seed, cancel=self.cancel,
                          max_attempts=self.shortcut_attempts,
                          goal_radius=spec.options(self.options).goal_radius(self.scene))
         return _Candidate(dataclasses.replace(result, states=tuple(short.states)), before,
@@ -291,7 +287,10 @@ class _Search:
 def _robust_search(search: _Search, seed: int, robust: PipelineOptions
                    ) -> tuple[_Candidate, float | None]:
     """Candidates (seed, then derived seeds), each shortcut, until one is robust enough; else
-    the most robust. The rollouts judge the shortcut path: the one the answer holds."""
+    the most robust. The rollouts judge the shortcut path: the one the answer holds. Searches
+    stop at the time limit, shortcuts at the time limit plus shortcut_time (a request takes no
+    longer than without robust selection). The answer's plan time is all of it but its own
+    shortcutting (reported apart, as without robust selection)."""
     t0 = time.monotonic()
     budget = planner_spec(search.planner).options(search.options).time_limit
     world = planner_spec(search.planner).physics(search.scene, search.physics).options
@@ -305,13 +304,16 @@ def _robust_search(search: _Search, seed: int, robust: PipelineOptions
         last = search.run(candidate_seed, remaining)
         if not last.solved:
             continue
-        candidate = search.finish(last, candidate_seed)
+        candidate = search.finish(last, candidate_seed, time_left=t0 + budget
+                                  + search.shortcut_time - time.monotonic())
         score = robustness(search.scene, candidate.result.states, robust.rollouts,
                            candidate_seed, physics_options=world)
         if best is None or score > best[1]:
             best = (candidate, score)
         if score >= robust.min_robustness:
-            return candidate, score
+            spent = time.monotonic() - t0 - candidate.shortcut_time
+            answer = dataclasses.replace(candidate.result, plan_time=spent)
+            return dataclasses.replace(candidate, result=answer), score
     if best is None:
         assert last is not None or budget <= 0.001
         return _Candidate(last or PlanResult(Outcome.TIMEOUT, "no time for a candidate",

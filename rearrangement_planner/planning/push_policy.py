@@ -99,7 +99,8 @@ def push_policy_prop(physics: Physics, state: State, obj: int, target: np.ndarra
                      stop: StopCheck | None = None) -> Propagation:
     """The feedback push of object `obj` from `state` towards `target` (x, y), at most
     `max_steps` steps of `dt`, the tool at most `speed` m/s per component (`push_velocity`);
-    the hand keeps its yaw and the tool point is the pusher."""
+    the hand keeps its yaw and steers by the tool point (the finger pads, `tool_reach` past it,
+    make the contact: the feedback closes the gap)."""
     robot = physics.robot
     shape = physics.scene.objects[obj]
     target = np.asarray(target, dtype=float)

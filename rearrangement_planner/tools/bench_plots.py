@@ -193,7 +193,7 @@ def plot_executed(rows: Sequence[dict], planners: Sequence[str], path: Path) -> 
     for i, planner in enumerate(planners):
         group = _of(rows, planner)
         for j, (column, label, alpha) in enumerate(bars):
-            share = 100 * sum(r[column] == "1" for r in group) / max(1, len(group))
+            share = 100 * sum(r.get(column) == "1" for r in group) / max(1, len(group))
             ax.bar(i + (j - 1) * width, share, width, color=_color(planner), alpha=alpha,
                    label=label if i == 0 else None, edgecolor="black", linewidth=0.5)
     real = PAPER["executed_real_robot_share"]["pc-rrt"]

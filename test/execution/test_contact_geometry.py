@@ -79,22 +79,28 @@ def test_the_arm_links_are_inside_their_contact_shapes(panda, real):
 
 
 def test_the_hand_and_finger_pads_are_shaped_like_the_real_ones(panda, real):
-    _, points = real
+    model, points = real
     q = panda.home
-    for body in ("panda_hand", "panda_leftfinger", "panda_rightfinger"):
-        # Rounded capsule ends leave the box-like corners out by about a centimetre ...
-        frame_body = body if body == "panda_hand" else "panda_hand"
-        pts = points[body]
-        if body != "panda_hand":          # finger bodies sit on the closed hand: in hand frame
-            model, _ = real
-            data = mujoco.MjData(model)
-            mujoco.mj_kinematics(model, data)
-            b, h = model.body(body).id, model.body("panda_hand").id
-            world = pts @ data.xmat[b].reshape(3, 3).T + data.xpos[b]
-            pts = (world - data.xpos[h]) @ data.xmat[h].reshape(3, 3)
-        assert _outside(panda, q, pts, frame_body).max() < 0.012, body
+    # Rounded capsule ends leave the box-like corners out by about a centimetre ...
+    worst = _outside(panda, q, _hand_frame_points(model, points), "panda_hand").max()
+    assert worst < 0.012, worst
     # ... and the finger pads reach as far past the tool point as the real ones (9.6 mm).
     assert panda.tool_reach == pytest.approx(0.1129 - 0.1034, abs=0.001)
+    # Nor are they bigger: the hand's shapes span the real hand and pads' extent within 2 mm
+    # on every side but the back (hand z < 0, inside the flange), 7 mm.
+    hand = [i for i, c in enumerate(panda.contact_shapes) if c.link == "panda_hand"]
+    to_hand = np.linalg.inv(panda.frame_pose(q, "panda_hand"))
+    ends = []
+    for i in hand:
+        pose, (radius, length) = to_hand @ panda.shape_poses(q)[i], panda.contact_shapes[i].dims
+        for sign in (-0.5, 0.5):
+            ends.append(pose[:3, 3] + sign * length * pose[:3, 2] - radius)
+            ends.append(pose[:3, 3] + sign * length * pose[:3, 2] + radius)
+    model, _ = real
+    real_hand = _hand_frame_points(model, points)
+    low, high = np.min(ends, axis=0), np.max(ends, axis=0)
+    assert np.all(high - real_hand.max(axis=0) < 0.002), high - real_hand.max(axis=0)
+    assert np.all((real_hand.min(axis=0) - low) < [0.002, 0.002, 0.008])
 
 
 def test_planned_pushing_postures_clear_the_table_as_the_real_arm_does(panda, real):
@@ -128,3 +134,17 @@ def _half_height(model, data, g) -> float:
                                 model.mesh_vertadr[mesh] + model.mesh_vertnum[mesh]]
         return float(-(verts @ rot.T)[:, 2].min())
     return float(np.abs(rot[2]) @ model.geom_size[g])
+
+
+def _hand_frame_points(model, points):
+    """The hand's and the closed fingers' points, in the hand frame (at q = 0: the fingers
+    are rigidly closed on the hand in both models)."""
+    data = mujoco.MjData(model)
+    mujoco.mj_kinematics(model, data)
+    hand = model.body("panda_hand").id
+    out = [points["panda_hand"]]
+    for finger in ("panda_leftfinger", "panda_rightfinger"):
+        b = model.body(finger).id
+        world = points[finger] @ data.xmat[b].reshape(3, 3).T + data.xpos[b]
+        out.append((world - data.xpos[hand]) @ data.xmat[hand].reshape(3, 3))
+    return np.vstack(out)

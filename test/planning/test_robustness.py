@@ -5,6 +5,7 @@ object into its region; the pipeline accepts a plan only at min_robustness."""
 from __future__ import annotations
 
 import math
+import time
 
 import numpy as np
 import pytest
@@ -87,3 +88,26 @@ def test_a_contact_offset_grows_or_shrinks_every_shape_of_the_arm_alike(easy):
     assert min(offsets) < -0.002 and max(offsets) > 0.002
     same = Perturbation(contact_offset=0.0).apply(easy, np.random.default_rng(3))
     assert same.robot is easy.robot
+
+
+def test_the_rollouts_judge_the_shortcut_plan_and_count_in_its_plan_time(easy, monkeypatch):
+    """With shortcutting, the robustness reported is the shortcut path's (the one the answer
+    holds); the plan time includes the rollouts (here slowed to 0.3 s)."""
+    from rearrangement_planner.planning import pipeline
+
+    options = PCRRTOptions(time_limit=60.0, goal_margin=0.03)
+    robust = PipelineOptions(min_robustness=0.1, rollouts=10, candidates=1)
+    output = plan_scene(easy, "pc-rrt", options, seed=3, shortcut_time=60.0,
+                        shortcut_attempts=20, robust=robust)
+    assert output.solved and output.metrics_before_shortcut is not None
+    assert output.metrics.path_length_rad < output.metrics_before_shortcut.path_length_rad
+    # (seed 3: the path before shortcutting scores 0.2, the shortcut one 0.3)
+    assert output.robustness == robustness(easy, output.result.states, 10, seed=3)
+
+    def slow(*args, **kwargs):
+        time.sleep(0.3)
+        return 1.0
+
+    monkeypatch.setattr(pipeline, "robustness", slow)
+    timed = plan_scene(easy, "pc-rrt", options, seed=1, robust=robust)
+    assert timed.solved and timed.result.plan_time >= 0.3
