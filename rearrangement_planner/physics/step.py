@@ -72,9 +72,10 @@ class PhysicsOptions:
     """Object-object and object-obstacle penetration (m) still counted as touching."""
     tipping: bool = False
     """Refuse a push that would tip its object over (the quasistatic tipping condition,
-    `tips_over`). Off by default until its effect on executed success is measured (it changes
-    plans: the default scene's seed-4 plan tips the target on the way); off = objects never tip,
-    as in King et al."""
+    `tips_over`). Off here, where the physics also serves execution (world_sim lets a pushed
+    object slide whatever the push height); the planners switch it on with their `tipping`
+    setting (`PlannerOptions.tipping`, on by default). Off = objects never tip, as in King
+    et al."""
     static_objects: frozenset[str] = frozenset()
     """Names of movable objects treated as static obstacles: any arm contact with one is
     invalid (`Invalid.ARM_OBSTACLE`). The Static RRT baseline makes every object but the goal

@@ -54,7 +54,7 @@ is measured in contact, not in free space).
 """
 
 # Joint configuration with the forearm sloping down to 7 cm and the wrist at object height.
-LOW_ARM = (-0.7677, 1.7127, 1.0578, -1.7876, 1.2966, 0.8244, -0.8218)
+LOW_ARM = (-0.7677, 1.6127, 1.0578, -1.7876, 1.2966, 0.8244, -0.8218)
 STEP_RAD = 0.005        # joint-1 motion per physics step: about 2.5 mm at the wrist
 SWEEP_STEPS = 150       # steps per sweep, then the sweep starts again from the start state
 

@@ -220,7 +220,7 @@ def test_a_state_on_the_goal_boundary_is_refused_by_the_margin(easy):
     objects = easy.object_poses
     objects[g, :2] = goal + np.array([easy.goal.radius - 1e-4, 0.0])     # just inside the edge
     on_edge = easy.initial_state().with_objects(objects)
-    plain = PCRRT(easy, PCRRTOptions()).stop_check(lambda: False, math.inf)
+    plain = PCRRT(easy, PCRRTOptions(goal_margin=0.0)).stop_check(lambda: False, math.inf)
     margin = PCRRT(easy, PCRRTOptions(goal_margin=0.03)).stop_check(lambda: False, math.inf)
     assert plain(on_edge) is StopReason.GOAL and margin(on_edge) is None
 

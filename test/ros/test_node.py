@@ -356,7 +356,7 @@ def test_busy_refusal_progress_and_cancel_within_200ms(ros):
     client, scene = ros["client"], ros["scene"]
     client.wait_inputs_flowing()
     # A goal on the table far beyond a few seconds of planning: the plan keeps running.
-    client.set(goal_radius=0.01, time_limit=20.0)
+    client.set(goal_radius=0.01, goal_margin=0.0, time_limit=20.0)
     client.publish_goal(goal_to_pose_stamped([0.93, 0.58], FRAME))
     time.sleep(0.2)
     try:
@@ -388,7 +388,7 @@ def test_busy_refusal_progress_and_cancel_within_200ms(ros):
         status = client.wait_status(t_cancel, lambda s: s.finished)
         assert status.state == "cancelled"
     finally:
-        client.set(goal_radius=0.0)
+        client.set(goal_radius=0.0, goal_margin=DEFAULTS["goal_margin"])
         client.publish_goal(goal_to_pose_stamped(scene.goal.position, FRAME))
         time.sleep(0.2)
     assert client.call("cancel", timeout=5.0).success is False   # nothing running
