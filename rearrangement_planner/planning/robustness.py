@@ -4,8 +4,9 @@ IROS 2015): an open-loop plan is only as good as the share of slightly different
 which it still works. `robustness` replays a plan's arm path in N perturbed copies of the
 scene (object poses, frictions, masses, the arm's contact shapes grown or shrunk a few mm:
 `model.perturbation`) through the planner's own quasistatic physics and counts the rollouts
-that stay valid and end with the goal object in its goal region. `pipeline.plan_scene` uses it to accept a candidate plan only at
-`min_robustness`, or to keep the most robust of several candidates.
+that stay valid and end with the goal object in its goal region. `pipeline.plan_scene` uses it
+to accept a candidate plan only at `min_robustness`, or to keep the most robust of several
+candidates.
 """
 
 from __future__ import annotations
