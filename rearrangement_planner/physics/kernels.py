@@ -1,0 +1,156 @@
+"""Compiled contact geometry (issue 19, first step of the fast core; not yet called by
+`Physics.step`, which still asks python-fcl): the signed distance, the contact point and the
+contact normal between a capsule (the arm's contact shapes) and an upright prism of the scene
+(an object's box or cylinder, an obstacle box, the table slab), in Numba.
+
+A capsule is a segment swept by a ball. The signed distance to a convex set is a convex
+function of the point, so along the capsule's axis p(t) = a + t (b - a), t in [0, 1],
+sd(p(t)) is convex in t; its minimum (golden-section search, interval below 1e-12) is the
+axis point nearest to the prism, or deepest inside it, and
+
+    signed distance = min_t sd(p(t)) - radius        (the penetration depth when negative)
+    normal          = grad sd at that point          (unit, out of the prism, towards the arm)
+    prism point     = the prism's surface point nearest to it
+    capsule point   = axis point - radius * normal
+
+exactly what GJK / EPA compute for a capsule against a convex body while its axis stays
+outside the prism, the regime of contact (the physics refuses a step that ends more than a few
+mm deep). With the axis inside, the result is the depth of the axis' deepest point: a lower
+bound of the true penetration depth. Where the minimum is not unique (the capsule's side
+parallel to a face) any minimiser is a valid contact. Units: m, rad; frames: the robot base
+frame, prisms upright (yaw about z only).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+BOX, CYLINDER = 0, 1
+"""Prism kinds: a box (dims = half extents x, y, z) or a cylinder about its z axis (dims =
+radius, half height, unused)."""
+
+_GOLDEN = 0.6180339887498949
+_ITERATIONS = 60                     # 0.618**60 = 3e-13 of the axis
+
+
+@njit(cache=True)
+def _box_sd(qx: float, qy: float, qz: float, hx: float, hy: float, hz: float) -> float:
+    dx, dy, dz = abs(qx) - hx, abs(qy) - hy, abs(qz) - hz
+    ox, oy, oz = max(dx, 0.0), max(dy, 0.0), max(dz, 0.0)
+    outside = math.sqrt(ox * ox + oy * oy + oz * oz)
+    return outside + min(max(dx, max(dy, dz)), 0.0)
+
+
+@njit(cache=True)
+def _cylinder_sd(qx: float, qy: float, qz: float, radius: float, hz: float) -> float:
+    dr, dz = math.sqrt(qx * qx + qy * qy) - radius, abs(qz) - hz
+    ox, oz = max(dr, 0.0), max(dz, 0.0)
+    return math.sqrt(ox * ox + oz * oz) + min(max(dr, dz), 0.0)
+
+
+@njit(cache=True)
+def _sd(kind: int, q: np.ndarray, dims: np.ndarray) -> float:
+    if kind == BOX:
+        return _box_sd(q[0], q[1], q[2], dims[0], dims[1], dims[2])
+    return _cylinder_sd(q[0], q[1], q[2], dims[0], dims[1])
+
+
+@njit(cache=True)
+def _box_surface(q: np.ndarray, h: np.ndarray, point: np.ndarray, normal: np.ndarray) -> None:
+    """Nearest surface point and outward normal of the box with half extents h (local)."""
+    inside = abs(q[0]) <= h[0] and abs(q[1]) <= h[1] and abs(q[2]) <= h[2]
+    if not inside:
+        norm = 0.0
+        for i in range(3):
+            point[i] = min(max(q[i], -h[i]), h[i])
+            normal[i] = q[i] - point[i]
+            norm += normal[i] * normal[i]
+        norm = math.sqrt(norm)
+        for i in range(3):
+            normal[i] /= norm
+        return
+    axis, best = 0, -math.inf
+    for i in range(3):
+        gap = abs(q[i]) - h[i]
+        if gap > best:
+            axis, best = i, gap
+    for i in range(3):
+        point[i] = q[i]
+        normal[i] = 0.0
+    sign = 1.0 if q[axis] >= 0.0 else -1.0
+    point[axis] = sign * h[axis]
+    normal[axis] = sign
+
+
+@njit(cache=True)
+def _cylinder_surface(q: np.ndarray, radius: float, hz: float, point: np.ndarray,
+                      normal: np.ndarray) -> None:
+    """Nearest surface point and outward normal of the z-axis cylinder (local)."""
+    rho = math.sqrt(q[0] * q[0] + q[1] * q[1])
+    ux, uy = (q[0] / rho, q[1] / rho) if rho > 1e-15 else (1.0, 0.0)
+    sz = 1.0 if q[2] >= 0.0 else -1.0
+    dr, dz = rho - radius, abs(q[2]) - hz
+    if dr > 0.0 or dz > 0.0:                       # outside: clamp radially and along z
+        r_clamped = min(rho, radius)
+        z_clamped = min(max(q[2], -hz), hz)
+        point[0], point[1], point[2] = ux * r_clamped, uy * r_clamped, z_clamped
+        nx, ny, nz = q[0] - point[0], q[1] - point[1], q[2] - point[2]
+        norm = math.sqrt(nx * nx + ny * ny + nz * nz)
+        normal[0], normal[1], normal[2] = nx / norm, ny / norm, nz / norm
+    elif dr > dz:                                  # inside, nearer the side
+        point[0], point[1], point[2] = ux * radius, uy * radius, q[2]
+        normal[0], normal[1], normal[2] = ux, uy, 0.0
+    else:                                          # inside, nearer a cap
+        point[0], point[1], point[2] = q[0], q[1], sz * hz
+        normal[0], normal[1], normal[2] = 0.0, 0.0, sz
+
+
+@njit(cache=True)
+def capsule_prism(a: np.ndarray, b: np.ndarray, radius: float, kind: int,
+                  centre: np.ndarray, yaw: float, dims: np.ndarray,
+                  out_point: np.ndarray, out_normal: np.ndarray) -> float:
+    """Signed distance (m) between the capsule with axis a-b and `radius` and the upright
+    prism `kind` (BOX or CYLINDER) centred at `centre` and turned by `yaw`; writes the prism's
+    contact point into `out_point` and the unit normal (out of the prism, towards the capsule)
+    into `out_normal`, both in the world frame (module doc)."""
+    c, s = math.cos(yaw), math.sin(yaw)
+    # The axis in the prism frame: q(t) = qa + t (qb - qa).
+    qa, qb = np.empty(3), np.empty(3)
+    for q, p in ((qa, a), (qb, b)):
+        dx, dy = p[0] - centre[0], p[1] - centre[1]
+        q[0], q[1], q[2] = c * dx + s * dy, -s * dx + c * dy, p[2] - centre[2]
+    d = qb - qa
+    lo, hi = 0.0, 1.0
+    t1, t2 = hi - _GOLDEN, _GOLDEN
+    f1, f2 = _sd(kind, qa + t1 * d, dims), _sd(kind, qa + t2 * d, dims)
+    for _ in range(_ITERATIONS):
+        if f1 <= f2:
+            hi, t2, f2 = t2, t1, f1
+            t1 = hi - _GOLDEN * (hi - lo)
+            f1 = _sd(kind, qa + t1 * d, dims)
+        else:
+            lo, t1, f1 = t1, t2, f2
+            t2 = lo + _GOLDEN * (hi - lo)
+            f2 = _sd(kind, qa + t2 * d, dims)
+    best_t, best = (t1, f1) if f1 <= f2 else (t2, f2)
+    for t in (0.0, 1.0):                           # a flat minimum may sit at an end
+        f = _sd(kind, qa + t * d, dims)
+        if f < best:
+            best_t, best = t, f
+    q = qa + best_t * d
+    point, normal = np.empty(3), np.empty(3)
+    if kind == BOX:
+        _box_surface(q, dims, point, normal)
+    else:
+        _cylinder_surface(q, dims[0], dims[1], point, normal)
+    # Back to the world frame.
+    out_point[0] = centre[0] + c * point[0] - s * point[1]
+    out_point[1] = centre[1] + s * point[0] + c * point[1]
+    out_point[2] = centre[2] + point[2]
+    out_normal[0] = c * normal[0] - s * normal[1]
+    out_normal[1] = s * normal[0] + c * normal[1]
+    out_normal[2] = normal[2]
+    return best - radius
