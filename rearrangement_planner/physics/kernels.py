@@ -52,10 +52,12 @@ def _cylinder_sd(qx: float, qy: float, qz: float, radius: float, hz: float) -> f
 
 
 @njit(cache=True)
-def _sd(kind: int, q: np.ndarray, dims: np.ndarray) -> float:
+def _sd_along(kind: int, qa: np.ndarray, d: np.ndarray, t: float, dims: np.ndarray) -> float:
+    """The prism's signed distance at the axis point qa + t d (prism frame)."""
+    qx, qy, qz = qa[0] + t * d[0], qa[1] + t * d[1], qa[2] + t * d[2]
     if kind == BOX:
-        return _box_sd(q[0], q[1], q[2], dims[0], dims[1], dims[2])
-    return _cylinder_sd(q[0], q[1], q[2], dims[0], dims[1])
+        return _box_sd(qx, qy, qz, dims[0], dims[1], dims[2])
+    return _cylinder_sd(qx, qy, qz, dims[0], dims[1])
 
 
 @njit(cache=True)
@@ -125,19 +127,19 @@ def capsule_prism(a: np.ndarray, b: np.ndarray, radius: float, kind: int,
     d = qb - qa
     lo, hi = 0.0, 1.0
     t1, t2 = hi - _GOLDEN, _GOLDEN
-    f1, f2 = _sd(kind, qa + t1 * d, dims), _sd(kind, qa + t2 * d, dims)
+    f1, f2 = _sd_along(kind, qa, d, t1, dims), _sd_along(kind, qa, d, t2, dims)
     for _ in range(_ITERATIONS):
         if f1 <= f2:
             hi, t2, f2 = t2, t1, f1
             t1 = hi - _GOLDEN * (hi - lo)
-            f1 = _sd(kind, qa + t1 * d, dims)
+            f1 = _sd_along(kind, qa, d, t1, dims)
         else:
             lo, t1, f1 = t1, t2, f2
             t2 = lo + _GOLDEN * (hi - lo)
-            f2 = _sd(kind, qa + t2 * d, dims)
+            f2 = _sd_along(kind, qa, d, t2, dims)
     best_t, best = (t1, f1) if f1 <= f2 else (t2, f2)
     for t in (0.0, 1.0):                           # a flat minimum may sit at an end
-        f = _sd(kind, qa + t * d, dims)
+        f = _sd_along(kind, qa, d, t, dims)
         if f < best:
             best_t, best = t, f
     q = qa + best_t * d
