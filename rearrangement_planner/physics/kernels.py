@@ -1,7 +1,8 @@
-"""Compiled contact geometry (issue 19, first step of the fast core; not yet called by
-`Physics.step`, which still asks python-fcl): the signed distance, the contact point and the
-contact normal between a capsule (the arm's contact shapes) and an upright prism of the scene
-(an object's box or cylinder, an obstacle box, the table slab), in Numba.
+"""Compiled contact geometry and kinematics (issue 19, first steps of the fast core; not yet
+called by `Physics.step`, which still asks python-fcl and Pinocchio): the signed distance, the
+contact point and the contact normal between a capsule (the arm's contact shapes) and an
+upright prism of the scene (an object's box or cylinder, an obstacle box, the table slab), and
+the forward kinematics of the contact shapes (`CompiledChain`), in Numba.
 
 A capsule is a segment swept by a ball. The signed distance to a convex set is a convex
 function of the point, so along the capsule's axis p(t) = a + t (b - a), t in [0, 1],
@@ -24,9 +25,13 @@ frame, prisms upright (yaw about z only).
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numba import njit
+
+if TYPE_CHECKING:
+    from rearrangement_planner.model.robot import RobotModel
 
 BOX, CYLINDER = 0, 1
 """Prism kinds: a box (dims = half extents x, y, z) or a cylinder about its z axis (dims =
@@ -156,3 +161,94 @@ def capsule_prism(a: np.ndarray, b: np.ndarray, radius: float, kind: int,
     out_normal[1] = s * normal[0] + c * normal[1]
     out_normal[2] = normal[2]
     return best - radius
+
+
+# -- forward kinematics of the contact shapes -----------------------------------------------------
+
+
+@njit(cache=True)
+def _rotation_about(axis: np.ndarray, angle: float, out: np.ndarray) -> None:
+    """The 4x4 rotation by `angle` about the unit `axis` (Rodrigues), into `out`."""
+    x, y, z = axis[0], axis[1], axis[2]
+    c, s = math.cos(angle), math.sin(angle)
+    v = 1.0 - c
+    out[0, 0], out[0, 1], out[0, 2] = c + x * x * v, x * y * v - z * s, x * z * v + y * s
+    out[1, 0], out[1, 1], out[1, 2] = y * x * v + z * s, c + y * y * v, y * z * v - x * s
+    out[2, 0], out[2, 1], out[2, 2] = z * x * v - y * s, z * y * v + x * s, c + z * z * v
+    out[0, 3] = out[1, 3] = out[2, 3] = 0.0
+    out[3, 0] = out[3, 1] = out[3, 2] = 0.0
+    out[3, 3] = 1.0
+
+
+@njit(cache=True)
+def shape_poses(q: np.ndarray, parents: np.ndarray, placements: np.ndarray, axes: np.ndarray,
+                q_index: np.ndarray, shape_joint: np.ndarray, shape_local: np.ndarray,
+                out: np.ndarray) -> None:
+    """World poses (S, 4, 4) of the contact shapes at the planning configuration `q`, into
+    `out`: joint j's pose is its parent's times `placements[j]` times the rotation by
+    q[q_index[j]] about `axes[j]` (no rotation where q_index is -1: a joint held fixed, its
+    placement already at its value); shape s sits at `shape_local[s]` on joint
+    shape_joint[s]. Joints are ordered parents first; joint 0 is the base (identity)."""
+    joints = parents.shape[0]
+    world = np.empty((joints, 4, 4))
+    world[0] = np.eye(4)
+    turn = np.empty((4, 4))
+    for j in range(1, joints):
+        local = placements[j]
+        if q_index[j] >= 0:
+            _rotation_about(axes[j], q[q_index[j]], turn)
+            local = placements[j] @ turn
+        world[j] = world[parents[j]] @ local
+    for s in range(shape_joint.shape[0]):
+        out[s] = world[shape_joint[s]] @ shape_local[s]
+
+
+class CompiledChain:
+    """A robot's serial chain as arrays for `shape_poses`, from its Pinocchio model: revolute
+    planning joints turn about their axes, every other joint is held where Pinocchio's neutral
+    configuration puts it (as `RobotModel` holds it)."""
+
+    def __init__(self, robot: RobotModel):
+        import pinocchio as pin
+
+        model = robot.model
+        data = model.createData()
+        pin.forwardKinematics(model, data, pin.neutral(model))
+        planned = {int(model.joints[model.getJointId(n)].idx_q): k
+                   for k, n in enumerate(robot.joint_names)}
+        n = model.njoints
+        self.parents = np.array(model.parents, dtype=np.int64)
+        self.placements = np.tile(np.eye(4), (n, 1, 1))
+        self.axes = np.zeros((n, 3))
+        self.q_index = np.full(n, -1, dtype=np.int64)
+        for j in range(1, n):
+            joint = model.joints[j]
+            index = planned.get(int(joint.idx_q), -1) if joint.nq == 1 else -1
+            if index < 0:
+                self.placements[j] = data.liMi[j].homogeneous
+                continue
+            self.placements[j] = model.jointPlacements[j].homogeneous
+            self.axes[j] = _revolute_axis(joint)
+            self.q_index[j] = index
+        frames = [model.frames[robot.frame_id(s.link)] for s in robot.contact_shapes]
+        self.shape_joint = np.array([f.parentJoint for f in frames], dtype=np.int64)
+        self.shape_local = np.array([f.placement.homogeneous @ s.offset
+                                     for f, s in zip(frames, robot.contact_shapes, strict=True)])
+
+    def shape_poses(self, q: np.ndarray) -> np.ndarray:
+        out = np.empty((len(self.shape_joint), 4, 4))
+        shape_poses(np.asarray(q, dtype=float), self.parents, self.placements, self.axes,
+                    self.q_index, self.shape_joint, self.shape_local, out)
+        return out
+
+
+def _revolute_axis(joint: Any) -> np.ndarray:
+    """The unit axis of a revolute Pinocchio joint model (RX, RY, RZ or unaligned)."""
+    name = joint.shortname()
+    for suffix, axis in (("RX", (1.0, 0.0, 0.0)), ("RY", (0.0, 1.0, 0.0)),
+                         ("RZ", (0.0, 0.0, 1.0))):
+        if name == f"JointModel{suffix}":
+            return np.array(axis)
+    if name == "JointModelRevoluteUnaligned":
+        return np.asarray(joint.extract().axis, dtype=float)
+    raise NotImplementedError(f"compiled kinematics: joint type {name} (revolute joints only)")

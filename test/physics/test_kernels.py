@@ -124,3 +124,15 @@ def test_the_minimum_along_the_axis_is_found(kind):
             dr, dz = np.hypot(q[:, 0], q[:, 1]) - dims[0], np.abs(q[:, 2]) - dims[1]
             sd = np.hypot(np.maximum(dr, 0), np.maximum(dz, 0)) + np.minimum(np.maximum(dr, dz), 0)
         assert sd.min() - radius - 2e-6 <= distance <= sd.min() - radius + 1e-12
+
+
+def test_compiled_shape_kinematics_match_pinocchio(panda):
+    """The compiled forward kinematics of the contact shapes against RobotModel (Pinocchio)
+    on a thousand random configurations within the joint limits."""
+    from rearrangement_planner.physics.kernels import CompiledChain
+
+    chain = CompiledChain(panda)
+    rng = np.random.default_rng(7)
+    for _ in range(1000):
+        q = rng.uniform(panda.lower, panda.upper)
+        np.testing.assert_allclose(chain.shape_poses(q), panda.shape_poses(q), atol=1e-12)
