@@ -73,7 +73,7 @@ def test_a_straight_push_moves_the_box_as_the_quasistatic_model_predicts(straigh
     moved = np.asarray(box.pose[:2]) - scene.objects[0].pose[:2]
     expected = predicted.objects[0, :2] - scene.objects[0].pose[:2]
     assert expected[0] > 0.10 and abs(expected[1]) < 1e-3            # pushed ~13 cm along x
-    # Within 1 cm (0.5 mm measured): the finger capsules reach where the real finger pads do.
+    # Within 1 cm (0.9 mm measured): the finger capsules reach where the real finger pads do.
     assert np.linalg.norm(moved - expected) < 0.01, (moved, expected)
     assert abs(box.pose[2]) < 0.02 and not box.toppled and box.max_tilt_deg < 2.0
     assert bystander.moved_m < 1e-3 and not bystander.toppled
