@@ -163,6 +163,45 @@ def capsule_prism(a: np.ndarray, b: np.ndarray, radius: float, kind: int,
     return best - radius
 
 
+@njit(cache=True)
+def capsules_prisms(shape_poses: np.ndarray, half_lengths: np.ndarray, radii: np.ndarray,
+                    kinds: np.ndarray, centres: np.ndarray, yaws: np.ndarray,
+                    dims: np.ndarray, margin: float, distances: np.ndarray,
+                    points: np.ndarray, normals: np.ndarray) -> int:
+    """`capsule_prism` for every capsule (S poses, their axis along the pose's z, half length
+    and radius) against every prism (M), in one call: a broad phase (the capsule's box against
+    the prism's bounding circle and height, grown by `margin`) then the narrow phase for the
+    pairs that pass it. Writes distances (S, M; +inf where the broad phase rules the pair out),
+    prism points and normals (S, M, 3); returns how many pairs reached the narrow phase."""
+    shapes, prisms = shape_poses.shape[0], centres.shape[0]
+    a, b = np.empty(3), np.empty(3)
+    narrow = 0
+    for s in range(shapes):
+        for k in range(3):
+            axis = shape_poses[s, k, 2] * half_lengths[s]
+            a[k] = shape_poses[s, k, 3] - axis
+            b[k] = shape_poses[s, k, 3] + axis
+        for m in range(prisms):
+            distances[s, m] = math.inf
+            if kinds[m] == BOX:
+                reach = math.sqrt(dims[m, 0] ** 2 + dims[m, 1] ** 2)
+                half_z = dims[m, 2]
+            else:
+                reach, half_z = dims[m, 0], dims[m, 1]
+            grow = radii[s] + margin
+            if (min(a[0], b[0]) - grow > centres[m, 0] + reach
+                    or max(a[0], b[0]) + grow < centres[m, 0] - reach
+                    or min(a[1], b[1]) - grow > centres[m, 1] + reach
+                    or max(a[1], b[1]) + grow < centres[m, 1] - reach
+                    or min(a[2], b[2]) - grow > centres[m, 2] + half_z
+                    or max(a[2], b[2]) + grow < centres[m, 2] - half_z):
+                continue
+            narrow += 1
+            distances[s, m] = capsule_prism(a, b, radii[s], kinds[m], centres[m], yaws[m],
+                                            dims[m], points[s, m], normals[s, m])
+    return narrow
+
+
 # -- forward kinematics of the contact shapes -----------------------------------------------------
 
 

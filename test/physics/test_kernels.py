@@ -136,3 +136,42 @@ def test_compiled_shape_kinematics_match_pinocchio(panda):
     for _ in range(1000):
         q = rng.uniform(panda.lower, panda.upper)
         np.testing.assert_allclose(chain.shape_poses(q), panda.shape_poses(q), atol=1e-12)
+
+
+def test_the_batched_query_equals_the_pairwise_one_and_skips_only_far_pairs(panda):
+    """`capsules_prisms` over the Panda's contact shapes and a few prisms: the pairs its broad
+    phase keeps have `capsule_prism`'s answers; the pairs it drops are farther than the
+    margin."""
+    from rearrangement_planner.physics.kernels import capsules_prisms
+
+    capsules = [i for i, c in enumerate(panda.contact_shapes) if c.kind == "capsule"]
+    radii = np.array([panda.contact_shapes[i].dims[0] for i in capsules])
+    half = np.array([panda.contact_shapes[i].dims[1] / 2 for i in capsules])
+    kinds = np.array([BOX, CYLINDER, BOX, CYLINDER])
+    dims = np.array([[0.03, 0.04, 0.06], [0.035, 0.06, 0.0], [0.05, 0.02, 0.05],
+                     [0.025, 0.07, 0.0]])
+    rng = np.random.default_rng(4)
+    margin, kept = 0.01, 0
+    for _ in range(50):
+        q = rng.uniform(panda.lower, panda.upper)
+        poses = np.ascontiguousarray(panda.shape_poses(q)[capsules])
+        centres = np.column_stack([rng.uniform(0.2, 0.7, 4), rng.uniform(-0.4, 0.4, 4),
+                                   rng.uniform(0.0, 0.6, 4)])
+        yaws = rng.uniform(-math.pi, math.pi, 4)
+        distances = np.empty((len(capsules), 4))
+        points, normals = np.empty((len(capsules), 4, 3)), np.empty((len(capsules), 4, 3))
+        kept += capsules_prisms(poses, half, radii, kinds, centres, yaws, dims, margin,
+                                distances, points, normals)
+        point, normal = np.empty(3), np.empty(3)
+        for s, pose in enumerate(poses):
+            a, b = pose[:3, 3] - half[s] * pose[:3, 2], pose[:3, 3] + half[s] * pose[:3, 2]
+            for m in range(4):
+                exact = capsule_prism(a, b, radii[s], kinds[m], centres[m], yaws[m], dims[m],
+                                      point, normal)
+                if math.isinf(distances[s, m]):
+                    assert exact > margin
+                else:
+                    assert distances[s, m] == exact
+                    np.testing.assert_array_equal(points[s, m], point)
+                    np.testing.assert_array_equal(normals[s, m], normal)
+    assert 0 < kept < 50 * len(capsules) * 4
