@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 import os
+import sys
 import threading
 import time
 from pathlib import Path
@@ -34,6 +35,7 @@ from rearrangement_planner.planning.propagation import replay  # noqa: E402
 from rearrangement_planner.ros.make_bags import BAGS as BAG_SPECS  # noqa: E402
 from rearrangement_planner.ros.make_bags import write_bag  # noqa: E402
 from rearrangement_planner.ros.replay import (  # noqa: E402
+    SWITCH_INTERVAL,
     BagError,
     BagPlayer,
     Session,
@@ -201,6 +203,9 @@ def test_player_publishes_in_log_time_order_at_the_rate(session):
                                      (PoseArray, OBJECTS, best_effort),
                                      (PoseStamped, GOAL, 10))]
     rate = 1.0
+    # (The player and this subscriber share one interpreter: `Session` hands the GIL over
+    # every 0.1 ms, or the player would fall 2-3 s behind schedule: replay.SWITCH_INTERVAL.)
+    assert sys.getswitchinterval() == pytest.approx(SWITCH_INTERVAL)
     try:
         player = BagPlayer(node, bag, rate=rate, namespace=ns)
         assert player.wait_for_subscribers() == []

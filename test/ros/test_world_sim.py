@@ -264,9 +264,7 @@ def test_executes_a_plan_open_loop_into_the_goal_region(session, reference):
     # Faster than real time, and the arm ends at the last point and reports zero velocity.
     print(f"\n{command.duration:.1f} s trajectory executed in {wall:.2f} s at time scale "
           f"{TIME_SCALE:g}: {outcome['message']}")
-    # Faster than real time (a loaded machine does not reach TIME_SCALE: the quasistatic
-    # physics at 1 mm substeps runs this trajectory at about twice real time on an idle one).
-    assert wall < command.duration
+    assert wall < command.duration / 2       # a loaded machine may not reach TIME_SCALE
     assert np.allclose(final_joints.position, command.positions[-1], atol=1e-12)
     assert np.array_equal(final_joints.velocity, np.zeros(7))
 
