@@ -10,6 +10,15 @@ import pytest
 from rearrangement_planner.model.robot import RobotModel
 
 
+@pytest.fixture(scope="session", autouse=True)
+def compiled_core() -> float:
+    """Compile the Numba kernels (or load them from the disk cache) before any test, so that
+    no test's timing includes the compiler (about half a minute on a fresh machine)."""
+    from rearrangement_planner.planning.warmup import warm_up
+
+    return warm_up()
+
+
 @pytest.fixture(scope="session")
 def panda() -> RobotModel:
     return RobotModel.load("panda")

@@ -21,6 +21,17 @@ class State:
         object.__setattr__(self, "q", q)
         object.__setattr__(self, "objects", objects)
 
+    @classmethod
+    def trusted(cls, q: np.ndarray, objects: np.ndarray) -> State:
+        """A state from float arrays of the right shapes that nobody else holds (no copies; the
+        physics step's hot path). They become read-only."""
+        state = object.__new__(cls)
+        q.setflags(write=False)
+        objects.setflags(write=False)
+        object.__setattr__(state, "q", q)
+        object.__setattr__(state, "objects", objects)
+        return state
+
     def with_q(self, q: np.ndarray) -> State:
         return State(q, self.objects)
 

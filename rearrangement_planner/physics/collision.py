@@ -69,6 +69,7 @@ import numpy as np
 
 from rearrangement_planner.model.robot import ContactShape, RobotModel
 from rearrangement_planner.model.scene import MovableObject, Scene
+from rearrangement_planner.physics import kernels
 
 TABLE_THICKNESS = 0.05   # m, the table box extends this far below its top face
 EPA_MIN_DEPTH = 1e-3     # m, fcl's EPA (signed distance) runs only on penetrations deeper than this
@@ -173,38 +174,16 @@ def prism_penetration(shape_a: str, size_a: Sequence[float], pose_a: Sequence[fl
     rectangle-disk, the largest separating-axis gap for rectangles).
 
     `shape_*` is 'box' or 'cylinder', `size_*` the full extents (x, y, z) (a cylinder's is
-    (2r, 2r, h)), `pose_*` the planar pose (x, y, yaw) in a common frame. The 3D depth is
-    min(footprint depth, lower height): the Minkowski difference of P1 x [0, h1] and
-    P2 x [0, h2] is (P1 - P2) x [-h2, h1] and the origin lies at z = 0 in it.
+    (2r, 2r, h)), `pose_*` the planar pose (x, y, yaw) in a common frame. Compiled:
+    `kernels.prism_penetration`, which the physics step calls directly.
     """
-    dx, dy = pose_b[0] - pose_a[0], pose_b[1] - pose_a[1]
-    if shape_a == "cylinder" and shape_b == "cylinder":
-        depth = 0.5 * (size_a[0] + size_b[0]) - math.hypot(dx, dy)
-    elif shape_a == "cylinder" or shape_b == "cylinder":
-        # rectangle vs disk: disk centre in the rectangle frame, then its closest point.
-        rect_size, rect_yaw, r = ((size_b, pose_b[2], 0.5 * size_a[0]) if shape_a == "cylinder"
-                                  else (size_a, pose_a[2], 0.5 * size_b[0]))
-        if shape_a == "cylinder":
-            dx, dy = -dx, -dy
-        c, s = math.cos(rect_yaw), math.sin(rect_yaw)
-        qx = abs(c * dx + s * dy) - 0.5 * rect_size[0]
-        qy = abs(-s * dx + c * dy) - 0.5 * rect_size[1]
-        if qx > 0.0 or qy > 0.0:
-            depth = r - math.hypot(max(qx, 0.0), max(qy, 0.0))
-        else:   # disk centre inside the rectangle: leave through the nearest edge
-            depth = r - max(qx, qy)
-    else:
-        # Two rectangles: separating-axis theorem over the four edge normals; for convex
-        # polygons the smallest overlap along a face normal is the exact penetration depth.
-        ca, sa, cb, sb = (math.cos(pose_a[2]), math.sin(pose_a[2]),
-                          math.cos(pose_b[2]), math.sin(pose_b[2]))
-        ha, wa, hb, wb = 0.5 * size_a[0], 0.5 * size_a[1], 0.5 * size_b[0], 0.5 * size_b[1]
-        depth = math.inf
-        for ax, ay in ((ca, sa), (-sa, ca), (cb, sb), (-sb, cb)):
-            extent_a = ha * abs(ca * ax + sa * ay) + wa * abs(-sa * ax + ca * ay)
-            extent_b = hb * abs(cb * ax + sb * ay) + wb * abs(-sb * ax + cb * ay)
-            depth = min(depth, extent_a + extent_b - abs(dx * ax + dy * ay))
-    return min(depth, size_a[2], size_b[2])
+    return float(kernels.prism_penetration(
+        _PRISM_KIND[shape_a], np.asarray(size_a, dtype=float), float(pose_a[0]),
+        float(pose_a[1]), float(pose_a[2]), _PRISM_KIND[shape_b],
+        np.asarray(size_b, dtype=float), float(pose_b[0]), float(pose_b[1]), float(pose_b[2])))
+
+
+_PRISM_KIND = {"box": kernels.BOX, "cylinder": kernels.CYLINDER}
 
 
 class _ArmBodies:

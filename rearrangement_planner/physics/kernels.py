@@ -1,8 +1,9 @@
-"""Compiled contact geometry and kinematics (issue 19, first steps of the fast core; not yet
-called by `Physics.step`, which still asks python-fcl and Pinocchio): the signed distance, the
-contact point and the contact normal between a capsule (the arm's contact shapes) and an
-upright prism of the scene (an object's box or cylinder, an obstacle box, the table slab), and
-the forward kinematics of the contact shapes (`CompiledChain`), in Numba.
+"""Compiled contact geometry and kinematics (issue 19, the fast core under `Physics.step` and
+the Project step): the signed distance, the contact point and the contact normal between a
+capsule (the arm's contact shapes; a sphere is a capsule of length 0) and an upright prism of
+the scene (an object's box or cylinder, an obstacle box, the table slab), the penetration of
+two prisms, and the forward kinematics of the contact shapes and the tool, with the tool's
+Jacobian (`CompiledChain`, `tool_kinematics`), in Numba.
 
 A capsule is a segment swept by a ball. The signed distance to a convex set is a convex
 function of the point, so along the capsule's axis p(t) = a + t (b - a), t in [0, 1],
@@ -25,6 +26,7 @@ frame, prisms upright (yaw about z only).
 from __future__ import annotations
 
 import math
+import weakref
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -39,6 +41,9 @@ radius, half height, unused)."""
 
 _GOLDEN = 0.6180339887498949
 _ITERATIONS = 60                     # 0.618**60 = 3e-13 of the axis
+_RESOLUTION = 1e-10
+"""m: the golden-section bracket along a capsule's axis ends below this (at most _ITERATIONS
+steps); the distance then errs by at most this, the axis' slope being at most 1."""
 
 
 @njit(cache=True)
@@ -133,7 +138,13 @@ def capsule_prism(a: np.ndarray, b: np.ndarray, radius: float, kind: int,
     lo, hi = 0.0, 1.0
     t1, t2 = hi - _GOLDEN, _GOLDEN
     f1, f2 = _sd_along(kind, qa, d, t1, dims), _sd_along(kind, qa, d, t2, dims)
-    for _ in range(_ITERATIONS):
+    # Stop once the bracket is shorter than _RESOLUTION along the axis (or after _ITERATIONS).
+    length = math.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
+    iterations = _ITERATIONS
+    if length > 0.0:
+        iterations = min(_ITERATIONS, max(0, int(math.ceil(
+            math.log(_RESOLUTION / length) / math.log(_GOLDEN)))))
+    for _ in range(iterations):
         if f1 <= f2:
             hi, t2, f2 = t2, t1, f1
             t1 = hi - _GOLDEN * (hi - lo)
@@ -177,24 +188,10 @@ def capsules_prisms(shape_poses: np.ndarray, half_lengths: np.ndarray, radii: np
     a, b = np.empty(3), np.empty(3)
     narrow = 0
     for s in range(shapes):
-        for k in range(3):
-            axis = shape_poses[s, k, 2] * half_lengths[s]
-            a[k] = shape_poses[s, k, 3] - axis
-            b[k] = shape_poses[s, k, 3] + axis
+        segment(shape_poses, s, half_lengths[s], a, b)
         for m in range(prisms):
             distances[s, m] = math.inf
-            if kinds[m] == BOX:
-                reach = math.sqrt(dims[m, 0] ** 2 + dims[m, 1] ** 2)
-                half_z = dims[m, 2]
-            else:
-                reach, half_z = dims[m, 0], dims[m, 1]
-            grow = radii[s] + margin
-            if (min(a[0], b[0]) - grow > centres[m, 0] + reach
-                    or max(a[0], b[0]) + grow < centres[m, 0] - reach
-                    or min(a[1], b[1]) - grow > centres[m, 1] + reach
-                    or max(a[1], b[1]) + grow < centres[m, 1] - reach
-                    or min(a[2], b[2]) - grow > centres[m, 2] + half_z
-                    or max(a[2], b[2]) + grow < centres[m, 2] - half_z):
+            if not near_prism(a, b, radii[s] + margin, kinds[m], centres[m], dims[m]):
                 continue
             narrow += 1
             distances[s, m] = capsule_prism(a, b, radii[s], kinds[m], centres[m], yaws[m],
@@ -205,18 +202,48 @@ def capsules_prisms(shape_poses: np.ndarray, half_lengths: np.ndarray, radii: np
 # -- forward kinematics of the contact shapes -----------------------------------------------------
 
 
+@njit(cache=True, inline="always")
+def _product(a: np.ndarray, ai: int, b: np.ndarray, bi: int, out: np.ndarray, oi: int) -> None:
+    """out[oi] = a[ai] @ b[bi] for stacks of 4x4 rigid transforms (last rows 0 0 0 1),
+    written out with explicit indices (a BLAS call, or even an array view, per 4x4 product
+    costs more than the product)."""
+    for i in range(3):
+        a0, a1, a2, a3 = a[ai, i, 0], a[ai, i, 1], a[ai, i, 2], a[ai, i, 3]
+        for j in range(3):
+            out[oi, i, j] = a0 * b[bi, 0, j] + a1 * b[bi, 1, j] + a2 * b[bi, 2, j]
+        out[oi, i, 3] = a0 * b[bi, 0, 3] + a1 * b[bi, 1, 3] + a2 * b[bi, 2, 3] + a3
+    out[oi, 3, 0] = out[oi, 3, 1] = out[oi, 3, 2] = 0.0
+    out[oi, 3, 3] = 1.0
+
+
 @njit(cache=True)
-def _rotation_about(axis: np.ndarray, angle: float, out: np.ndarray) -> None:
-    """The 4x4 rotation by `angle` about the unit `axis` (Rodrigues), into `out`."""
-    x, y, z = axis[0], axis[1], axis[2]
-    c, s = math.cos(angle), math.sin(angle)
-    v = 1.0 - c
-    out[0, 0], out[0, 1], out[0, 2] = c + x * x * v, x * y * v - z * s, x * z * v + y * s
-    out[1, 0], out[1, 1], out[1, 2] = y * x * v + z * s, c + y * y * v, y * z * v - x * s
-    out[2, 0], out[2, 1], out[2, 2] = z * x * v - y * s, z * y * v + x * s, c + z * z * v
-    out[0, 3] = out[1, 3] = out[2, 3] = 0.0
-    out[3, 0] = out[3, 1] = out[3, 2] = 0.0
-    out[3, 3] = 1.0
+def joint_poses(q: np.ndarray, parents: np.ndarray, placements: np.ndarray, axes: np.ndarray,
+                q_index: np.ndarray, world: np.ndarray) -> None:
+    """World poses (J, 4, 4) of the joints at the planning configuration `q`, into `world`:
+    joint j's pose is its parent's times `placements[j]` times the rotation by q[q_index[j]]
+    about the unit `axes[j]` (Rodrigues; no rotation where q_index is -1: a joint held fixed,
+    its placement already at its value). Joints are ordered parents first; joint 0 is the
+    base (identity)."""
+    turn = np.empty((2, 4, 4))
+    for i in range(4):
+        for j in range(4):
+            world[0, i, j] = 1.0 if i == j else 0.0
+    for j in range(1, parents.shape[0]):
+        if q_index[j] < 0:
+            _product(world, parents[j], placements, j, world, j)
+            continue
+        x, y, z = axes[j, 0], axes[j, 1], axes[j, 2]
+        c, s = math.cos(q[q_index[j]]), math.sin(q[q_index[j]])
+        v = 1.0 - c
+        turn[1, 0, 0], turn[1, 0, 1], turn[1, 0, 2] = c + x * x * v, x * y * v - z * s, \
+            x * z * v + y * s
+        turn[1, 1, 0], turn[1, 1, 1], turn[1, 1, 2] = y * x * v + z * s, c + y * y * v, \
+            y * z * v - x * s
+        turn[1, 2, 0], turn[1, 2, 1], turn[1, 2, 2] = z * x * v - y * s, z * y * v + x * s, \
+            c + z * z * v
+        turn[1, 0, 3] = turn[1, 1, 3] = turn[1, 2, 3] = 0.0
+        _product(placements, j, turn, 1, turn, 0)
+        _product(world, parents[j], turn, 0, world, j)
 
 
 @njit(cache=True)
@@ -224,22 +251,11 @@ def shape_poses(q: np.ndarray, parents: np.ndarray, placements: np.ndarray, axes
                 q_index: np.ndarray, shape_joint: np.ndarray, shape_local: np.ndarray,
                 out: np.ndarray) -> None:
     """World poses (S, 4, 4) of the contact shapes at the planning configuration `q`, into
-    `out`: joint j's pose is its parent's times `placements[j]` times the rotation by
-    q[q_index[j]] about `axes[j]` (no rotation where q_index is -1: a joint held fixed, its
-    placement already at its value); shape s sits at `shape_local[s]` on joint
-    shape_joint[s]. Joints are ordered parents first; joint 0 is the base (identity)."""
-    joints = parents.shape[0]
-    world = np.empty((joints, 4, 4))
-    world[0] = np.eye(4)
-    turn = np.empty((4, 4))
-    for j in range(1, joints):
-        local = placements[j]
-        if q_index[j] >= 0:
-            _rotation_about(axes[j], q[q_index[j]], turn)
-            local = placements[j] @ turn
-        world[j] = world[parents[j]] @ local
+    `out`: shape s sits at `shape_local[s]` on joint shape_joint[s] (`joint_poses`)."""
+    world = np.empty((parents.shape[0], 4, 4))
+    joint_poses(q, parents, placements, axes, q_index, world)
     for s in range(shape_joint.shape[0]):
-        out[s] = world[shape_joint[s]] @ shape_local[s]
+        _product(world, shape_joint[s], shape_local, s, out, s)
 
 
 class CompiledChain:
@@ -273,12 +289,61 @@ class CompiledChain:
         self.shape_joint = np.array([f.parentJoint for f in frames], dtype=np.int64)
         self.shape_local = np.array([f.placement.homogeneous @ s.offset
                                      for f, s in zip(frames, robot.contact_shapes, strict=True)])
+        tool = model.frames[robot.tool_frame_id]
+        self.tool_joint = int(tool.parentJoint)
+        self.tool_local = np.ascontiguousarray(tool.placement.homogeneous)
+        self.arrays = (self.parents, self.placements, self.axes, self.q_index,
+                       self.shape_joint, self.shape_local)
+        """The `shape_poses` arguments after q."""
 
     def shape_poses(self, q: np.ndarray) -> np.ndarray:
         out = np.empty((len(self.shape_joint), 4, 4))
         shape_poses(np.asarray(q, dtype=float), self.parents, self.placements, self.axes,
                     self.q_index, self.shape_joint, self.shape_local, out)
         return out
+
+
+_chains: weakref.WeakKeyDictionary[RobotModel, CompiledChain] = weakref.WeakKeyDictionary()
+
+
+def compiled_chain(robot: RobotModel) -> CompiledChain:
+    """The `CompiledChain` of a robot model, built once per model."""
+    chain = _chains.get(robot)
+    if chain is None:
+        chain = _chains[robot] = CompiledChain(robot)
+    return chain
+
+
+@njit(cache=True)
+def tool_kinematics(q: np.ndarray, parents: np.ndarray, placements: np.ndarray,
+                    axes: np.ndarray, q_index: np.ndarray, tool_joint: int,
+                    tool_local: np.ndarray, pose: np.ndarray, jac: np.ndarray) -> None:
+    """The tool frame's pose (4, 4) and its Jacobian (6, nq) [linear; angular] at its origin
+    in base-frame axes (Pinocchio's LOCAL_WORLD_ALIGNED): a revolute joint j of unit world
+    axis w through o_j moves the tool origin p at w x (p - o_j) and turns it at w."""
+    world = np.empty((parents.shape[0], 4, 4))
+    joint_poses(q, parents, placements, axes, q_index, world)
+    stack = np.empty((1, 4, 4))
+    stack[0] = tool_local
+    out = np.empty((1, 4, 4))
+    _product(world, tool_joint, stack, 0, out, 0)
+    pose[:] = out[0]
+    jac[:] = 0.0
+    j = tool_joint
+    while j > 0:
+        k = q_index[j]
+        if k >= 0:
+            w = np.empty(3)
+            for i in range(3):
+                w[i] = world[j, i, 0] * axes[j, 0] + world[j, i, 1] * axes[j, 1] \
+                    + world[j, i, 2] * axes[j, 2]
+            rx, ry, rz = (pose[0, 3] - world[j, 0, 3], pose[1, 3] - world[j, 1, 3],
+                          pose[2, 3] - world[j, 2, 3])
+            jac[0, k] = w[1] * rz - w[2] * ry
+            jac[1, k] = w[2] * rx - w[0] * rz
+            jac[2, k] = w[0] * ry - w[1] * rx
+            jac[3, k], jac[4, k], jac[5, k] = w[0], w[1], w[2]
+        j = parents[j]
 
 
 def _revolute_axis(joint: Any) -> np.ndarray:
@@ -291,3 +356,73 @@ def _revolute_axis(joint: Any) -> np.ndarray:
     if name == "JointModelRevoluteUnaligned":
         return np.asarray(joint.extract().axis, dtype=float)
     raise NotImplementedError(f"compiled kinematics: joint type {name} (revolute joints only)")
+
+
+# -- prisms against each other, broad phase ------------------------------------------------------
+
+
+@njit(cache=True)
+def prism_penetration(kind_a: int, size_a: np.ndarray, xa: float, ya: float, yaw_a: float,
+                      kind_b: int, size_b: np.ndarray, xb: float, yb: float,
+                      yaw_b: float) -> float:
+    """Penetration depth (m) of two upright prisms standing on the same plane; <= 0 when they
+    are apart (then minus a lower bound of the gap: the exact gap for disk-disk and
+    rectangle-disk, the largest separating-axis gap for rectangles). `size_*` are the FULL
+    extents (x, y, z) (a cylinder's is (2r, 2r, h)); the 3D depth is min(footprint depth,
+    lower height): the Minkowski difference of P1 x [0, h1] and P2 x [0, h2] is
+    (P1 - P2) x [-h2, h1] and the origin lies at z = 0 in it."""
+    dx, dy = xb - xa, yb - ya
+    if kind_a == CYLINDER and kind_b == CYLINDER:
+        depth = 0.5 * (size_a[0] + size_b[0]) - math.hypot(dx, dy)
+    elif kind_a == CYLINDER or kind_b == CYLINDER:
+        # rectangle vs disk: the disk centre in the rectangle frame, then its closest point.
+        if kind_a == CYLINDER:
+            rect, rect_yaw, r = size_b, yaw_b, 0.5 * size_a[0]
+            dx, dy = -dx, -dy
+        else:
+            rect, rect_yaw, r = size_a, yaw_a, 0.5 * size_b[0]
+        c, s = math.cos(rect_yaw), math.sin(rect_yaw)
+        qx = abs(c * dx + s * dy) - 0.5 * rect[0]
+        qy = abs(-s * dx + c * dy) - 0.5 * rect[1]
+        if qx > 0.0 or qy > 0.0:
+            depth = r - math.hypot(max(qx, 0.0), max(qy, 0.0))
+        else:   # disk centre inside the rectangle: leave through the nearest edge
+            depth = r - max(qx, qy)
+    else:
+        # Two rectangles: separating-axis theorem over the four edge normals; for convex
+        # polygons the smallest overlap along a face normal is the exact penetration depth.
+        ca, sa, cb, sb = math.cos(yaw_a), math.sin(yaw_a), math.cos(yaw_b), math.sin(yaw_b)
+        ha, wa, hb, wb = 0.5 * size_a[0], 0.5 * size_a[1], 0.5 * size_b[0], 0.5 * size_b[1]
+        depth = math.inf
+        for ax, ay in ((ca, sa), (-sa, ca), (cb, sb), (-sb, cb)):
+            extent_a = ha * abs(ca * ax + sa * ay) + wa * abs(-sa * ax + ca * ay)
+            extent_b = hb * abs(cb * ax + sb * ay) + wb * abs(-sb * ax + cb * ay)
+            depth = min(depth, extent_a + extent_b - abs(dx * ax + dy * ay))
+    return min(depth, size_a[2], size_b[2])
+
+
+@njit(cache=True)
+def near_prism(a: np.ndarray, b: np.ndarray, grow: float, kind: int, centre: np.ndarray,
+               dims: np.ndarray) -> bool:
+    """Broad phase: the axis-aligned box of segment a-b grown by `grow` overlaps the box of the
+    upright prism's bounding circle and height (dims as in `capsule_prism`)."""
+    if kind == BOX:
+        reach, half_z = math.sqrt(dims[0] ** 2 + dims[1] ** 2), dims[2]
+    else:
+        reach, half_z = dims[0], dims[1]
+    return not (min(a[0], b[0]) - grow > centre[0] + reach
+                or max(a[0], b[0]) + grow < centre[0] - reach
+                or min(a[1], b[1]) - grow > centre[1] + reach
+                or max(a[1], b[1]) + grow < centre[1] - reach
+                or min(a[2], b[2]) - grow > centre[2] + half_z
+                or max(a[2], b[2]) + grow < centre[2] - half_z)
+
+
+@njit(cache=True)
+def segment(shape_poses: np.ndarray, s: int, half_length: float, a: np.ndarray,
+            b: np.ndarray) -> None:
+    """End points of contact shape s's axis (its pose's z, `half_length` each way)."""
+    for k in range(3):
+        axis = shape_poses[s, k, 2] * half_length
+        a[k] = shape_poses[s, k, 3] - axis
+        b[k] = shape_poses[s, k, 3] + axis

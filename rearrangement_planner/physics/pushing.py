@@ -98,16 +98,15 @@ form motion does not run into the others).
 
 from __future__ import annotations
 
-import functools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
+from numba import njit
 
 from rearrangement_planner.model.errors import RearrangementError
-from rearrangement_planner.model.state import wrap_angle
 
 PushMode = Literal["separating", "sticking", "sliding", "moving", "jammed"]
 ContactMode = Literal["separating", "sticking", "sliding", "jammed"]
@@ -237,6 +236,13 @@ def limit_surface_c(shape: str, size: float | Sequence[float] | np.ndarray) -> f
 # 2. One contact: the motion cone
 # --------------------------------------------------------------------------------------------
 
+# Mode codes of the compiled kernels (`MODES[code]` is the name used in PushResult).
+SEPARATING, STICKING, SLIDING, MOVING, JAMMED = 0, 1, 2, 3, 4
+MODES: tuple[PushMode, ...] = ("separating", "sticking", "sliding", "moving", "jammed")
+# Lemke status codes.
+SOLVED, RAY_TERMINATION, ITERATION_LIMIT = 0, 1, 2
+_STATUS: tuple[LCPStatus, ...] = ("solved", "ray_termination", "iteration_limit")
+
 
 def _check_c_mu(c: float, mu: float) -> None:
     if not c > 0.0 or not math.isfinite(c):
@@ -246,42 +252,16 @@ def _check_c_mu(c: float, mu: float) -> None:
         raise PushingError(f"pusher friction coefficient must be finite and >= 0, got {mu!r}")
 
 
-def _twist_from_contact_velocity(c2: float, x: float, y: float,
-                                 vcx: float, vcy: float) -> tuple[float, float, float]:
-    """(STICK): the object twist whose velocity at contact point (x, y) is (vcx, vcy), given that
-    the wrench is a pure force at (x, y) (Lynch, Maekawa & Tanie 1992). Object frame."""
-    den = c2 + x * x + y * y
-    vx = ((c2 + x * x) * vcx + x * y * vcy) / den
-    vy = (x * y * vcx + (c2 + y * y) * vcy) / den
-    return vx, vy, (x * vy - y * vx) / c2
-
-
-def single_contact_twist(c: float, point: Sequence[float] | np.ndarray,
-                         normal: Sequence[float] | np.ndarray,
-                         pusher_disp: Sequence[float] | np.ndarray, mu: float) -> PushResult:
-    """Object twist for one point contact by the motion-cone model (module docstring, §2).
-
-    c: limit-surface length (m); point: contact point (x, y) in the object frame (m); normal:
-    inward contact normal (the direction the pusher pushes; normalised here); pusher_disp:
-    pusher displacement at the contact point in the object frame (m); mu: pusher-object
-    friction coefficient. Returns the twist (dx, dy, dtheta) and 'separating' | 'sticking' |
-    'sliding'.
-    """
-    c = float(c)
-    mu = float(mu)
-    _check_c_mu(c, mu)
-    x, y = float(point[0]), float(point[1])
-    nx, ny = float(normal[0]), float(normal[1])
-    nn = math.hypot(nx, ny)
-    if not nn > 1e-12 or not math.isfinite(nn):
-        raise PushingError(f"contact normal must be a non-zero finite vector, got {normal!r}")
-    nx, ny = nx / nn, ny / nn
-    vpx, vpy = float(pusher_disp[0]), float(pusher_disp[1])
-
+@njit(cache=True)
+def single_contact_kernel(c: float, x: float, y: float, nx: float, ny: float, vpx: float,
+                          vpy: float, mu: float) -> tuple[float, float, float, int]:
+    """The motion-cone model (module docstring, §2), compiled: (dx, dy, dtheta, mode code) for
+    one contact at (x, y) with the UNIT inward normal (nx, ny) and pusher displacement
+    (vpx, vpy), all in the object frame. Inputs are trusted (`single_contact_twist` checks
+    them)."""
     vp_n = vpx * nx + vpy * ny
     if not vp_n > 0.0:  # separating (or tangential) pusher: no load, no motion
-        return PushResult(np.zeros(3), "separating", np.zeros(1), np.zeros(1), ("separating",))
-
+        return 0.0, 0.0, 0.0, SEPARATING
     tx, ty = -ny, nx                    # tangent t = R(+90°) n
     c2 = c * c
     # Motion-cone edges v_e = B f_e, B = I + r r^T / c^2, r = (-y, x)  (module docstring, §2).
@@ -299,20 +279,49 @@ def single_contact_twist(c: float, point: Sequence[float] | np.ndarray,
     s_p = (vpx * tx + vpy * ty) / vp_n
     s_l = (vl_x * tx + vl_y * ty) / vl_n if vl_n > 0.0 else math.inf
     s_r = (vr_x * tx + vr_y * ty) / vr_n if vr_n > 0.0 else -math.inf
-
-    mode: ContactMode
     if s_r <= s_p <= s_l:               # inside the motion cone: the contact sticks
-        mode, vcx, vcy = "sticking", vpx, vpy
+        mode, vcx, vcy = STICKING, vpx, vpy
     elif s_p > s_l:                     # pusher slides towards +t: force on the edge n + mu t
         k = vp_n / vl_n
-        mode, vcx, vcy = "sliding", k * vl_x, k * vl_y
+        mode, vcx, vcy = SLIDING, k * vl_x, k * vl_y
     else:                               # pusher slides towards -t: force on the edge n - mu t
         k = vp_n / vr_n
-        mode, vcx, vcy = "sliding", k * vr_x, k * vr_y
-    vx, vy, w = _twist_from_contact_velocity(c2, x, y, vcx, vcy)
+        mode, vcx, vcy = SLIDING, k * vr_x, k * vr_y
+    # (STICK): the twist whose velocity at the contact is (vcx, vcy), the wrench a pure force
+    # there (Lynch, Maekawa & Tanie 1992).
+    den = c2 + x * x + y * y
+    vx = ((c2 + x * x) * vcx + x * y * vcy) / den
+    vy = (x * y * vcx + (c2 + y * y) * vcy) / den
+    return vx, vy, (x * vy - y * vx) / c2, mode
+
+
+def single_contact_twist(c: float, point: Sequence[float] | np.ndarray,
+                         normal: Sequence[float] | np.ndarray,
+                         pusher_disp: Sequence[float] | np.ndarray, mu: float) -> PushResult:
+    """Object twist for one point contact by the motion-cone model (module docstring, §2).
+
+    c: limit-surface length (m); point: contact point (x, y) in the object frame (m); normal:
+    inward contact normal (the direction the pusher pushes; normalised here); pusher_disp:
+    pusher displacement at the contact point in the object frame (m); mu: pusher-object
+    friction coefficient. Returns the twist (dx, dy, dtheta) and 'separating' | 'sticking' |
+    'sliding'.
+    """
+    c = float(c)
+    mu = float(mu)
+    _check_c_mu(c, mu)
+    nx, ny = float(normal[0]), float(normal[1])
+    nn = math.hypot(nx, ny)
+    if not nn > 1e-12 or not math.isfinite(nn):
+        raise PushingError(f"contact normal must be a non-zero finite vector, got {normal!r}")
+    nx, ny = nx / nn, ny / nn
+    vx, vy, w, code = single_contact_kernel(c, float(point[0]), float(point[1]), nx, ny,
+                                            float(pusher_disp[0]), float(pusher_disp[1]), mu)
+    mode = MODES[code]
+    if code == SEPARATING:
+        return PushResult(np.zeros(3), "separating", np.zeros(1), np.zeros(1), ("separating",))
     # With V = A F the contact force is the translational part of the twist (LCP units).
     return PushResult(np.array([vx, vy, w]), mode, np.array([vx * nx + vy * ny]),
-                      np.array([vx * tx + vy * ty]), (mode,))
+                      np.array([-vx * ny + vy * nx]), (mode,))  # type: ignore[arg-type]
 
 
 # --------------------------------------------------------------------------------------------
@@ -326,10 +335,10 @@ def _as_contacts(points: np.ndarray | Sequence[Sequence[float]],
                  mu: float | Sequence[float] | np.ndarray,
                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Validate K contacts: (K, 2) points, unit inward normals, displacements; (K,) mu."""
-    P = np.asarray(points, dtype=float).reshape(-1, 2)
+    P = np.ascontiguousarray(np.asarray(points, dtype=float).reshape(-1, 2))
     K = P.shape[0]
     N = np.asarray(normals, dtype=float).reshape(-1, 2)
-    V = np.asarray(pusher_disps, dtype=float).reshape(-1, 2)
+    V = np.ascontiguousarray(np.asarray(pusher_disps, dtype=float).reshape(-1, 2))
     if N.shape[0] != K or V.shape[0] != K:
         raise PushingError(f"points, normals and pusher_disps must all be (K, 2); got "
                            f"{P.shape}, {N.shape}, {V.shape}")
@@ -345,22 +354,40 @@ def _as_contacts(points: np.ndarray | Sequence[Sequence[float]],
                            f"got shape {mus.shape}")
     if K and not (mus.min() >= 0.0 and math.isfinite(mus.sum())):
         raise PushingError(f"pusher friction coefficients must be finite and >= 0, got {mu!r}")
-    return P, N / norms[:, None], V, mus
+    return P, N / norms[:, None], V, np.ascontiguousarray(mus)
 
 
-@functools.lru_cache(maxsize=16)
-def _lcp_pattern(K: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The constant part of M for K contacts (E and -E^T), and the row maps of G: row k of G
-    belongs to contact `contact_of_row[k]` with direction sign `sign_of_row[k]` (+n, +t, -t)."""
-    n = 4 * K
-    M0 = np.zeros((n, n))
+@njit(cache=True)
+def build_lcp_kernel(c: float, P: np.ndarray, N: np.ndarray, V: np.ndarray,
+                     mus: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(M, q, twist_map) of the contact LCP (module docstring, §3) for K contacts with unit
+    normals, compiled; `build_contact_lcp` checks the inputs."""
+    K = P.shape[0]
+    G = np.empty((3 * K, 3))
+    Vrow = np.empty((3 * K, 2))
     for i in range(K):
-        M0[K + 2 * i, 3 * K + i] = M0[K + 2 * i + 1, 3 * K + i] = 1.0     # E
-        M0[3 * K + i, K + 2 * i] = M0[3 * K + i, K + 2 * i + 1] = -1.0    # -E^T
-    M0.setflags(write=False)
-    contact_of_row = np.concatenate([np.arange(K), np.repeat(np.arange(K), 2)])
-    sign_of_row = np.concatenate([np.ones(K), np.tile([1.0, -1.0], K)])
-    return M0, contact_of_row, sign_of_row
+        nx, ny = N[i, 0], N[i, 1]
+        tx, ty = -ny, nx                                    # t_i = R(+90°) n_i
+        # Rows of G: n_i (normal), then +t_i, -t_i (D_i = [t_i, -t_i]); row d^T J_i with
+        # J_i = [[1, 0, -y_i], [0, 1, x_i]] is (d_x, d_y, x_i d_y - y_i d_x).
+        for row, dx, dy in ((i, nx, ny), (K + 2 * i, tx, ty), (K + 2 * i + 1, -tx, -ty)):
+            G[row, 0], G[row, 1] = dx, dy
+            G[row, 2] = P[i, 0] * dy - P[i, 1] * dx
+            Vrow[row, 0], Vrow[row, 1] = V[i, 0], V[i, 1]
+    inv_c2 = 1.0 / (c * c)
+    GA = G.copy()
+    GA[:, 2] *= inv_c2                                      # G A, A = diag(1, 1, 1/c^2) (LS)
+    n = 4 * K
+    M = np.zeros((n, n))
+    M[:3 * K, :3 * K] = GA @ G.T                            # [N; D] A [N; D]^T
+    for i in range(K):
+        M[K + 2 * i, 3 * K + i] = M[K + 2 * i + 1, 3 * K + i] = 1.0     # E
+        M[3 * K + i, K + 2 * i] = M[3 * K + i, K + 2 * i + 1] = -1.0    # -E^T
+        M[3 * K + i, i] = mus[i]                                        # U = diag(mu_i)
+    q = np.zeros(n)
+    for row in range(3 * K):
+        q[row] = -(G[row, 0] * Vrow[row, 0] + G[row, 1] * Vrow[row, 1])  # -(n_i.v_i), -D_i^T v_i
+    return M, q, GA.T.copy()
 
 
 def build_contact_lcp(c: float, points: np.ndarray | Sequence[Sequence[float]],
@@ -375,37 +402,131 @@ def build_contact_lcp(c: float, points: np.ndarray | Sequence[Sequence[float]],
     c = float(c)
     _check_c_mu(c, 0.0)
     P, Nrm, Vp, mus = _as_contacts(points, normals, pusher_disps, mu)
-    K = P.shape[0]
-    M0, contact_of_row, sign_of_row = _lcp_pattern(K)
-    Tng = np.column_stack([-Nrm[:, 1], Nrm[:, 0]])          # t_i = R(+90°) n_i
-    # Directions of the 3K rows of G: n_i (normal), then +t_i, -t_i (D_i = [t_i, -t_i]).
-    dirs = np.concatenate([Nrm, Tng[contact_of_row[K:]]]) * sign_of_row[:, None]
-    pts = P[contact_of_row]
-    # Row d^T J_i with J_i = [[1, 0, -y_i], [0, 1, x_i]]: (d_x, d_y, x_i d_y - y_i d_x).
-    G = np.empty((3 * K, 3))
-    G[:, :2] = dirs
-    G[:, 2] = pts[:, 0] * dirs[:, 1] - pts[:, 1] * dirs[:, 0]
-    GA = G * np.array([1.0, 1.0, 1.0 / (c * c)])             # G A, A = diag(1, 1, 1/c^2) (LS)
-
-    M = M0.copy()
-    M[:3 * K, :3 * K] = GA @ G.T                             # [N; D] A [N; D]^T
-    M[3 * K:, :K] = np.diag(mus)                             # U = diag(mu_i)
-    q = np.zeros(4 * K)
-    q[:3 * K] = -(dirs * Vp[contact_of_row]).sum(axis=1)     # -(n_i . v_i), -D_i^T v_i
-    return ContactLCP(M, q, GA.T.copy(), K)
+    M, q, twist_map = build_lcp_kernel(c, P, np.ascontiguousarray(Nrm), Vp, mus)
+    return ContactLCP(M, q, twist_map, P.shape[0])
 
 
-def _lexmin_row(rows: list[list[float]], tol: float = 1e-12) -> int:
-    """Index of the lexicographically smallest row (entries equal within `tol`)."""
-    best = 0
-    for j in range(1, len(rows)):
-        for a, b in zip(rows[j], rows[best], strict=True):
-            if a < b - tol:
-                best = j
+@njit(cache=True)
+def _pivot(T: np.ndarray, basis: np.ndarray, r: int, e: int) -> int:
+    """Variable e enters the basis in row r of the tableau; returns the variable that leaves."""
+    row = T[r] / T[r, e]
+    col = T[:, e].copy()
+    for i in range(T.shape[0]):
+        for j in range(T.shape[1]):
+            T[i, j] -= col[i] * row[j]
+    T[r] = row
+    leaving = basis[r]
+    basis[r] = e
+    return leaving
+
+
+@njit(cache=True)
+def _leaving_row(T: np.ndarray, basis: np.ndarray, n: int, entering: int,
+                 pivot_tol: float) -> int:
+    """The minimum-ratio test over the rows with a positive entry in the entering column; ties
+    go to z0's row (z0 leaves: solved), else to the lexicographic rule on the rows of B^-1
+    (tolerance 1e-12). -1: no positive entry (ray termination)."""
+    col = T[:, entering]
+    # Entries below pivot_tol relative to the column are rounding noise of exact zeros.
+    threshold = pivot_tol * max(1.0, max(col.max(), -col.min()))
+    best = math.inf
+    cand = np.empty(n, dtype=np.int64)
+    count = 0
+    for i in range(n):
+        if col[i] > threshold:
+            ratio = T[i, -1] / col[i]
+            if ratio < best * (1.0 - 1e-10) - 1e-12:
+                best = ratio
+                cand[0] = i
+                count = 1
+            elif ratio <= best * (1.0 + 1e-10) + 1e-12:
+                cand[count] = i
+                count += 1
+    if count == 0:
+        return -1
+    if count == 1:
+        return cand[0]
+    z0 = 2 * n
+    for k in range(count):
+        if basis[cand[k]] == z0:
+            return cand[k]
+    best_k = 0
+    for j in range(1, count):
+        kj, kb = cand[j], cand[best_k]
+        for m in range(n):
+            a, b = T[kj, m] / col[kj], T[kb, m] / col[kb]
+            if a < b - 1e-12:
+                best_k = j
                 break
-            if a > b + tol:
+            if a > b + 1e-12:
                 break
-    return best
+    return cand[best_k]
+
+
+@njit(cache=True)
+def _lemke_solution(M: np.ndarray, q: np.ndarray, T: np.ndarray, basis: np.ndarray,
+                    scale: float) -> tuple[np.ndarray, np.ndarray]:
+    n = q.shape[0]
+    x = np.zeros(2 * n + 1)
+    for r in range(n):
+        x[basis[r]] = T[r, -1]
+    z = np.maximum(x[n:2 * n], 0.0) * scale
+    return z, M @ z + q
+
+
+@njit(cache=True)
+def lemke_kernel(M: np.ndarray, q: np.ndarray, cap: int,
+                 pivot_tol: float) -> tuple[np.ndarray, np.ndarray, int, int]:
+    """Lemke's method as `lemke` describes it, compiled: (z, w, status code, iterations)."""
+    n = q.shape[0]
+    if n == 0 or q.min() >= 0.0:                         # z = 0 is a solution
+        return np.zeros(n), q.copy(), SOLVED, 0
+    # The tableau [I | -M | -d | q] over (w_1..w_n, z_1..z_n, z0), scaled to unit max-norm;
+    # row r holds the basic variable basis[r]; columns 0..n-1 hold B^-1 (initially I).
+    q_scale = np.abs(q).max()
+    m_scale = np.abs(M).max()
+    if m_scale == 0.0:
+        m_scale = 1.0
+    z0 = 2 * n
+    T = np.zeros((n, 2 * n + 2))
+    m_factor, q_factor = -1.0 / m_scale, 1.0 / q_scale
+    for i in range(n):
+        T[i, i] = 1.0
+        for j in range(n):
+            T[i, n + j] = M[i, j] * m_factor
+        T[i, z0] = -1.0
+        T[i, 2 * n + 1] = q[i] * q_factor
+    basis = np.arange(n)
+    # First pivot: z0 enters at max(-q_i); among ties the largest row index leaves (the
+    # lexicographic rule for the perturbation q + (eps, eps^2, ...)).
+    rhs_min = T[:, -1].min()
+    first = 0
+    for i in range(n):
+        if T[i, -1] <= rhs_min + 1e-14:
+            first = i
+    leaving = _pivot(T, basis, first, z0)
+    entering = leaving + n                               # complement of the w that left
+    scale = q_scale / m_scale
+    status, iterations = ITERATION_LIMIT, cap
+    for it in range(1, cap + 1):
+        r = _leaving_row(T, basis, n, entering, pivot_tol)
+        if r < 0:
+            status, iterations = RAY_TERMINATION, it
+            break
+        leaving = _pivot(T, basis, r, entering)
+        if leaving == z0:
+            z, w = _lemke_solution(M, q, T, basis, scale)
+            return z, w, SOLVED, it
+        entering = leaving + n if leaving < n else leaving - n
+    # Degenerate end: z0 is still basic but already ~0 (rounding kept it from leaving on a
+    # tie), so the current almost-complementary point is complementary.
+    for r in range(n):
+        if basis[r] == z0 and T[r, -1] <= 1e-12:
+            z, w = _lemke_solution(M, q, T, basis, scale)
+            if w.min() >= -1e-9 * q_scale:               # verified: w = M z + q >= 0
+                return z, w, SOLVED, iterations
+    nan = np.full(n, np.nan)
+    return nan, nan.copy(), status, iterations
 
 
 def lemke(M: np.ndarray, q: np.ndarray, *, max_iterations: int | None = None,
@@ -416,110 +537,114 @@ def lemke(M: np.ndarray, q: np.ndarray, *, max_iterations: int | None = None,
     with the lexicographic minimum-ratio rule (ties broken by the rows of the basis inverse)
     so that degenerate problems cannot cycle; the artificial variable z0 leaves as soon as it
     ties. M and q are first scaled to unit max-norm (z scales with q/M, w with q, the
-    complementary bases do not change).
+    complementary bases do not change). Compiled (`lemke_kernel`).
 
     Returns status 'solved', 'ray_termination' (the entering column has no positive entry: no
     solution found; for copositive M this certifies that the condition "z >= 0, Mz >= 0,
     z^T M z = 0 => z^T q >= 0" fails, see the module docstring) or 'iteration_limit' (default
     cap max(100, 20 n) pivots).
     """
-    M = np.asarray(M, dtype=float)
-    q = np.asarray(q, dtype=float).ravel()
+    M = np.ascontiguousarray(np.asarray(M, dtype=float))
+    q = np.ascontiguousarray(np.asarray(q, dtype=float).ravel())
     n = q.shape[0]
     if M.shape != (n, n):
         raise PushingError(f"lemke: M must be ({n}, {n}) to match q, got {M.shape}")
-    if n == 0 or q.min() >= 0.0:                         # z = 0 is a solution
-        return LCPSolution(np.zeros(n), q.copy(), "solved", 0)
     cap = max(100, 20 * n) if max_iterations is None else int(max_iterations)
-    tableau = _LemkeTableau(M, q)
-    # First pivot: z0 enters at max(-q_i); among ties the largest row index leaves (the
-    # lexicographic rule for the perturbation q + (eps, eps^2, ...)).
-    rhs = tableau.T[:, -1]
-    ties = np.flatnonzero(rhs <= rhs.min() + 1e-14)
-    leaving = tableau.pivot(int(ties[-1]), tableau.z0)
-    entering = leaving + n                               # complement of the w that left
-    for it in range(1, cap + 1):
-        r = tableau.leaving_row(entering, pivot_tol)
-        if r is None:
-            return tableau.no_solution("ray_termination", it)
-        leaving = tableau.pivot(r, entering)
-        if leaving == tableau.z0:
-            return tableau.solution(it)
-        entering = leaving + n if leaving < n else leaving - n
-    return tableau.no_solution("iteration_limit", cap)
+    z, w, status, iterations = lemke_kernel(M, q, cap, float(pivot_tol))
+    return LCPSolution(z, w, _STATUS[status], iterations)
 
 
-class _LemkeTableau:
-    """The tableau [I | -M | -d | q] of `lemke` over the variables (w_1..w_n, z_1..z_n, z0),
-    scaled to unit max-norm; row r holds the basic variable basis[r], and columns 0..n-1 hold
-    the basis inverse B^-1 (the initial basis is I)."""
+@njit(cache=True)
+def _forces_and_modes(twist_map: np.ndarray, q: np.ndarray, z: np.ndarray, K: int,
+                      twist: np.ndarray, f_n: np.ndarray, f_t: np.ndarray,
+                      modes: np.ndarray) -> int:
+    """Read the object twist V = A G^T (f_n, beta), the forces and the contact modes off an
+    LCP solution z (module docstring, §3) into the output arrays; returns the mode code."""
+    tol = 1e-9 * max(np.abs(q).max(), 1e-300)
+    loaded = False
+    for i in range(K):
+        f_n[i] = z[i]
+        f_t[i] = z[K + 2 * i] - z[K + 2 * i + 1]
+        if z[i] <= tol:
+            modes[i] = SEPARATING
+        else:
+            loaded = True
+            modes[i] = SLIDING if z[3 * K + i] > tol else STICKING
+    if not loaded:
+        twist[:] = 0.0
+        return SEPARATING
+    twist[:] = twist_map @ z[:3 * K]
+    return MOVING
 
-    def __init__(self, M: np.ndarray, q: np.ndarray):
-        n = q.shape[0]
-        self.n, self.M, self.q = n, M, q
-        self.q_scale = float(np.abs(q).max())
-        self.m_scale = float(np.abs(M).max()) or 1.0
-        self.z0 = 2 * n
-        T = np.zeros((n, 2 * n + 2))
-        T[:, :n] = np.eye(n)
-        T[:, n:self.z0] = M * (-1.0 / self.m_scale)
-        T[:, self.z0] = -1.0
-        T[:, -1] = q * (1.0 / self.q_scale)
-        self.T = T
-        self.basis = list(range(n))
 
-    def pivot(self, r: int, e: int) -> int:
-        """Variable e enters the basis in row r; returns the variable that leaves."""
-        T = self.T
-        row = T[r] / T[r, e]
-        T[:] -= T[:, e, None] * row
-        T[r] = row
-        leaving, self.basis[r] = self.basis[r], e
-        return leaving
+@njit(cache=True)
+def object_twist_kernel(c: float, P: np.ndarray, N: np.ndarray, V: np.ndarray, mus: np.ndarray,
+                        cap: int, twist: np.ndarray, f_n: np.ndarray, f_t: np.ndarray,
+                        modes: np.ndarray) -> int:
+    """`object_twist` compiled (K >= 1 contacts with unit normals): writes the twist, the
+    forces and the contact modes, returns the mode code (JAMMED: zero twist, NaN forces)."""
+    K = P.shape[0]
+    if K == 1:
+        vx, vy, w, code = single_contact_kernel(c, P[0, 0], P[0, 1], N[0, 0], N[0, 1],
+                                                V[0, 0], V[0, 1], mus[0])
+        twist[0], twist[1], twist[2] = vx, vy, w
+        f_n[0] = vx * N[0, 0] + vy * N[0, 1]
+        f_t[0] = -vx * N[0, 1] + vy * N[0, 0]
+        modes[0] = code
+        return code
+    pushing, pusher = 0, -1
+    for i in range(K):
+        if N[i, 0] * V[i, 0] + N[i, 1] * V[i, 1] > 0.0:
+            pushing += 1
+            pusher = i
+    if pushing == 0:
+        twist[:] = 0.0
+        f_n[:] = 0.0
+        f_t[:] = 0.0
+        modes[:] = SEPARATING
+        return SEPARATING
+    if pushing == 1:
+        # The closed form of the one pushing contact is an LCP solution when it penetrates no
+        # other contact: n_j . (J_j V - v_j) >= 0 for every other j.
+        i = pusher
+        vx, vy, w, code = single_contact_kernel(c, P[i, 0], P[i, 1], N[i, 0], N[i, 1],
+                                                V[i, 0], V[i, 1], mus[i])
+        vmax = max(np.abs(V).max(), 1e-300)
+        clear = True
+        for j in range(K):
+            if j != i:
+                ux = vx - w * P[j, 1] - V[j, 0]
+                uy = vy + w * P[j, 0] - V[j, 1]
+                if N[j, 0] * ux + N[j, 1] * uy < -1e-12 * vmax:
+                    clear = False
+                    break
+        if clear:
+            twist[0], twist[1], twist[2] = vx, vy, w
+            f_n[:] = 0.0
+            f_t[:] = 0.0
+            modes[:] = SEPARATING
+            f_n[i] = vx * N[i, 0] + vy * N[i, 1]
+            f_t[i] = -vx * N[i, 1] + vy * N[i, 0]
+            modes[i] = code
+            return MOVING
+    M, q, twist_map = build_lcp_kernel(c, P, N, V, mus)
+    z, _, status, _ = lemke_kernel(M, q, cap, 1e-9)
+    if status != SOLVED:
+        twist[:] = 0.0
+        f_n[:] = np.nan
+        f_t[:] = np.nan
+        modes[:] = JAMMED
+        return JAMMED
+    return _forces_and_modes(twist_map, q, z, K, twist, f_n, f_t, modes)
 
-    def leaving_row(self, entering: int, pivot_tol: float) -> int | None:
-        """The minimum-ratio test over the rows with a positive entry in the entering column
-        (plain floats: n is small and this beats a dozen tiny numpy calls); ties go to z0's
-        row (z0 leaves: solved), else to the lexicographic rule on the rows of B^-1. None: no
-        positive entry (ray termination)."""
-        T, n = self.T, self.n
-        col = T[:, entering].tolist()
-        rhs_list = T[:, -1].tolist()
-        # Entries below pivot_tol relative to the column are rounding noise of exact zeros.
-        threshold = pivot_tol * max(1.0, max(col), -min(col))
-        best, cand = math.inf, []
-        for i in range(n):
-            if col[i] > threshold:
-                ratio = rhs_list[i] / col[i]
-                if ratio < best * (1.0 - 1e-10) - 1e-12:
-                    best, cand = ratio, [i]
-                elif ratio <= best * (1.0 + 1e-10) + 1e-12:
-                    cand.append(i)
-        if not cand:
-            return None
-        if len(cand) == 1:
-            return cand[0]
-        z0_rows = [k for k in cand if self.basis[k] == self.z0]
-        if z0_rows:
-            return z0_rows[0]
-        return cand[_lexmin_row([[v / col[k] for v in T[k, :n].tolist()] for k in cand])]
 
-    def solution(self, it: int) -> LCPSolution:
-        n = self.n
-        x = np.zeros(2 * n + 1)
-        x[self.basis] = self.T[:, -1]
-        z = np.maximum(x[n:self.z0], 0.0) * (self.q_scale / self.m_scale)
-        return LCPSolution(z, self.M @ z + self.q, "solved", it)
-
-    def no_solution(self, status: LCPStatus, it: int) -> LCPSolution:
-        # Degenerate end: z0 is still basic but already ~0 (rounding kept it from leaving on a
-        # tie), so the current almost-complementary point is complementary.
-        if self.z0 in self.basis and self.T[self.basis.index(self.z0), -1] <= 1e-12:
-            candidate = self.solution(it)
-            if candidate.w.min() >= -1e-9 * self.q_scale:    # verified: w = M z + q >= 0
-                return candidate
-        nan = np.full(self.n, np.nan)
-        return LCPSolution(nan, nan.copy(), status, it)
+def _push_result(code: int, twist: np.ndarray, f_n: np.ndarray, f_t: np.ndarray,
+                 modes: np.ndarray) -> PushResult:
+    contact_modes: tuple[ContactMode, ...] = tuple(
+        MODES[m] for m in modes.tolist())  # type: ignore[misc]
+    if code == SEPARATING:
+        twist = np.zeros(3)
+    return PushResult(twist, MODES[code], f_n, f_t, contact_modes)
 
 
 def multi_contact_twist(c: float, points: np.ndarray | Sequence[Sequence[float]],
@@ -544,26 +669,19 @@ def twist_from_lcp(problem: ContactLCP, solution: LCPSolution) -> PushResult:
         nan = np.full(K, np.nan)
         jammed: list[ContactMode] = ["jammed"] * K
         return PushResult(np.zeros(3), "jammed", nan, nan.copy(), tuple(jammed))
-    z = solution.z
-    twist = problem.twist_map @ z[:3 * K]
-    f_n = z[:K].copy()
-    f_t = z[K:3 * K:2] - z[K + 1:3 * K:2]
-    lam = z[3 * K:]
-    tol = 1e-9 * max(float(np.abs(problem.q).max()), 1e-300)
-    modes: tuple[ContactMode, ...] = tuple(
-        "separating" if f_n[i] <= tol else ("sliding" if lam[i] > tol else "sticking")
-        for i in range(K))
-    mode: PushMode = "moving" if np.any(f_n > tol) else "separating"
-    if mode == "separating":
-        twist = np.zeros(3)
-    return PushResult(twist, mode, f_n, f_t, modes)
+    twist, f_n, f_t = np.empty(3), np.empty(K), np.empty(K)
+    modes = np.empty(K, dtype=np.int64)
+    code = _forces_and_modes(problem.twist_map, problem.q, np.ascontiguousarray(solution.z), K,
+                             twist, f_n, f_t, modes)
+    return _push_result(code, twist, f_n, f_t, modes)
 
 
 def object_twist(c: float, points: np.ndarray | Sequence[Sequence[float]],
                  normals: np.ndarray | Sequence[Sequence[float]],
                  pusher_disps: np.ndarray | Sequence[Sequence[float]],
                  mu: float | Sequence[float] | np.ndarray) -> PushResult:
-    """Object twist for any number of contacts, by the cheapest exact route.
+    """Object twist for any number of contacts, by the cheapest exact route (compiled:
+    `object_twist_kernel`, which `Physics.step` calls directly).
 
     - no contact, or no pusher moving into the object (all v_i·n_i <= 0): no motion;
     - one contact: the closed form (`single_contact_twist`);
@@ -579,35 +697,38 @@ def object_twist(c: float, points: np.ndarray | Sequence[Sequence[float]],
     """
     P, Nrm, Vp, mus = _as_contacts(points, normals, pusher_disps, mu)
     K = P.shape[0]
+    if K == 0:
+        _check_c_mu(float(c), 0.0)
+        return PushResult(np.zeros(3), "separating", np.zeros(0), np.zeros(0), ())
+    _check_c_mu(float(c), float(mus.max()))
     if K == 1:
         return single_contact_twist(c, P[0], Nrm[0], Vp[0], float(mus[0]))
-    pushing = np.flatnonzero(np.einsum("ij,ij->i", Nrm, Vp) > 0.0)
-    if pushing.size == 0:
-        _check_c_mu(float(c), 0.0)
-        return PushResult(np.zeros(3), "separating", np.zeros(K), np.zeros(K),
-                          ("separating",) * K)
-    if pushing.size == 1:
-        i = int(pushing[0])
-        one = single_contact_twist(c, P[i], Nrm[i], Vp[i], float(mus[i]))
-        vx, vy, w = one.twist
-        # n_j . (J_j V - v_j) >= 0 for every other contact j (no penetration).
-        v_at = np.column_stack([vx - w * P[:, 1], vy + w * P[:, 0]])
-        gap_rate = np.einsum("ij,ij->i", Nrm, v_at - Vp)
-        gap_rate[i] = 0.0
-        if np.all(gap_rate >= -1e-12 * max(float(np.abs(Vp).max()), 1e-300)):
-            f_n = np.zeros(K)
-            f_t = np.zeros(K)
-            f_n[i] = one.normal_forces[0]
-            f_t[i] = one.tangential_forces[0]
-            modes: list[ContactMode] = ["separating"] * K
-            modes[i] = one.contact_modes[0]
-            return PushResult(one.twist.copy(), "moving", f_n, f_t, tuple(modes))
-    return multi_contact_twist(c, P, Nrm, Vp, mus)
+    twist, f_n, f_t = np.empty(3), np.empty(K), np.empty(K)
+    modes = np.empty(K, dtype=np.int64)
+    code = object_twist_kernel(float(c), P, np.ascontiguousarray(Nrm), Vp, mus, 20 * 4 * K,
+                               twist, f_n, f_t, modes)
+    return _push_result(code, twist, f_n, f_t, modes)
 
 
 # --------------------------------------------------------------------------------------------
 # 4. SE(2): applying a twist, changing frames
 # --------------------------------------------------------------------------------------------
+
+
+@njit(cache=True)
+def apply_twist_kernel(x: float, y: float, yaw: float, dx: float, dy: float,
+                       th: float) -> tuple[float, float, float]:
+    """`apply_twist`, compiled."""
+    if abs(th) < 1e-6:                                   # series: sin θ/θ, (1 - cos θ)/θ
+        th2 = th * th
+        s, k = 1.0 - th2 / 6.0, th / 2.0 - th * th2 / 24.0
+    else:
+        s, k = math.sin(th) / th, (1.0 - math.cos(th)) / th
+    bx, by = s * dx - k * dy, k * dx + s * dy              # body-frame translation V(θ) (dx, dy)
+    cy, sy = math.cos(yaw), math.sin(yaw)
+    # Yaw wrapped to [-pi, pi) as `state.wrap_angle` does.
+    new_yaw = (yaw + th + math.pi) % (2.0 * math.pi) - math.pi
+    return x + cy * bx - sy * by, y + sy * bx + cy * by, new_yaw
 
 
 def apply_twist(pose: Sequence[float] | np.ndarray,
@@ -619,16 +740,8 @@ def apply_twist(pose: Sequence[float] | np.ndarray,
     translation is V(θ) (dx, dy) with V(θ) = [[sin θ, -(1 - cos θ)], [1 - cos θ, sin θ]] / θ,
     rotated into the world by the current yaw. Yaw is wrapped to [-pi, pi).
     """
-    x, y, yaw = float(pose[0]), float(pose[1]), float(pose[2])
-    dx, dy, th = float(twist[0]), float(twist[1]), float(twist[2])
-    if abs(th) < 1e-6:                                   # series: sin θ/θ, (1 - cos θ)/θ
-        th2 = th * th
-        s, k = 1.0 - th2 / 6.0, th / 2.0 - th * th2 / 24.0
-    else:
-        s, k = math.sin(th) / th, (1.0 - math.cos(th)) / th
-    bx, by = s * dx - k * dy, k * dx + s * dy              # body-frame translation V(θ) (dx, dy)
-    cy, sy = math.cos(yaw), math.sin(yaw)
-    return np.array([x + cy * bx - sy * by, y + sy * bx + cy * by, float(wrap_angle(yaw + th))])
+    return np.array(apply_twist_kernel(float(pose[0]), float(pose[1]), float(pose[2]),
+                                       float(twist[0]), float(twist[1]), float(twist[2])))
 
 
 def points_to_object_frame(pose: Sequence[float] | np.ndarray,

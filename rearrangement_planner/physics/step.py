@@ -11,8 +11,8 @@ A step q -> q' is cut into substeps so that no point of any contact shape moves 
 Each substep:
 
 1. joint limits at q', arm vs table and obstacles at q' (no penetration allowed);
-2. contacts: every arm contact shape vs every object at q' (python-fcl after a NumPy broad
-   phase, `collision.CollisionWorld`); each penetrating contact gives a point p, a normal n (arm
+2. contacts: every arm contact shape vs every object at q' (`kernels.capsule_prism` after a
+   bounding-box broad phase); each penetrating contact gives a point p, a normal n (arm
    into object) and a depth;
 3. a contact whose normal is mostly vertical presses on the object from above: invalid;
 4. the pusher displacement at p is the link's own motion between q and q' (the rigid transform
@@ -24,21 +24,35 @@ Each substep:
 6. the object twist is applied on SE(2); then the moved objects are checked: residual arm-object
    penetration below `penetration_tolerance`, no object-object or object-obstacle overlap, centre
    on the table.
+
+All of it is compiled with Numba (issue 19; `step_kernel`, `check_state_kernel`), from the
+scene as arrays (`World`): the contact shapes' kinematics (`kernels.shape_poses`), their
+distances to the table, obstacles and objects (`kernels.capsule_prism`, exact where
+python-fcl's GJK errs by up to 2 mm; tests compare them), the pushing model
+(`pushing.object_twist_kernel`) and the object checks (`kernels.prism_penetration`).
+`CollisionWorld` (python-fcl) stays the geometry of the validation and the baselines' free-space
+queries. The compiled code is cached on disk (`__pycache__/*.nbi`, `*.nbc`); Numba does not
+track calls across modules, so after editing a kernel in one module delete the cache
+(`make clean`) or the callers in other modules keep the old code.
 """
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, field
 from enum import Enum
+from typing import NamedTuple
 
 import numpy as np
+from numba import njit
 
+from rearrangement_planner.model.errors import RobotModelError
 from rearrangement_planner.model.robot import RobotModel
 from rearrangement_planner.model.scene import MovableObject, Scene
 from rearrangement_planner.model.state import State
-from rearrangement_planner.physics import pushing
-from rearrangement_planner.physics.collision import CollisionWorld
+from rearrangement_planner.physics import kernels, pushing
+from rearrangement_planner.physics.collision import TABLE_THICKNESS, CollisionWorld
 
 _INV_SQRT2 = 1.0 / math.sqrt(2.0)
 FREE_SPACE_MARGIN = 0.01
@@ -125,21 +139,52 @@ def tips_over(obj: MovableObject, twist: np.ndarray, height: float) -> bool:
     return obj.support_friction * height > lever
 
 
+# Outcome codes of the compiled step (`_REASONS[code]`; 0 is a valid step).
+_VALID, _STATIC_OBJECT = 0, 11
+_REASONS: tuple[Invalid | None, ...] = (
+    None, Invalid.JOINT_LIMIT, Invalid.ARM_TABLE, Invalid.ARM_OBSTACLE, Invalid.OBJECT_OVERLAP,
+    Invalid.OBJECT_OBSTACLE, Invalid.OFF_TABLE, Invalid.CONTACT_FROM_ABOVE, Invalid.JAMMING,
+    Invalid.RESIDUAL_PENETRATION, Invalid.TIPPING, Invalid.ARM_OBSTACLE)
+(_JOINT_LIMIT, _ARM_TABLE, _ARM_OBSTACLE, _OBJECT_OVERLAP, _OBJECT_OBSTACLE, _OFF_TABLE,
+ _FROM_ABOVE, _JAMMING, _RESIDUAL, _TIPPING) = range(1, 11)
+
+
+class World(NamedTuple):
+    """A scene as the compiled step sees it: arrays only (Numba takes no Python objects).
+    Prism dims follow `kernels.capsule_prism` (a box's half extents; a cylinder's radius and
+    half height)."""
+
+    chain: tuple[np.ndarray, ...]   # kernels.shape_poses arguments: parents .. shape_local
+    shapes: np.ndarray              # (S, 3): axis half length, radius, bounding radius
+    limits: np.ndarray              # (2, nq): lower, upper
+    static_centre: np.ndarray       # (1 + K, 3): the table slab, then the obstacle boxes
+    static_yaw: np.ndarray          # (1 + K,)
+    static_dims: np.ndarray         # (1 + K, 3)
+    static_size: np.ndarray         # (K, 3) obstacle full extents (object-obstacle overlap)
+    obj_kind: np.ndarray            # (M,) kernels.BOX | kernels.CYLINDER
+    obj_dims: np.ndarray            # (M, 3)
+    obj_size: np.ndarray            # (M, 3) full extents (x, y, z), a cylinder's (2r, 2r, h)
+    obj_props: np.ndarray           # (M, 6): z of the centre, c, mu_c, mu_s, footprint, static
+    table: np.ndarray               # (5,): top z, centre x, y, half size x, y
+    options: np.ndarray             # (6,): max_substep, penetration and overlap tolerances,
+                                    # vertical normal limit, tipping (0/1), free-space margin
+
+
 class Physics:
     """The quasistatic world of one scene: `step(state, q_next)` is a pure function of its
-    arguments (the instance only caches geometry and per-object constants)."""
+    arguments (the instance only caches geometry and per-object constants). The step itself
+    is compiled (`step_kernel`, Numba); this class turns scenes and states into its arrays
+    and its outcome codes into `StepResult`s."""
 
     def __init__(self, scene: Scene, options: PhysicsOptions | None = None,
                  robot: RobotModel | None = None):
         self.scene = scene
         self.options = options or PhysicsOptions()
         self.robot = robot or scene.robot
-        self.world = CollisionWorld(scene, self.robot)
         # c = m_max / f_max per object (a length; DESIGN §5), and the pusher friction mu_c.
         self.c = [object_limit_surface_c(o) for o in scene.objects]
         self.mu = [float(o.pusher_friction) for o in scene.objects]
         self._shape_links = [s.link for s in self.robot.contact_shapes]
-        self._shape_radii = np.asarray(self.robot.shape_bounding_radii)
         self._names = [o.name for o in scene.objects]
         unknown = set(self.options.static_objects) - set(self._names)
         if unknown:
@@ -147,86 +192,109 @@ class Physics:
                              f"scene has {self._names}")
         self._static = frozenset(i for i, n in enumerate(self._names)
                                  if n in self.options.static_objects)
+        self._obstacle_names = [b.name for b in scene.obstacles]
+        self.arrays = _world_arrays(scene, self.robot, self.options, self._static)
+        self._shapes = len(self._shape_links)
+        self._flags = self._shapes + len(self._names)
+        self._named: dict[bytes, tuple[frozenset[str], frozenset[int]]] = {}
+        """Pushing links and moved objects by the step's flags (few patterns recur)."""
+
+    @functools.cached_property
+    def world(self) -> CollisionWorld:
+        """The python-fcl collision world of this scene (validation and the baselines'
+        queries; the step does not use it)."""
+        return CollisionWorld(self.scene, self.robot)
 
     # -- public ------------------------------------------------------------------------------
 
     def step(self, state: State, q_next: np.ndarray) -> StepResult:
         """Move the arm from state.q to q_next, pushing what it meets."""
-        q_next = np.asarray(q_next, dtype=float)
-        if not self.robot.within_limits(q_next, tol=1e-9):
-            # The joint box is convex: q_next inside means every substep is inside too.
-            return StepResult(state, False, Invalid.JOINT_LIMIT, self._limit_detail(q_next))
-        poses_a = self.robot.shape_poses(state.q)
-        poses_b = self.robot.shape_poses(q_next)
-        sweep = self._sweep(poses_a, poses_b)
-        n = max(1, math.ceil(sweep / self.options.max_substep - 1e-9))
-        objects = state.objects
-        if n > 1 and self._out_of_reach(poses_a, sweep, objects):
-            # Free space: no substep can touch an object, so the substeps would only repeat
-            # the static check. One substep at q_next (DESIGN §5 substepping is for contacts).
-            n = 1
-        pushing_links: set[str] = set()
-        moved: set[int] = set()
-        q_a = state.q
-        for i in range(1, n + 1):
-            q_b = q_next if i == n else state.q + (q_next - state.q) * (i / n)
-            if i < n:
-                poses_b = self.robot.shape_poses(q_b)
-            elif n > 1:
-                poses_b = self.robot.shape_poses(q_next)
-            outcome = self._substep(q_a, poses_a, q_b, poses_b, objects, pushing_links, moved)
-            if isinstance(outcome, tuple):
-                reason, detail = outcome
-                return StepResult(state, False, reason, detail, frozenset(pushing_links),
-                                  frozenset(moved), i)
-            objects = outcome
-            q_a, poses_a = q_b, poses_b
-        return StepResult(State(q_next, objects), True, None, "", frozenset(pushing_links),
-                          frozenset(moved), n)
+        q_next = np.array(q_next, dtype=float)     # a copy: the new state keeps it
+        out = np.empty_like(state.objects)
+        # info: (code, a, b, substeps), then one flag per contact shape (pushed) and per
+        # object (moved); value: the detail's number.
+        info = np.zeros(4 + self._flags, dtype=np.int64)
+        value = np.zeros(1)
+        code = step_kernel(state.q, q_next, state.objects, *self.arrays, out, info, value)
+        flags = info[4:]
+        key = flags.tobytes()
+        named = self._named.get(key)
+        if named is None:       # a new pattern of pushing links and moved objects
+            links = frozenset(self._shape_links[s] for s in np.flatnonzero(flags[:self._shapes]))
+            named = links, frozenset(np.flatnonzero(flags[self._shapes:]).tolist())
+            if len(self._named) < 4096:
+                self._named[key] = named
+        links, moved = named
+        if code != _VALID:
+            return StepResult(state, False, _REASONS[code],
+                              self._detail(code, info, value, q_next, flags[:self._shapes]),
+                              links, moved, int(info[3]))
+        return StepResult(State.trusted(q_next, out), True, None, "", links, moved,
+                          int(info[3]))
+
+    @property
+    def flag_count(self) -> int:
+        """How many flags `step_kernel` writes after its four numbers: one per contact shape,
+        then one per object."""
+        return self._flags
+
+    @staticmethod
+    def reason(code: int) -> Invalid:
+        """The `Invalid` of a non-zero outcome code of `step_kernel`."""
+        reason = _REASONS[code]
+        assert reason is not None, "code 0 is a valid step"
+        return reason
+
+    def pushing_links(self, flags: np.ndarray) -> frozenset[str]:
+        """The links of the contact shapes flagged in `flags` (`flag_count` long)."""
+        return frozenset(self._shape_links[s] for s in np.flatnonzero(flags[:self._shapes]))
 
     def check_state(self, state: State) -> tuple[Invalid, str] | None:
         """Validity of a resting state (DESIGN §5), or None when valid."""
-        robot, opts = self.robot, self.options
-        if not robot.within_limits(state.q, tol=1e-9):
-            return Invalid.JOINT_LIMIT, self._limit_detail(state.q)
-        poses = robot.shape_poses(state.q)
-        static = self._static_collision(poses)
-        if static is not None:
-            return static
-        depth = self.world.arm_object_penetration(poses, state.objects)
-        if depth > opts.penetration_tolerance:
-            return (Invalid.RESIDUAL_PENETRATION,
-                    f"arm penetrates an object by {depth * 1000:.1f} mm")
-        return self._object_checks(state.objects, range(len(self._names)))
+        info = np.zeros(4, dtype=np.int64)
+        value = np.zeros(1)
+        q = np.ascontiguousarray(state.q, dtype=float)
+        code = check_state_kernel(q, np.ascontiguousarray(state.objects, dtype=float),
+                                  *self.arrays, info, value)
+        if code == _VALID:
+            return None
+        reason = _REASONS[code]
+        assert reason is not None
+        return reason, self._detail(code, info, value, q, None)
 
     # -- internals ---------------------------------------------------------------------------
 
-    def _sweep(self, poses_a: np.ndarray, poses_b: np.ndarray) -> float:
-        """How far any point of any contact shape moves from a to b, m (substeps are cut so
-        that no point moves more than max_substep). A point at distance rho from the shape
-        origin moves at most |dc| + rho |R_b - R_a|_F / sqrt(2) (the chord of a rotation by
-        theta is 2 rho sin(theta/2), and |R_b - R_a|_F = 2 sqrt(2) sin(theta/2))."""
-        diff = poses_b[:, :3, :] - poses_a[:, :3, :]
-        dc = np.sqrt(np.einsum("ni,ni->n", diff[:, :, 3], diff[:, :, 3]))
-        drot = np.sqrt(np.einsum("nij,nij->n", diff[:, :, :3], diff[:, :, :3]))
-        return float((dc + self._shape_radii * drot * _INV_SQRT2).max())
-
-    def _out_of_reach(self, poses_a: np.ndarray, sweep: float, objects: np.ndarray) -> bool:
-        """True when no contact shape can reach any object during the step: every shape's
-        bounding box at a, grown by the sweep (plus FREE_SPACE_MARGIN for the bulge of a joint
-        interpolation between a and b), is clear of every object's bounding box."""
-        shapes, _ = self.world.object_candidates(poses_a, objects, sweep + FREE_SPACE_MARGIN)
-        return shapes.size == 0
-
-    def _static_collision(self, poses: np.ndarray) -> tuple[Invalid, str] | None:
-        hit = self.world.arm_static_collision(poses)
-        if hit is None:
-            return None
-        shape, what = hit
-        link = self._shape_links[shape]
-        if what == "table":
-            return Invalid.ARM_TABLE, f"{link} penetrates the table"
-        return Invalid.ARM_OBSTACLE, f"{link} penetrates obstacle '{what}'"
+    def _detail(self, code: int, info: np.ndarray, value: np.ndarray, q: np.ndarray,
+                involved: np.ndarray | None) -> str:
+        """The sentence for an invalid outcome: `info` holds (code, a, b, substeps) and
+        `value` a length or a normal component, as `step_kernel` writes them."""
+        a, b, v = int(info[1]), int(info[2]), float(value[0])
+        links, names = self._shape_links, self._names
+        if code == _JOINT_LIMIT:
+            return self._limit_detail(q)
+        if code == _ARM_TABLE:
+            return f"{links[a]} penetrates the table"
+        if code == _ARM_OBSTACLE:
+            return f"{links[a]} penetrates obstacle '{self._obstacle_names[b]}'"
+        if code == _STATIC_OBJECT:
+            return f"{links[a]} touches '{names[b]}', a static object for this planner"
+        if code == _FROM_ABOVE:
+            return f"{links[a]} presses on '{names[b]}' from above (normal z = {v:+.2f})"
+        if code == _JAMMING:
+            jammers = sorted({links[s] for s in np.flatnonzero(involved)}) \
+                if involved is not None else []
+            return f"'{names[a]}' is jammed between {', '.join(jammers)}"
+        if code == _TIPPING:
+            return f"'{names[a]}' would tip over: pushed {v * 100:.1f} cm above the table"
+        if code == _RESIDUAL:
+            where = "still " if involved is not None else ""
+            after = " after the push" if involved is not None else ""
+            return f"arm {where}penetrates an object by {v * 1000:.1f} mm{after}"
+        if code == _OBJECT_OVERLAP:
+            return f"'{names[a]}' and '{names[b]}' overlap"
+        if code == _OBJECT_OBSTACLE:
+            return f"'{names[a]}' overlaps obstacle '{self._obstacle_names[b]}'"
+        return f"'{names[a]}' left the table"
 
     def _limit_detail(self, q: np.ndarray) -> str:
         robot = self.robot
@@ -235,109 +303,480 @@ class Physics:
                 return f"{name} = {value:.4f} outside [{lo:.4f}, {hi:.4f}]"
         return "joint limit"
 
-    def _substep(self, q_a, poses_a, q_b, poses_b, objects, pushing_links, moved):
-        opts = self.options
-        static = self._static_collision(poses_b)
-        if static is not None:
-            return static
-        contacts = self.world.arm_object_contacts(poses_b, objects)
-        if not contacts:
-            return objects
-        by_object: dict[int, list] = {}
-        for contact in contacts:
-            n = contact.normal
-            if abs(n[2]) > opts.vertical_normal_limit:
-                return (Invalid.CONTACT_FROM_ABOVE,
-                        f"{self._shape_links[contact.shape]} presses on "
-                        f"'{self._names[contact.obj]}' from above (normal z = {n[2]:+.2f})")
-            if contact.obj in self._static:
-                return (Invalid.ARM_OBSTACLE,
-                        f"{self._shape_links[contact.shape]} touches '{self._names[contact.obj]}'"
-                        f", a static object for this planner")
-            by_object.setdefault(contact.obj, []).append(contact)
-        new_objects = objects.copy()
-        changed: list[int] = []
-        for obj, obj_contacts in by_object.items():
-            result = self._push_object(obj, objects[obj], obj_contacts, poses_a, poses_b)
-            if isinstance(result, tuple):
-                return result
-            if result is not None:
-                new_objects[obj] = result
-                changed.append(obj)
-                moved.add(obj)
-                pushing_links.update(self._shape_links[c.shape] for c in obj_contacts)
-        if changed:
-            after = self.world.arm_object_contacts(poses_b, new_objects, objects=changed)
-            depth = max((c.depth for c in after), default=0.0)
-            still = [c.depth for c in contacts if c.obj not in changed]
-            depth = max([depth, *still])
-        else:
-            depth = max(c.depth for c in contacts)
-        if depth > opts.penetration_tolerance:
-            return (Invalid.RESIDUAL_PENETRATION,
-                    f"arm still penetrates an object by {depth * 1000:.1f} mm after the push")
-        if changed:
-            problem = self._object_checks(new_objects, changed)
-            if problem is not None:
-                return problem
-        return new_objects
 
-    def _push_object(self, obj, pose, contacts, poses_a, poses_b):
-        """Twist of one object from its contacts; None if it does not move."""
-        cos, sin = math.cos(pose[2]), math.sin(pose[2])
-        k = len(contacts)
-        points, normals, disps = np.empty((k, 2)), np.empty((k, 2)), np.empty((k, 2))
-        for row, contact in enumerate(contacts):
-            p = contact.point
-            # The material point of the link now at p was at T_a T_b^-1 p before the substep.
-            t_a, t_b = poses_a[contact.shape], poses_b[contact.shape]
-            p_before = t_a[:3, :3] @ (t_b[:3, :3].T @ (p - t_b[:3, 3])) + t_a[:3, 3]
-            dx, dy = p[0] - p_before[0], p[1] - p_before[1]
-            nx, ny = contact.normal[0], contact.normal[1]
-            n_norm = math.hypot(nx, ny)
-            nx, ny = nx / n_norm, ny / n_norm
-            d_n = dx * nx + dy * ny
-            if d_n > 1e-12:
-                # Normal push needed to undo the penetration (planar), at most the substep's own
-                # normal motion plus the tolerated residual.
-                wanted = min(contact.depth / n_norm, d_n + self.options.penetration_tolerance)
-                scale = max(wanted, 0.0) / d_n
-                dx, dy = dx * scale, dy * scale
-            # World -> object frame: R(yaw)^T v.
-            px, py = p[0] - pose[0], p[1] - pose[1]
-            points[row] = (cos * px + sin * py, -sin * px + cos * py)
-            normals[row] = (cos * nx + sin * ny, -sin * nx + cos * ny)
-            disps[row] = (cos * dx + sin * dy, -sin * dx + cos * dy)
-        if k == 1:
-            result = pushing.single_contact_twist(self.c[obj], points[0], normals[0], disps[0],
-                                                  self.mu[obj])
-        else:
-            result = pushing.object_twist(self.c[obj], points, normals, disps, self.mu[obj])
-        if result.mode == "jammed":
-            links = sorted({self._shape_links[c.shape] for c in contacts})
-            return (Invalid.JAMMING,
-                    f"'{self._names[obj]}' is jammed between {', '.join(links)}")
-        if not result.twist.any():
-            return None
-        if self.options.tipping:
-            height = max(c.point[2] for c in contacts) - self.scene.table.height
-            if tips_over(self.scene.objects[obj], result.twist, height):
-                return (Invalid.TIPPING,
-                        f"'{self._names[obj]}' would tip over: pushed {height * 100:.1f} cm "
-                        f"above the table")
-        return pushing.apply_twist(pose, result.twist)
+def _world_arrays(scene: Scene, robot: RobotModel, options: PhysicsOptions,
+                  static: frozenset[int]) -> World:
+    for i, shape in enumerate(robot.contact_shapes):
+        if shape.kind not in ("capsule", "sphere"):
+            raise RobotModelError(
+                f"robot '{robot.name}': contact shape {i} on {shape.link} is a {shape.kind}; "
+                "the physics takes capsules and spheres (a sphere is a capsule of length 0)")
+    chain = kernels.compiled_chain(robot)
+    shapes = np.array([[0.5 * s.dims[1] if s.kind == "capsule" else 0.0, s.dims[0],
+                        s.bounding_radius] for s in robot.contact_shapes], dtype=float)
+    table = scene.table
+    top = float(table.height)
+    static_centre = [[table.center[0], table.center[1], top - 0.5 * TABLE_THICKNESS]]
+    static_yaw = [0.0]
+    static_dims = [[0.5 * table.size[0], 0.5 * table.size[1], 0.5 * TABLE_THICKNESS]]
+    for box in scene.obstacles:
+        static_centre.append([box.pose[0], box.pose[1], top + 0.5 * box.size[2]])
+        static_yaw.append(box.pose[2])
+        static_dims.append([0.5 * v for v in box.size])
+    static_size = np.array([b.size for b in scene.obstacles], dtype=float).reshape(-1, 3)
+    objects = scene.objects
+    obj_kind = np.array([kernels.CYLINDER if o.shape == "cylinder" else kernels.BOX
+                         for o in objects], dtype=np.int64)
+    obj_dims = np.array([[0.5 * o.size[0], 0.5 * o.size[2], 0.0] if o.shape == "cylinder"
+                         else 0.5 * np.asarray(o.size) for o in objects],
+                        dtype=float).reshape(-1, 3)
+    obj_size = np.array([o.size for o in objects], dtype=float).reshape(-1, 3)
+    obj_props = np.array([[top + 0.5 * o.size[2], object_limit_surface_c(o),
+                           o.pusher_friction, o.support_friction, o.footprint_radius,
+                           float(i in static)] for i, o in enumerate(objects)],
+                         dtype=float).reshape(-1, 6)
+    return World(
+        chain=chain.arrays,
+        shapes=shapes, limits=np.array([robot.lower, robot.upper], dtype=float),
+        static_centre=np.array(static_centre, dtype=float),
+        static_yaw=np.array(static_yaw, dtype=float),
+        static_dims=np.array(static_dims, dtype=float), static_size=static_size,
+        obj_kind=obj_kind, obj_dims=obj_dims, obj_size=obj_size, obj_props=obj_props,
+        table=np.array([top, table.center[0], table.center[1], 0.5 * table.size[0],
+                        0.5 * table.size[1]], dtype=float),
+        options=np.array([options.max_substep, options.penetration_tolerance,
+                          options.overlap_tolerance, options.vertical_normal_limit,
+                          float(options.tipping), FREE_SPACE_MARGIN], dtype=float))
 
-    def _object_checks(self, objects: np.ndarray, which) -> tuple[Invalid, str] | None:
-        opts = self.options
-        which = set(which)
-        for i, j in self.world.object_overlaps(objects, tol=opts.overlap_tolerance):
-            if i in which or j in which:
-                return (Invalid.OBJECT_OVERLAP,
-                        f"'{self._names[i]}' and '{self._names[j]}' overlap")
-        for i, name in self.world.object_obstacle_overlaps(objects, tol=opts.overlap_tolerance):
-            if i in which:
-                return Invalid.OBJECT_OBSTACLE, f"'{self._names[i]}' overlaps obstacle '{name}'"
-        for i in self.world.objects_off_table(objects):
-            if i in which:
-                return Invalid.OFF_TABLE, f"'{self._names[i]}' left the table"
-        return None
+
+# -- the compiled step ---------------------------------------------------------------------------
+# Argument lists follow `World`'s fields; `info` receives (code, a, b, substeps) and `value` one
+# number for the detail sentence (`Physics._detail`).
+
+
+@njit(cache=True)
+def _poses(q: np.ndarray, chain: tuple, out: np.ndarray) -> None:
+    kernels.shape_poses(q, chain[0], chain[1], chain[2], chain[3], chain[4], chain[5], out)
+
+
+@njit(cache=True)
+def _sweep(poses_a: np.ndarray, poses_b: np.ndarray, shapes: np.ndarray) -> float:
+    """How far any point of any contact shape moves from a to b, m (substeps are cut so that no
+    point moves more than max_substep). A point at distance rho from the shape origin moves at
+    most |dc| + rho |R_b - R_a|_F / sqrt(2) (the chord of a rotation by theta is
+    2 rho sin(theta/2), and |R_b - R_a|_F = 2 sqrt(2) sin(theta/2))."""
+    worst = 0.0
+    for s in range(poses_a.shape[0]):
+        dc = drot = 0.0
+        for i in range(3):
+            d = poses_b[s, i, 3] - poses_a[s, i, 3]
+            dc += d * d
+            for j in range(3):
+                d = poses_b[s, i, j] - poses_a[s, i, j]
+                drot += d * d
+        worst = max(worst, math.sqrt(dc) + shapes[s, 2] * math.sqrt(drot) * _INV_SQRT2)
+    return worst
+
+
+@njit(cache=True)
+def _out_of_reach(poses: np.ndarray, shapes: np.ndarray, objects: np.ndarray,
+                  obj_size: np.ndarray, obj_props: np.ndarray, margin: float) -> bool:
+    """True when every contact shape's box (the capsule's segment grown by its radius) is
+    clear of every object's box (its footprint circle and height) grown by `margin`."""
+    a, b = np.empty(3), np.empty(3)
+    for s in range(poses.shape[0]):
+        kernels.segment(poses, s, shapes[s, 0], a, b)
+        r = shapes[s, 1]
+        for m in range(objects.shape[0]):
+            ext = obj_props[m, 4] + margin
+            ext_z = 0.5 * obj_size[m, 2] + margin
+            z = obj_props[m, 0]
+            if (min(a[0], b[0]) - r < objects[m, 0] + ext
+                    and max(a[0], b[0]) + r > objects[m, 0] - ext
+                    and min(a[1], b[1]) - r < objects[m, 1] + ext
+                    and max(a[1], b[1]) + r > objects[m, 1] - ext
+                    and min(a[2], b[2]) - r < z + ext_z
+                    and max(a[2], b[2]) + r > z - ext_z):
+                return False
+    return True
+
+
+@njit(cache=True)
+def _static_hit(poses: np.ndarray, shapes: np.ndarray, static_centre: np.ndarray,
+                static_yaw: np.ndarray, static_dims: np.ndarray, info: np.ndarray) -> int:
+    """The first contact shape (in order) that penetrates the table or an obstacle."""
+    a, b, point, normal = np.empty(3), np.empty(3), np.empty(3), np.empty(3)
+    table = static_centre[0]
+    top = table[2] + static_dims[0, 2]
+    for s in range(poses.shape[0]):
+        kernels.segment(poses, s, shapes[s, 0], a, b)
+        for k in range(static_centre.shape[0]):
+            if (k == 0 and min(a[2], b[2]) >= top
+                    and max(abs(a[0] - table[0]), abs(b[0] - table[0])) <= static_dims[0, 0]
+                    and max(abs(a[1] - table[1]), abs(b[1] - table[1])) <= static_dims[0, 1]):
+                # Above the slab's top face, over the table: the closed form.
+                if min(a[2], b[2]) - top - shapes[s, 1] < 0.0:
+                    info[1], info[2] = s, -1
+                    return _ARM_TABLE
+                continue
+            if not kernels.near_prism(a, b, shapes[s, 1], kernels.BOX, static_centre[k],
+                                      static_dims[k]):
+                continue
+            if kernels.capsule_prism(a, b, shapes[s, 1], kernels.BOX, static_centre[k],
+                                     static_yaw[k], static_dims[k], point, normal) < 0.0:
+                info[1], info[2] = s, k - 1
+                return _ARM_TABLE if k == 0 else _ARM_OBSTACLE
+    return _VALID
+
+
+@njit(cache=True)
+def _contacts(poses: np.ndarray, shapes: np.ndarray, objects: np.ndarray,
+              selected: np.ndarray, obj_kind: np.ndarray, obj_dims: np.ndarray,
+              obj_props: np.ndarray, c_shape: np.ndarray, c_obj: np.ndarray,
+              c_point: np.ndarray, c_normal: np.ndarray, c_depth: np.ndarray) -> int:
+    """Penetrating (contact shape, object) pairs among the `selected` objects, in shape then
+    object order: the object's surface point, the unit normal from the arm into the object,
+    the depth (> 0). Returns how many were written."""
+    a, b, point, normal, centre = (np.empty(3), np.empty(3), np.empty(3), np.empty(3),
+                                   np.empty(3))
+    count = 0
+    for s in range(poses.shape[0]):
+        kernels.segment(poses, s, shapes[s, 0], a, b)
+        for m in range(objects.shape[0]):
+            if not selected[m]:
+                continue
+            centre[0], centre[1], centre[2] = objects[m, 0], objects[m, 1], obj_props[m, 0]
+            if not kernels.near_prism(a, b, shapes[s, 1], obj_kind[m], centre, obj_dims[m]):
+                continue
+            d = kernels.capsule_prism(a, b, shapes[s, 1], obj_kind[m], centre, objects[m, 2],
+                                      obj_dims[m], point, normal)
+            if d < 0.0:
+                c_shape[count], c_obj[count], c_depth[count] = s, m, -d
+                for k in range(3):
+                    c_point[count, k] = point[k]
+                    c_normal[count, k] = -normal[k]
+                count += 1
+    return count
+
+
+@njit(cache=True)
+def _tips_over(kind: int, size: np.ndarray, support_mu: float, dx: float, dy: float,
+               height: float) -> bool:
+    """`tips_over`, compiled."""
+    speed = math.hypot(dx, dy)
+    if speed < 1e-12:
+        return False
+    if kind == kernels.CYLINDER:
+        lever = 0.5 * size[0]
+    else:
+        lever = 0.5 * (abs(dx / speed) * size[0] + abs(dy / speed) * size[1])
+    return support_mu * height > lever
+
+
+@njit(cache=True)
+def _object_frame_contacts(m: int, pose: np.ndarray, count: int, c_shape: np.ndarray,
+                           c_obj: np.ndarray, c_point: np.ndarray, c_normal: np.ndarray,
+                           c_depth: np.ndarray, poses_a: np.ndarray, poses_b: np.ndarray,
+                           tolerance: float, P: np.ndarray, N: np.ndarray,
+                           V: np.ndarray) -> float:
+    """Object m's contacts in its frame (module docstring, step 4): points P, planar unit
+    normals N and pusher displacements V; returns the highest contact's z."""
+    cos, sin = math.cos(pose[2]), math.sin(pose[2])
+    height = -math.inf
+    row = 0
+    for i in range(count):
+        if c_obj[i] != m:
+            continue
+        s = c_shape[i]
+        p = c_point[i]
+        # The material point of the link now at p was at T_a T_b^-1 p before the substep.
+        dx, dy = p[0], p[1]
+        for axis in range(2):
+            before = poses_a[s, axis, 3]
+            for j in range(3):
+                local = 0.0
+                for k in range(3):
+                    local += poses_b[s, k, j] * (p[k] - poses_b[s, k, 3])
+                before += poses_a[s, axis, j] * local
+            if axis == 0:
+                dx -= before
+            else:
+                dy -= before
+        nx, ny = c_normal[i, 0], c_normal[i, 1]
+        n_norm = math.hypot(nx, ny)
+        nx, ny = nx / n_norm, ny / n_norm
+        d_n = dx * nx + dy * ny
+        if d_n > 1e-12:
+            # Normal push needed to undo the penetration (planar), at most the substep's own
+            # normal motion plus the tolerated residual.
+            wanted = min(c_depth[i] / n_norm, d_n + tolerance)
+            scale = max(wanted, 0.0) / d_n
+            dx, dy = dx * scale, dy * scale
+        # World -> object frame: R(yaw)^T v.
+        px, py = p[0] - pose[0], p[1] - pose[1]
+        P[row, 0], P[row, 1] = cos * px + sin * py, -sin * px + cos * py
+        N[row, 0], N[row, 1] = cos * nx + sin * ny, -sin * nx + cos * ny
+        V[row, 0], V[row, 1] = cos * dx + sin * dy, -sin * dx + cos * dy
+        height = max(height, p[2])
+        row += 1
+    return height
+
+
+@njit(cache=True)
+def _push_object(m: int, pose: np.ndarray, count: int, c_shape: np.ndarray,
+                 c_obj: np.ndarray, c_point: np.ndarray, c_normal: np.ndarray,
+                 c_depth: np.ndarray, poses_a: np.ndarray, poses_b: np.ndarray,
+                 obj_kind: np.ndarray, obj_size: np.ndarray, obj_props: np.ndarray,
+                 table: np.ndarray, options: np.ndarray, new_pose: np.ndarray,
+                 value: np.ndarray) -> int:
+    """Object m's motion from its contacts (module docstring, steps 4-6): writes its new pose
+    and returns _VALID, -1 when it does not move, or the invalid code."""
+    k = 0
+    for i in range(count):
+        if c_obj[i] == m:
+            k += 1
+    P, N, V = np.empty((k, 2)), np.empty((k, 2)), np.empty((k, 2))
+    height = _object_frame_contacts(m, pose, count, c_shape, c_obj, c_point, c_normal,
+                                    c_depth, poses_a, poses_b, options[1], P, N, V)
+    twist, f_n, f_t = np.empty(3), np.empty(k), np.empty(k)
+    modes = np.empty(k, dtype=np.int64)
+    mus = np.full(k, obj_props[m, 2])
+    code = pushing.object_twist_kernel(obj_props[m, 1], P, N, V, mus, max(100, 80 * k), twist,
+                                       f_n, f_t, modes)
+    if code == pushing.JAMMED:
+        return _JAMMING
+    if twist[0] == 0.0 and twist[1] == 0.0 and twist[2] == 0.0:
+        return -1
+    if options[4] > 0.0:
+        height -= table[0]
+        if _tips_over(obj_kind[m], obj_size[m], obj_props[m, 3], twist[0], twist[1], height):
+            value[0] = height
+            return _TIPPING
+    x, y, yaw = pushing.apply_twist_kernel(pose[0], pose[1], pose[2], twist[0], twist[1],
+                                           twist[2])
+    new_pose[0], new_pose[1], new_pose[2] = x, y, yaw
+    return _VALID
+
+
+@njit(cache=True)
+def _object_checks(objects: np.ndarray, which: np.ndarray, static_centre: np.ndarray,
+                   static_yaw: np.ndarray, static_size: np.ndarray, obj_kind: np.ndarray,
+                   obj_size: np.ndarray, table: np.ndarray, options: np.ndarray,
+                   info: np.ndarray) -> int:
+    """The objects in `which` overlap no other object or obstacle (beyond the overlap
+    tolerance) and keep their centres on the table."""
+    M = objects.shape[0]
+    tol = options[2]
+    for i in range(M):
+        for j in range(i + 1, M):
+            if not (which[i] or which[j]):
+                continue
+            depth = kernels.prism_penetration(
+                obj_kind[i], obj_size[i], objects[i, 0], objects[i, 1], objects[i, 2],
+                obj_kind[j], obj_size[j], objects[j, 0], objects[j, 1], objects[j, 2])
+            if depth > tol:
+                info[1], info[2] = i, j
+                return _OBJECT_OVERLAP
+    for i in range(M):
+        if not which[i]:
+            continue
+        for k in range(static_size.shape[0]):
+            depth = kernels.prism_penetration(
+                obj_kind[i], obj_size[i], objects[i, 0], objects[i, 1], objects[i, 2],
+                kernels.BOX, static_size[k], static_centre[k + 1, 0], static_centre[k + 1, 1],
+                static_yaw[k + 1])
+            if depth > tol:
+                info[1], info[2] = i, k
+                return _OBJECT_OBSTACLE
+    for i in range(M):
+        if which[i] and (abs(objects[i, 0] - table[1]) > table[3]
+                         or abs(objects[i, 1] - table[2]) > table[4]):
+            info[1] = i
+            return _OFF_TABLE
+    return _VALID
+
+
+@njit(cache=True)
+def _admissible(count: int, c_shape: np.ndarray, c_obj: np.ndarray, c_normal: np.ndarray,
+                obj_props: np.ndarray, options: np.ndarray, touched: np.ndarray,
+                info: np.ndarray, value: np.ndarray) -> int:
+    """No contact presses from above (module docstring, step 3) or touches a static object;
+    marks the touched objects."""
+    for i in range(count):
+        if abs(c_normal[i, 2]) > options[3]:
+            info[1], info[2] = c_shape[i], c_obj[i]
+            value[0] = c_normal[i, 2]
+            return _FROM_ABOVE
+        if obj_props[c_obj[i], 5] > 0.0:
+            info[1], info[2] = c_shape[i], c_obj[i]
+            return _STATIC_OBJECT
+        touched[c_obj[i]] = True
+    return _VALID
+
+
+@njit(cache=True)
+def _residual_depth(poses: np.ndarray, shapes: np.ndarray, new_objects: np.ndarray,
+                    changed: np.ndarray, any_changed: bool, count: int, c_shape: np.ndarray,
+                    c_obj: np.ndarray, c_point: np.ndarray, c_normal: np.ndarray,
+                    c_depth: np.ndarray, obj_kind: np.ndarray, obj_dims: np.ndarray,
+                    obj_props: np.ndarray) -> float:
+    """The deepest arm-object penetration after the push: objects that did not move keep the
+    depths of the substep's contacts; the moved ones are asked again (overwrites the
+    contact buffers)."""
+    depth = 0.0
+    for i in range(count):
+        if not changed[c_obj[i]]:
+            depth = max(depth, c_depth[i])
+    if any_changed:
+        after = _contacts(poses, shapes, new_objects, changed, obj_kind, obj_dims, obj_props,
+                          c_shape, c_obj, c_point, c_normal, c_depth)
+        for i in range(after):
+            depth = max(depth, c_depth[i])
+    return depth
+
+
+@njit(cache=True)
+def _substep(poses_a: np.ndarray, poses_b: np.ndarray, objects: np.ndarray,
+             new_objects: np.ndarray, shapes: np.ndarray, static_centre: np.ndarray,
+             static_yaw: np.ndarray, static_dims: np.ndarray, static_size: np.ndarray,
+             obj_kind: np.ndarray, obj_dims: np.ndarray, obj_size: np.ndarray,
+             obj_props: np.ndarray, table: np.ndarray, options: np.ndarray, info: np.ndarray,
+             value: np.ndarray, pushing_shapes: np.ndarray, moved: np.ndarray) -> int:
+    """One substep (module docstring, 1-6): objects -> new_objects, or an invalid code."""
+    code = _static_hit(poses_b, shapes, static_centre, static_yaw, static_dims, info)
+    if code != _VALID:
+        return code
+    S, M = poses_b.shape[0], objects.shape[0]
+    capacity = S * M
+    c_shape, c_obj = np.empty(capacity, dtype=np.int64), np.empty(capacity, dtype=np.int64)
+    c_point, c_normal = np.empty((capacity, 3)), np.empty((capacity, 3))
+    c_depth = np.empty(capacity)
+    everything = np.ones(M, dtype=np.bool_)
+    count = _contacts(poses_b, shapes, objects, everything, obj_kind, obj_dims, obj_props,
+                      c_shape, c_obj, c_point, c_normal, c_depth)
+    new_objects[:] = objects
+    if count == 0:
+        return _VALID
+    touched = np.zeros(M, dtype=np.bool_)
+    code = _admissible(count, c_shape, c_obj, c_normal, obj_props, options, touched, info,
+                       value)
+    if code != _VALID:
+        return code
+    changed = np.zeros(M, dtype=np.bool_)
+    any_changed = False
+    for m in range(M):
+        if not touched[m]:
+            continue
+        code = _push_object(m, objects[m], count, c_shape, c_obj, c_point, c_normal, c_depth,
+                            poses_a, poses_b, obj_kind, obj_size, obj_props, table, options,
+                            new_objects[m], value)
+        if code == -1:
+            continue
+        if code != _VALID:
+            info[1] = m
+            if code == _JAMMING:       # the links that squeeze it, for the detail
+                pushing_shapes[:] = 0
+                for i in range(count):
+                    if c_obj[i] == m:
+                        pushing_shapes[c_shape[i]] = 1
+            return code
+        changed[m] = any_changed = True
+        moved[m] = 1
+        for i in range(count):
+            if c_obj[i] == m:
+                pushing_shapes[c_shape[i]] = 1
+    depth = _residual_depth(poses_b, shapes, new_objects, changed, any_changed, count,
+                            c_shape, c_obj, c_point, c_normal, c_depth, obj_kind, obj_dims,
+                            obj_props)
+    if depth > options[1]:
+        value[0] = depth
+        return _RESIDUAL
+    if any_changed:
+        return _object_checks(new_objects, changed, static_centre, static_yaw, static_size,
+                              obj_kind, obj_size, table, options, info)
+    return _VALID
+
+
+@njit(cache=True)
+def step_kernel(q0: np.ndarray, q1: np.ndarray, objects: np.ndarray, chain: tuple,
+                shapes: np.ndarray, limits: np.ndarray, static_centre: np.ndarray,
+                static_yaw: np.ndarray, static_dims: np.ndarray, static_size: np.ndarray,
+                obj_kind: np.ndarray, obj_dims: np.ndarray, obj_size: np.ndarray,
+                obj_props: np.ndarray, table: np.ndarray, options: np.ndarray,
+                out_objects: np.ndarray, info: np.ndarray, value: np.ndarray) -> int:
+    """`Physics.step` compiled: the arm from q0 to q1 through substeps (module docstring);
+    the objects after it into `out_objects`; info gets (code, a, b, substeps run) and then
+    one flag per contact shape (it pushed an object; for a jam, it squeezes the object) and
+    per object (it moved); returns the outcome code (0 = valid)."""
+    S = shapes.shape[0]
+    pushing_shapes = info[4:4 + S]
+    moved = info[4 + S:]
+    for j in range(q1.shape[0]):
+        # The joint box is convex: q1 inside means every substep is inside too.
+        if not limits[0, j] - 1e-9 <= q1[j] <= limits[1, j] + 1e-9:
+            info[0] = _JOINT_LIMIT
+            return _JOINT_LIMIT
+    poses_a, poses_b = np.empty((S, 4, 4)), np.empty((S, 4, 4))
+    _poses(q0, chain, poses_a)
+    _poses(q1, chain, poses_b)
+    sweep = _sweep(poses_a, poses_b, shapes)
+    n = max(1, math.ceil(sweep / options[0] - 1e-9))
+    if n > 1 and _out_of_reach(poses_a, shapes, objects, obj_size, obj_props,
+                               sweep + options[5]):
+        # Free space: no substep can touch an object, so the substeps would only repeat the
+        # static check. One substep at q1 (DESIGN §5 substepping is for contacts).
+        n = 1
+    current, following = objects.copy(), np.empty_like(objects)
+    q_b = np.empty_like(q1)
+    for i in range(1, n + 1):
+        if i < n:
+            for j in range(q1.shape[0]):
+                q_b[j] = q0[j] + (q1[j] - q0[j]) * (i / n)
+            _poses(q_b, chain, poses_b)
+        elif n > 1:
+            _poses(q1, chain, poses_b)
+        code = _substep(poses_a, poses_b, current, following, shapes, static_centre,
+                        static_yaw, static_dims, static_size, obj_kind, obj_dims, obj_size,
+                        obj_props, table, options, info, value, pushing_shapes, moved)
+        if code != _VALID:
+            info[0], info[3] = code, i
+            return code
+        current, following = following, current
+        poses_a, poses_b = poses_b, poses_a
+    out_objects[:] = current
+    info[3] = n
+    return _VALID
+
+
+@njit(cache=True)
+def check_state_kernel(q: np.ndarray, objects: np.ndarray, chain: tuple, shapes: np.ndarray,
+                       limits: np.ndarray, static_centre: np.ndarray, static_yaw: np.ndarray,
+                       static_dims: np.ndarray, static_size: np.ndarray, obj_kind: np.ndarray,
+                       obj_dims: np.ndarray, obj_size: np.ndarray, obj_props: np.ndarray,
+                       table: np.ndarray, options: np.ndarray, info: np.ndarray,
+                       value: np.ndarray) -> int:
+    """`Physics.check_state` compiled: the outcome code of a resting state (0 = valid)."""
+    for j in range(q.shape[0]):
+        if not limits[0, j] - 1e-9 <= q[j] <= limits[1, j] + 1e-9:
+            return _JOINT_LIMIT
+    S, M = shapes.shape[0], objects.shape[0]
+    poses = np.empty((S, 4, 4))
+    _poses(q, chain, poses)
+    code = _static_hit(poses, shapes, static_centre, static_yaw, static_dims, info)
+    if code != _VALID:
+        return code
+    capacity = S * M
+    c_shape, c_obj = np.empty(capacity, dtype=np.int64), np.empty(capacity, dtype=np.int64)
+    c_point, c_normal, c_depth = np.empty((capacity, 3)), np.empty((capacity, 3)), \
+        np.empty(capacity)
+    everything = np.ones(M, dtype=np.bool_)
+    count = _contacts(poses, shapes, objects, everything, obj_kind, obj_dims, obj_props,
+                      c_shape, c_obj, c_point, c_normal, c_depth)
+    depth = 0.0
+    for i in range(count):
+        depth = max(depth, c_depth[i])
+    if depth > options[1]:
+        value[0] = depth
+        return _RESIDUAL
+    return _object_checks(objects, everything, static_centre, static_yaw, static_size,
+                          obj_kind, obj_size, table, options, info)

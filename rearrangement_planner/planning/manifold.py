@@ -32,9 +32,11 @@ import weakref
 
 import numpy as np
 import pinocchio as pin
+from numba import njit
 
 from rearrangement_planner.model.errors import RobotModelError
 from rearrangement_planner.model.robot import PushPosture, RobotModel
+from rearrangement_planner.physics import kernels
 
 # Largest correction twist `project_step` commands to return onto the manifold (the correction is
 # error / dt, which is huge for a large error and a short step).
@@ -90,22 +92,6 @@ def tool_planar_pose(robot: RobotModel, q: np.ndarray) -> np.ndarray:
     pose = robot.tool_pose(q)
     m = pose[:3, :3] @ _posture_rotation(robot.config.push_posture).T
     return np.array([pose[0, 3], pose[1, 3], math.atan2(m[1, 0], m[0, 0])])
-
-
-def _errors_from_pose(
-    robot: RobotModel, pose: np.ndarray, table_height: float
-) -> tuple[float, float, float]:
-    ux, uy, uz = pose[:3, :3] @ _up_in_tool(robot.config.push_posture)  # u = R u0 (world)
-    # Tilt: the rotation vector phi that turns e_z into u: axis e_z x u = (-u_y, u_x, 0),
-    # angle atan2(|e_z x u|, e_z . u).
-    sin_angle = math.hypot(ux, uy)
-    angle = math.atan2(sin_angle, uz)
-    if sin_angle > 1e-15:
-        scale = angle / sin_angle
-        tilt_x, tilt_y = -uy * scale, ux * scale
-    else:  # aligned (angle 0) or upside down (angle pi, about any horizontal axis)
-        tilt_x, tilt_y = angle, 0.0
-    return float(pose[2, 3]) - push_height(robot, table_height), tilt_x, tilt_y
 
 
 def manifold_error(robot: RobotModel, q: np.ndarray, table_height: float) -> np.ndarray:
@@ -164,6 +150,35 @@ def lowest_point(robot: RobotModel, q: np.ndarray, moving_only: bool = True) -> 
 # -- Project: one Jacobian step along the manifold -------------------------------------------
 
 
+@njit(cache=True)
+def _manifold_errors(pose: np.ndarray, up: np.ndarray, height: float) -> tuple[float, float,
+                                                                                 float]:
+    """`manifold_error` from the tool pose: (height error, tilt x, tilt y); `up` = u0 (the
+    tool-frame direction that should point up), `height` the push height (base frame z)."""
+    ux = pose[0, 0] * up[0] + pose[0, 1] * up[1] + pose[0, 2] * up[2]     # u = R u0 (world)
+    uy = pose[1, 0] * up[0] + pose[1, 1] * up[1] + pose[1, 2] * up[2]
+    uz = pose[2, 0] * up[0] + pose[2, 1] * up[1] + pose[2, 2] * up[2]
+    # Tilt: the rotation vector phi that turns e_z into u: axis e_z x u = (-u_y, u_x, 0),
+    # angle atan2(|e_z x u|, e_z . u).
+    sin_angle = math.hypot(ux, uy)
+    angle = math.atan2(sin_angle, uz)
+    if sin_angle > 1e-15:
+        scale = angle / sin_angle
+        tilt_x, tilt_y = -uy * scale, ux * scale
+    else:  # aligned (angle 0) or upside down (angle pi, about any horizontal axis)
+        tilt_x, tilt_y = angle, 0.0
+    return pose[2, 3] - height, tilt_x, tilt_y
+
+
+def _errors_from_pose(
+    robot: RobotModel, pose: np.ndarray, table_height: float
+) -> tuple[float, float, float]:
+    up = np.array(_up_in_tool(robot.config.push_posture))
+    dz, tilt_x, tilt_y = _manifold_errors(np.ascontiguousarray(pose), up,
+                                          push_height(robot, table_height))
+    return float(dz), float(tilt_x), float(tilt_y)
+
+
 def build_task(
     robot: RobotModel, q: np.ndarray, action: np.ndarray, dt: float, table_height: float,
     correction_gain: float = 1.0,
@@ -179,17 +194,33 @@ def build_task(
     clipped to MAX_CORRECTION_SPEED / MAX_CORRECTION_RATE. The first and last rows are the
     paper's end-effector velocity a (King et al. §V); the middle three are the projection back
     onto the constraint (King et al. §III-C, Alg. 2 line 5, after Berenson et al. 2009).
+    Compiled (`_task`), with the tool's kinematics from `kernels.tool_kinematics`.
     """
-    jac = robot.frame_jacobian(q, robot.tool_frame_id)
-    dz, tilt_x, tilt_y = _errors_from_pose(robot, robot.tool_pose(q), table_height)
+    chain = kernels.compiled_chain(robot)
+    pose, jac, xdot = np.empty((4, 4)), np.empty((6, robot.nq)), np.empty(6)
+    up = np.array(_up_in_tool(robot.config.push_posture))
+    _task(np.asarray(q, dtype=float), np.asarray(action, dtype=float), float(dt),
+          chain.arrays[:4], chain.tool_joint, chain.tool_local, up,
+          push_height(robot, table_height), float(correction_gain), pose, jac, xdot)
+    return jac, xdot
+
+
+@njit(cache=True)
+def _task(q: np.ndarray, action: np.ndarray, dt: float, chain: tuple, tool_joint: int,
+          tool_local: np.ndarray, up: np.ndarray, height: float, correction_gain: float,
+          pose: np.ndarray, jac: np.ndarray, xdot: np.ndarray) -> None:
+    """`build_task` compiled: the tool pose, its Jacobian and the task velocity."""
+    kernels.tool_kinematics(q, chain[0], chain[1], chain[2], chain[3], tool_joint, tool_local,
+                            pose, jac)
+    dz, tilt_x, tilt_y = _manifold_errors(pose, up, height)
     k = -correction_gain / dt
     v_z = min(max(k * dz, -MAX_CORRECTION_SPEED), MAX_CORRECTION_SPEED)
     w_x, w_y = k * tilt_x, k * tilt_y
     rate = math.hypot(w_x, w_y)
     if rate > MAX_CORRECTION_RATE:
         w_x, w_y = w_x * MAX_CORRECTION_RATE / rate, w_y * MAX_CORRECTION_RATE / rate
-    xdot = np.array([action[0], action[1], v_z, w_x, w_y, action[2]], dtype=float)
-    return jac, xdot
+    xdot[0], xdot[1], xdot[2] = action[0], action[1], v_z
+    xdot[3], xdot[4], xdot[5] = w_x, w_y, action[2]
 
 
 def joint_limit_gradient(robot: RobotModel, q: np.ndarray, gain: float) -> np.ndarray:
@@ -200,9 +231,15 @@ def joint_limit_gradient(robot: RobotModel, q: np.ndarray, gain: float) -> np.nd
     joint nearest its limit dominates and mid-range joints are left alone (with the square, a
     joint can sit on its limit while the others pull the self-motion the other way). `gain` is
     the speed at which a joint at its limit is pulled back."""
-    mid = 0.5 * (robot.upper + robot.lower)
-    half_range = 0.5 * (robot.upper - robot.lower)
-    w = (np.asarray(q, dtype=float) - mid) / half_range
+    return _limit_gradient(np.asarray(q, dtype=float), robot.lower, robot.upper, float(gain))
+
+
+@njit(cache=True)
+def _limit_gradient(q: np.ndarray, lower: np.ndarray, upper: np.ndarray,
+                    gain: float) -> np.ndarray:
+    mid = 0.5 * (upper + lower)
+    half_range = 0.5 * (upper - lower)
+    w = (q - mid) / half_range
     return -gain * w**5
 
 
@@ -215,25 +252,45 @@ def solve_task(jac: np.ndarray, xdot: np.ndarray, h: np.ndarray) -> np.ndarray:
     bounded near them). With more joints than rows it is the minimum-norm solution; with
     fewer (joints locked at limits) the least-squares one. The nullspace projector is the
     exact I - V_r V_rᵀ over the nonzero singular values, so J (I - J⁺J) h = 0: h never
-    changes the task-space motion (to first order).
+    changes the task-space motion (to first order). Compiled (`_solve`).
     """
+    jac = np.ascontiguousarray(jac, dtype=float)
     if jac.shape[1] == 0:
         return np.zeros(0)
+    return _solve(jac, np.asarray(xdot, dtype=float), np.asarray(h, dtype=float))
+
+
+@njit(cache=True)
+def _solve(jac: np.ndarray, xdot: np.ndarray, h: np.ndarray) -> np.ndarray:
     u, s, vt = np.linalg.svd(jac)
     k = s.size
     damping2 = 0.0
     if s[-1] < SINGULAR_THRESHOLD:
         damping2 = (1.0 - (s[-1] / SINGULAR_THRESHOLD) ** 2) * MAX_DAMPING**2
-    if s[-1] > RANK_TOLERANCE:
-        rank, inv = k, s / (s * s + damping2)
-    else:
-        rank = int(np.count_nonzero(s > RANK_TOLERANCE))
-        inv = np.zeros(k)
-        inv[:rank] = s[:rank] / (s[:rank] ** 2 + damping2)
-    qdot = vt[:k].T @ (inv * (u[:, :k].T @ xdot))
-    null_basis = vt[rank:]  # rows: an orthonormal basis of the nullspace of J
-    if null_basis.shape[0]:
-        qdot += null_basis.T @ (null_basis @ h)
+    inv = np.zeros(k)
+    rank = 0
+    for i in range(k):
+        if s[i] > RANK_TOLERANCE:
+            inv[i] = s[i] / (s[i] * s[i] + damping2)
+            rank += 1
+    # qdot = V_k diag(inv) U_k^T xdot, then the nullspace part V_n V_n^T h (the rows of vt
+    # from `rank` on: an orthonormal basis of the nullspace of J). Written out: the matrices
+    # are at most 6 x 7, below what a BLAS call pays for.
+    n = vt.shape[0]
+    qdot = np.zeros(n)
+    for i in range(k):
+        coeff = 0.0
+        for r in range(u.shape[0]):
+            coeff += u[r, i] * xdot[r]
+        coeff *= inv[i]
+        for j in range(n):
+            qdot[j] += vt[i, j] * coeff
+    for i in range(rank, n):
+        along = 0.0
+        for j in range(n):
+            along += vt[i, j] * h[j]
+        for j in range(n):
+            qdot[j] += vt[i, j] * along
     return qdot
 
 
@@ -263,43 +320,87 @@ def project_step(
       2. if any |qdot_j| exceeds its limit, the whole qdot is scaled down uniformly, which keeps
          its direction (the tool moves less but stays on the manifold to first order);
       3. the result is clipped to the joint limits (a no-op up to rounding).
+    Compiled (`project_kernel`).
     """
-    lower, upper = robot.lower, robot.upper
-    q = np.minimum(np.maximum(np.asarray(q, dtype=float), lower), upper)
     if len(action) != 3:
         raise ValueError(f"action has {len(action)} values, expected 3: (v_x, v_y, yaw_rate)")
     if not dt > 0:
         raise ValueError(f"dt must be positive, got {dt}")
-    jac, xdot = build_task(robot, q, action, dt, table_height, correction_gain)
-    h = joint_limit_gradient(robot, q, nullspace_gain)
+    extra = np.zeros(robot.nq)
     if rng is not None:
-        h += nullspace_noise * rng.standard_normal(robot.nq)
+        extra += nullspace_noise * rng.standard_normal(robot.nq)
     if nullspace_velocity is not None:
-        h += nullspace_velocity
+        extra += nullspace_velocity
+    arrays = project_arrays(robot, table_height)
+    return project_kernel(np.asarray(q, dtype=float), np.asarray(action, dtype=float),
+                          float(dt), extra, *arrays, float(nullspace_gain),  # type: ignore[call-arg]
+                          float(correction_gain), float(velocity_scale))
+
+
+def project_arrays(robot: RobotModel, table_height: float) -> tuple:
+    """The robot and manifold arguments of `project_kernel` (after q, action, dt, extra)."""
+    chain = kernels.compiled_chain(robot)
+    return (chain.arrays[:4], chain.tool_joint, chain.tool_local,
+            np.array(_up_in_tool(robot.config.push_posture)), push_height(robot, table_height),
+            np.array([robot.lower, robot.upper]), robot.velocity_limits)
+
+
+@njit(cache=True)
+def project_kernel(q: np.ndarray, action: np.ndarray, dt: float, extra: np.ndarray,
+                   chain: tuple, tool_joint: int, tool_local: np.ndarray, up: np.ndarray,
+                   height: float, limits: np.ndarray, velocity_limits: np.ndarray,
+                   nullspace_gain: float, correction_gain: float,
+                   velocity_scale: float) -> np.ndarray:
+    """`project_step` compiled; `extra` is added to the limit-avoidance term of h."""
+    lower, upper = limits[0], limits[1]
+    q = np.minimum(np.maximum(q, lower), upper)
+    nq = q.shape[0]
+    pose, jac, xdot = np.empty((4, 4)), np.empty((6, nq)), np.empty(6)
+    _task(q, action, dt, chain, tool_joint, tool_local, up, height, correction_gain, pose, jac,
+          xdot)
+    h = _limit_gradient(q, lower, upper, nullspace_gain) + extra
     qdot = _solve_within_limits(jac, xdot, h, (lower - q) / dt, (upper - q) / dt)
-    ratio = float(np.max(np.abs(qdot) / robot.velocity_limits)) / velocity_scale
+    ratio = np.max(np.abs(qdot) / velocity_limits) / velocity_scale
     if ratio > 1.0:
         qdot /= ratio
     return np.minimum(np.maximum(q + dt * qdot, lower), upper)
 
 
+@njit(cache=True)
 def _solve_within_limits(
     jac: np.ndarray, xdot: np.ndarray, h: np.ndarray, lo: np.ndarray, hi: np.ndarray,
 ) -> np.ndarray:
     """`solve_task` with qdot kept in [lo, hi]: joints that leave it are locked at the bound and
     the task is re-solved with the remaining joints (at most nq rounds)."""
-    qdot = solve_task(jac, xdot, h)
+    qdot = _solve(jac, xdot, h)
+    n = qdot.size
     violating = (qdot > hi) | (qdot < lo)
     if not violating.any():
         return qdot
-    locked = np.zeros(qdot.size, dtype=bool)
-    for _ in range(qdot.size):
-        qdot[violating] = np.minimum(np.maximum(qdot[violating], lo[violating]), hi[violating])
-        locked |= violating
-        free = ~locked
-        qdot[free] = solve_task(jac[:, free], xdot - jac[:, locked] @ qdot[locked], h[free])
-        violating = free & ((qdot > hi) | (qdot < lo))
-        if not violating.any():
+    locked = np.zeros(n, dtype=np.bool_)
+    for _ in range(n):
+        for j in range(n):
+            if violating[j]:
+                qdot[j] = min(max(qdot[j], lo[j]), hi[j])
+                locked[j] = True
+        free = np.flatnonzero(~locked)
+        if free.size == 0:
+            break
+        rest = xdot.copy()
+        for j in range(n):
+            if locked[j]:
+                rest -= jac[:, j] * qdot[j]
+        sub = np.empty((jac.shape[0], free.size))
+        for c in range(free.size):
+            sub[:, c] = jac[:, free[c]]
+        qdot[free] = _solve(sub, rest, h[free])
+        violating[:] = False
+        any_violating = False
+        for c in range(free.size):
+            j = free[c]
+            if qdot[j] > hi[j] or qdot[j] < lo[j]:
+                violating[j] = any_violating = True
+        if not any_violating:
             break
     return np.minimum(np.maximum(qdot, lo), hi)
 

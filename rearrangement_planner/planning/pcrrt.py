@@ -25,7 +25,6 @@ Reproducible: all randomness comes from one numpy Generator seeded by the reques
 from __future__ import annotations
 
 import math
-import time
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -48,7 +47,7 @@ from rearrangement_planner.planning.interface import (
 from rearrangement_planner.planning.propagation import (
     Action,
     Propagation,
-    StopCheck,
+    Stops,
     constrained_prop,
 )
 from rearrangement_planner.planning.push_policy import PushPolicy
@@ -191,23 +190,12 @@ class PCRRT:
 
     # -- pieces ---------------------------------------------------------------------------------
 
-    def stop_check(self, cancelled: Callable[[], bool], deadline: float) -> StopCheck:
+    def stop_check(self, cancelled: Callable[[], bool], deadline: float) -> Stops:
         """Ends a propagation early: GOAL (the goal object is in the goal region), CANCEL, or
         TIMEOUT (past the `time.monotonic()` deadline: an action that would run past the time
         limit is cut, so a plan is never found after its budget)."""
-        radius = self.options.goal_radius(self.scene)
-        g = self.scene.goal_index
-
-        def stop(state: State) -> StopReason | None:
-            if time.monotonic() > deadline:
-                return StopReason.TIMEOUT
-            if float(np.hypot(*(state.objects[g, :2] - self._goal_xy))) <= radius:
-                return StopReason.GOAL
-            if cancelled():
-                return StopReason.CANCEL
-            return None
-
-        return stop
+        return Stops(self.scene.goal_index, (float(self._goal_xy[0]), float(self._goal_xy[1])),
+                     self.options.goal_radius(self.scene), deadline, cancelled)
 
     def goal_distance(self, state: State) -> float:
         """Distance (m) of the goal object's centre from the goal point."""

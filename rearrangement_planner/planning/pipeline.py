@@ -36,6 +36,7 @@ from rearrangement_planner.planning.trajectory import (
     Trajectory,
     time_parameterize,
 )
+from rearrangement_planner.planning.warmup import warm_up
 
 CANDIDATE_SEED_OFFSET = 1000
 """Candidate k > 0 of a robust search plans with `tree_seed(seed, CANDIDATE_SEED_OFFSET + k)`
@@ -205,7 +206,9 @@ def plan_scene(scene: Scene, planner: str = "pc-rrt", options: PlannerOptions | 
     With `robust.min_robustness` > 0 a plan is accepted only if it reaches the goal in that
     share of `robust.rollouts` perturbed rollouts (`planning.robustness`); up to
     `robust.candidates` plans are planned within the time limit and the most robust wins; if
-    none is robust enough the request fails (a fragile open-loop plan is not a plan)."""
+    none is robust enough the request fails (a fragile open-loop plan is not a plan).
+    The compiled core is warmed up first (`warmup.warm_up`), outside the plan's clock."""
+    warm_up()
     physics = planning_physics(scene, planner_spec(planner).options(options), physics)
     search = _Search(planner, scene, options, start, cancel, progress, physics,
                      shortcut_time, shortcut_attempts)

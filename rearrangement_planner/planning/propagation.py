@@ -16,18 +16,59 @@ function, so stepping it along the stored configurations reproduces the object p
 
 from __future__ import annotations
 
+import math
+import time
 from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 
 from rearrangement_planner.model.state import State
-from rearrangement_planner.physics.step import Invalid, Physics
+from rearrangement_planner.physics.step import Invalid, Physics, step_kernel
 from rearrangement_planner.planning.interface import StopReason
-from rearrangement_planner.planning.manifold import project_step
+from rearrangement_planner.planning.manifold import project_arrays, project_kernel, project_step
 
 StopCheck = Callable[[State], StopReason | None]
 """Called after every valid step; a reason ends the action there, keeping that state."""
+
+_GOAL, _CHECK_EVERY = 1, 64
+
+
+@dataclass(frozen=True)
+class Stops:
+    """The early ends of PC-RRT's propagations, as a `StopCheck` (after every valid step:
+    TIMEOUT past `deadline` (`time.monotonic()`), GOAL when object `goal_index`'s centre is
+    within `goal_radius` of `goal_xy`, CANCEL when `cancelled()`), and in the form the compiled
+    propagation (`constrained_prop`) takes: the goal test runs inside it, the clock and the
+    cancel flag between its batches of at most _CHECK_EVERY steps."""
+
+    goal_index: int
+    goal_xy: tuple[float, float]
+    goal_radius: float
+    deadline: float
+    cancelled: Callable[[], bool]
+
+    def __call__(self, state: State) -> StopReason | None:
+        if time.monotonic() > self.deadline:
+            return StopReason.TIMEOUT
+        if self.reached(state.objects):
+            return StopReason.GOAL
+        if self.cancelled():
+            return StopReason.CANCEL
+        return None
+
+    def reached(self, objects: np.ndarray) -> bool:
+        g = self.goal_index
+        return math.hypot(objects[g, 0] - self.goal_xy[0],
+                          objects[g, 1] - self.goal_xy[1]) <= self.goal_radius
+
+    def interrupted(self) -> StopReason | None:
+        if time.monotonic() > self.deadline:
+            return StopReason.TIMEOUT
+        if self.cancelled():
+            return StopReason.CANCEL
+        return None
 
 
 @dataclass(frozen=True)
@@ -50,14 +91,72 @@ class Propagation:
 
 
 def constrained_prop(physics: Physics, state: State, action: Action, dt: float,
-                     stop: StopCheck | None = None) -> Propagation:
-    """Algorithm 2 of King et al.: step the action through Project and the physics.
+                     stop: Stops | None = None) -> Propagation:
+    """Algorithm 2 of King et al.: step the action through Project and the physics, compiled
+    (`_propagate_kernel`: Project, the physics step and the goal test for a batch of steps in
+    one call).
 
-    `stop(state)`, called after every valid step, may end the action early with a reason
-    (`StopReason`); that state is kept."""
-    velocity = action.velocity
-    return propagate(physics, state, lambda x: velocity, int(round(action.duration / dt)), dt,
-                      action.nullspace, stop)
+    `stop` may end the action early (`Stops`); that state is kept. TIMEOUT and CANCEL are
+    checked between batches of _CHECK_EVERY steps; a batch that ends past the deadline ends
+    the action with TIMEOUT, whatever it reached (a plan is never found after its budget)."""
+    steps = int(round(action.duration / dt))
+    nq, shape = len(state.q), state.objects.shape
+    arm, objects = np.empty((steps, nq)), np.empty((steps, *shape))
+    flags = np.zeros(physics.flag_count, dtype=np.int64)
+    goal = (np.array([stop.goal_index, *stop.goal_xy, stop.goal_radius]) if stop is not None
+            else np.array([-1.0, 0.0, 0.0, 0.0]))
+    project = project_arrays(physics.robot, physics.scene.table.height)
+    velocity = np.asarray(action.velocity, dtype=float)
+    nullspace = np.asarray(action.nullspace, dtype=float)
+    done = 0
+    stopped: Invalid | StopReason | None = None
+    while done < steps and stopped is None:
+        batch = min(_CHECK_EVERY, steps - done)
+        # Writable copies (one compiled signature, whether from the state or the last batch).
+        q0 = np.array(state.q if done == 0 else arm[done - 1])
+        objects0 = np.array(state.objects if done == 0 else objects[done - 1])
+        count, code = _propagate_kernel(q0, objects0, velocity, nullspace, batch, dt, goal,
+                                        project, physics.arrays, arm[done:], objects[done:],
+                                        flags)
+        done += count
+        if code > 0:
+            stopped = physics.reason(code)
+        elif code == -_GOAL:
+            stopped = StopReason.GOAL
+        if stop is not None:
+            stopped = stop.interrupted() or stopped
+    states = tuple(State.trusted(arm[i], objects[i]) for i in range(done))
+    return Propagation(states, done * dt, stopped, physics.pushing_links(flags))
+
+
+@njit(cache=True)
+def _propagate_kernel(q: np.ndarray, objects: np.ndarray, velocity: np.ndarray,
+                      nullspace: np.ndarray, steps: int, dt: float, goal: np.ndarray,
+                      project: tuple, world: tuple, arm: np.ndarray, out: np.ndarray,
+                      flags: np.ndarray) -> tuple[int, int]:
+    """Up to `steps` steps of Project and the physics step from (q, objects); the valid ones
+    into arm[i], out[i], the pushing shapes and moved objects OR-ed into `flags`. Returns
+    (valid steps, 0 | the invalid step's code | -_GOAL when the goal test held after the last
+    valid step)."""
+    info = np.zeros(4 + flags.shape[0], dtype=np.int64)
+    value = np.zeros(1)
+    g = int(goal[0])
+    for i in range(steps):
+        q_new = project_kernel(q, velocity, dt, nullspace, project[0], project[1], project[2],
+                               project[3], project[4], project[5], project[6], 0.5, 1.0, 1.0)
+        info[:] = 0
+        code = step_kernel(q, q_new, objects, world[0], world[1], world[2], world[3],
+                           world[4], world[5], world[6], world[7], world[8], world[9],
+                           world[10], world[11], world[12], out[i], info, value)
+        if code != 0:
+            return i, code
+        arm[i] = q_new
+        for k in range(flags.shape[0]):
+            flags[k] |= info[4 + k]
+        q, objects = arm[i], out[i]
+        if g >= 0 and math.hypot(objects[g, 0] - goal[1], objects[g, 1] - goal[2]) <= goal[3]:
+            return i + 1, -_GOAL
+    return steps, 0
 
 
 def propagate(physics: Physics, state: State, velocity: Callable[[State], np.ndarray | None],

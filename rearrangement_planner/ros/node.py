@@ -60,6 +60,7 @@ from rearrangement_planner.model.errors import RearrangementError
 from rearrangement_planner.model.resources import NODE_NAME
 from rearrangement_planner.planning.interface import Outcome, Progress
 from rearrangement_planner.planning.status import PlannerStatus
+from rearrangement_planner.planning.warmup import warm_up
 from rearrangement_planner.ros.parameters import PARAMETERS, declare_parameters, read_parameters
 from rearrangement_planner.ros.plan_request import (
     FINAL_STATES,
@@ -86,6 +87,14 @@ INPUT_ERROR_REPEAT = 1.0
 # --------------------------------------------------------------------------------------------
 # The node
 # --------------------------------------------------------------------------------------------
+
+
+def _warm_up(node: Node) -> None:
+    """Compile the fast core at node start (or load it from the disk cache), not in the first
+    plan."""
+    seconds = warm_up()
+    if seconds > 0.0:
+        node.get_logger().info(f"physics core compiled or loaded in {seconds:.1f} s")
 
 
 class PlannerNode(Node):
@@ -141,6 +150,7 @@ class PlannerNode(Node):
         self._markers_pub.publish(plan_markers(self._scene, None, None, self._planning_frame(),
                                                self._stamp()))
         self._publish_status(self._status)
+        _warm_up(self)
         self.get_logger().info(
             f"ready: scene {self._scene.source} ({len(self._scene.objects)} objects, goal "
             f"'{self._scene.goal.object}'), robot {self._robot.name}, planning frame "

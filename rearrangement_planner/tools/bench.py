@@ -79,27 +79,8 @@ def sweep_scene(placements: list[tuple[float, float]]) -> Scene:
                        robot=default.robot)
 
 
-class _Timed:
-    """Wraps a bound method and adds its run time to a shared counter."""
-
-    def __init__(self, fn, totals: dict, key: str):
-        self.fn, self.totals, self.key = fn, totals, key
-
-    def __call__(self, *args, **kwargs):
-        start = time.perf_counter()
-        try:
-            return self.fn(*args, **kwargs)
-        finally:
-            self.totals[self.key] += time.perf_counter() - start
-
-
 def measure_physics(scene: Scene, seconds: float) -> dict:
     physics = Physics(scene)
-    totals = {"contact_queries": 0.0}
-    world = physics.world
-    for name in ("arm_object_contacts", "arm_static_collision", "object_overlaps",
-                 "object_obstacle_overlaps", "objects_off_table"):
-        setattr(world, name, _Timed(getattr(world, name), totals, "contact_queries"))
     start_state = scene.initial_state()
     steps = substeps = pushing_steps = invalid = 0
     links: set[str] = set()
@@ -126,7 +107,6 @@ def measure_physics(scene: Scene, seconds: float) -> dict:
         "steps_per_second": round(steps / elapsed, 1),
         "substeps_per_second": round(substeps / elapsed, 1),
         "steps_pushing_share": round(pushing_steps / steps, 3),
-        "contact_query_time_share": round(totals["contact_queries"] / elapsed, 3),
         "invalid_steps": invalid,
         "pushing_links": sorted(links),
     }

@@ -170,7 +170,7 @@ def test_greedy_goal_push_runs_only_when_switched_on(easy, monkeypatch, greedy):
     if greedy:
         # Each greedy push starts from a new best: strictly decreasing goal distances.
         assert calls and all(b < a for a, b in pairwise(calls)), calls
-        assert result.best_goal_distance <= min(calls)
+        assert result.best_goal_distance <= min(calls) + 1e-12   # hypot vs norm rounding
     else:
         assert calls == []
 

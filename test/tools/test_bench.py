@@ -16,7 +16,6 @@ def test_physics_benchmark_writes_a_complete_record(tmp_path, capsys):
     assert (one["objects"], seven["objects"]) == (1, 7)
     for result in (one, seven):
         assert result["steps"] > 0 and result["steps_per_second"] > 0
-        assert 0.0 < result["contact_query_time_share"] < 1.0
         # the sweep really pushes, and not with the hand alone
         assert result["steps_pushing_share"] > 0.5
         assert "panda_link5" in result["pushing_links"]

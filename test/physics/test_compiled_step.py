@@ -1,0 +1,169 @@
+"""The compiled core of issue 19 against its references: the tool's kinematics and Jacobian
+against Pinocchio, the step's contacts against python-fcl, the compiled propagation against
+the same steps taken one by one from Python, and the robot shapes the step takes."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from rearrangement_planner.model.errors import RobotModelError
+from rearrangement_planner.model.robot import RobotConfig, RobotModel
+from rearrangement_planner.model.state import State
+from rearrangement_planner.physics.step import Invalid, Physics
+from rearrangement_planner.physics.validation import load_scene
+from rearrangement_planner.planning.interface import StopReason
+from rearrangement_planner.planning.manifold import default_push_configuration, project_step
+from rearrangement_planner.planning.propagation import Action, Stops, constrained_prop
+
+
+def test_tool_pose_and_jacobian_match_pinocchio(panda):
+    """`kernels.tool_kinematics` (the Project step's tool pose and 6 x 7 Jacobian at the tool
+    origin, base-frame axes) against Pinocchio on 2,000 random configurations."""
+    from rearrangement_planner.physics.kernels import compiled_chain, tool_kinematics
+
+    chain = compiled_chain(panda)
+    pose, jac = np.empty((4, 4)), np.empty((6, panda.nq))
+    rng = np.random.default_rng(11)
+    for _ in range(2000):
+        q = rng.uniform(panda.lower, panda.upper)
+        tool_kinematics(q, *chain.arrays[:4], chain.tool_joint, chain.tool_local, pose, jac)
+        np.testing.assert_allclose(pose, panda.tool_pose(q), atol=1e-12)
+        np.testing.assert_allclose(jac, panda.frame_jacobian(q, panda.tool_frame_id),
+                                   atol=1e-12)
+
+
+def test_step_contacts_agree_with_fcl(panda):
+    """Over random arm configurations beside a box and a cylinder, the compiled step's
+    verdict on a resting state (`check_state`: penetration beyond the tolerance) agrees with
+    python-fcl's deepest penetration (`CollisionWorld`) except within fcl's own error (GJK
+    overestimates capsule-prism distances by up to 2 mm, see test_kernels)."""
+    scene = load_scene("easy_push")
+    physics = Physics(scene)
+    tolerance = physics.options.penetration_tolerance
+    rng = np.random.default_rng(3)
+    start = scene.initial_state()
+    q0 = np.asarray(start.q)
+    agree = compared = 0
+    for _ in range(3000):
+        q = np.clip(q0 + rng.normal(0.0, 0.25, panda.nq), panda.lower, panda.upper)
+        state = State(q, start.objects)
+        verdict = physics.check_state(state)
+        if verdict is not None and verdict[0] not in (Invalid.RESIDUAL_PENETRATION,):
+            continue
+        depth = physics.world.arm_object_penetration(panda.shape_poses(q), start.objects)
+        if abs(depth - tolerance) < 2e-3:
+            continue                      # within fcl's error of the threshold
+        compared += 1
+        agree += (verdict is None) == (depth <= tolerance)
+    assert compared > 1000
+    assert agree == compared
+
+
+def _one_by_one(physics, state, action, dt, stop):
+    """Algorithm 2 from Python: `project_step`, then `Physics.step`, then the stop check."""
+    states, links, stopped = [], set(), None
+    for _ in range(int(round(action.duration / dt))):
+        q_new = project_step(physics.robot, state.q, action.velocity, dt,
+                             physics.scene.table.height, nullspace_velocity=action.nullspace)
+        result = physics.step(state, q_new)
+        if not result.valid:
+            stopped = result.reason
+            break
+        state = result.state
+        states.append(state)
+        links |= result.pushing_links
+        stopped = stop(state) if stop is not None else None
+        if stopped is not None:
+            break
+    return states, stopped, frozenset(links)
+
+
+def test_the_compiled_propagation_takes_the_same_steps_as_python():
+    """`constrained_prop` (Project, physics and goal test compiled, in batches of 64 steps)
+    gives exactly the states, stop reason and pushing links of the same steps taken one by one,
+    whether it runs out (1, 63, 64, 65, 150 steps: batch edges), hits an invalid state or
+    reaches the goal."""
+    scene = load_scene("easy_push")
+    physics = Physics(scene)
+    start = scene.initial_state()
+    q = default_push_configuration(physics.robot, scene.table.height)
+    start = State(q, start.objects)
+    # The box starts 0.2 m from this goal point, beyond it from the hand: pushes reach it.
+    stop = Stops(scene.goal_index, (0.52, 0.3), 0.195, math.inf, lambda: False)
+    outcomes = set()
+    for steps in (1, 63, 64, 65, 150):
+        rng = np.random.default_rng(steps)
+        for k in range(12):
+            action = Action(np.array([rng.uniform(-0.1, 0.1), rng.uniform(-0.1, 0.1),
+                                      rng.uniform(-0.3, 0.3)]), steps * 0.05,
+                            rng.uniform(-0.1, 0.1, physics.robot.nq))
+            stops = stop if k % 2 else None
+            result = constrained_prop(physics, start, action, 0.05, stops)
+            states, stopped, links = _one_by_one(physics, start, action, 0.05, stops)
+            assert len(result.states) == len(states)
+            for got, want in zip(result.states, states, strict=True):
+                np.testing.assert_array_equal(got.q, want.q)
+                np.testing.assert_array_equal(got.objects, want.objects)
+            assert result.stopped == stopped and result.pushing_links == links
+            assert result.duration == pytest.approx(len(states) * 0.05)
+            outcomes.add(type(stopped).__name__ if stopped is not None else None)
+            outcomes.add(stopped)
+    assert {None, "Invalid", StopReason.GOAL} <= outcomes, outcomes
+
+
+def test_a_push_to_the_goal_stops_there_in_the_compiled_propagation():
+    """The goal test runs inside the compiled loop: a push of the easy_push box towards its
+    goal ends on the first step whose box centre is within the radius."""
+    scene = load_scene("easy_push")
+    physics = Physics(scene)
+    start = scene.initial_state()
+    g, goal = scene.goal_index, np.asarray(scene.goal.position)
+    distance = float(np.hypot(*(start.objects[g, :2] - goal)))
+    stop = Stops(g, tuple(goal), distance + 1e-9, math.inf, lambda: False)
+    action = Action(np.zeros(3), 0.5, np.zeros(physics.robot.nq))
+    result = constrained_prop(physics, start, action, 0.05, stop)
+    assert len(result.states) == 1 and result.stopped.value == "goal"
+
+
+def test_timeout_and_cancel_end_the_compiled_propagation():
+    scene = load_scene("easy_push")
+    physics = Physics(scene)
+    start = scene.initial_state()
+    action = Action(np.array([0.0, 0.0, 0.1]), 10.0, np.zeros(physics.robot.nq))
+    late = Stops(scene.goal_index, (9.0, 9.0), 0.0, -math.inf, lambda: False)
+    assert constrained_prop(physics, start, action, 0.05, late).stopped.value == "timeout"
+    cancelled = Stops(scene.goal_index, (9.0, 9.0), 0.0, math.inf, lambda: True)
+    result = constrained_prop(physics, start, action, 0.05, cancelled)
+    assert result.stopped.value == "cancel" and len(result.states) <= 64
+
+
+def test_a_sphere_shape_is_a_capsule_of_length_zero_and_a_box_shape_is_refused(panda):
+    """The step takes capsules and spheres; a robot config with a box contact shape gets an
+    error naming the shape, not a wrong answer."""
+    from rearrangement_planner.model.robot import ContactShape
+
+    scene = load_scene("easy_push")
+    box = ContactShape("panda_hand", "box", (0.04, 0.04, 0.04), np.eye(4))
+    config = RobotConfig(**{**panda.config.__dict__,
+                            "contact_shapes": (*panda.config.contact_shapes, box)})
+    with pytest.raises(RobotModelError, match=r"contact shape 23 on panda_hand is a box"):
+        Physics(scene, robot=RobotModel(config))
+    # A sphere at the finger tips pushes as a capsule of length 0 there does.
+    offset = np.eye(4)
+    offset[:3, 3] = [0.0, 0.0, 0.1034]          # at the tool point (0.5, 0), 7 cm up
+    sphere = ContactShape("panda_hand", "sphere", (0.012,), offset)
+    capsule = ContactShape("panda_hand", "capsule", (0.012, 0.0), offset)
+    results = []
+    for shape in (sphere, capsule):
+        robot = RobotModel(RobotConfig(**{**panda.config.__dict__, "contact_shapes": (shape,)}))
+        physics = Physics(scene, robot=robot)
+        state = State(default_push_configuration(robot, scene.table.height),
+                      scene.initial_state().objects)
+        action = Action(np.array([0.0, 0.1, 0.0]), 2.0, np.zeros(robot.nq))   # into the box
+        results.append(constrained_prop(physics, state, action, 0.05))
+    assert len(results[0].states) == len(results[1].states) > 0
+    assert results[0].pushing_links == {"panda_hand"}
+    np.testing.assert_array_equal(results[0].states[-1].objects, results[1].states[-1].objects)

@@ -1,0 +1,47 @@
+"""Warm-up of the compiled core (issue 19): compiled once per process before the first plan,
+cached on disk in a folder per version of the compiled sources."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import rearrangement_planner
+from rearrangement_planner.planning import warmup
+
+
+def test_the_core_is_warmed_up_once_before_the_first_plan():
+    """The session fixture warmed it up; a second call (as `plan_scene` and the node make) does
+    nothing, and the first call's time stays on record."""
+    assert warmup.compile_seconds() is not None
+    assert warmup.warm_up() == 0.0
+
+
+def test_the_cache_folder_follows_the_compiled_sources(monkeypatch, tmp_path):
+    """Numba keys its cache by each function's own file; the package keys the whole cache
+    folder by the compiled modules' sources, so editing one kernel recompiles its callers."""
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
+    first = rearrangement_planner._numba_cache_dir()
+    assert Path(first).is_dir() and Path(first).parent == tmp_path / "rearrangement_planner"
+    real = Path.read_bytes
+
+    def edited(path: Path) -> bytes:
+        data = real(path)
+        return data + b"\n# edited\n" if path.name == "kernels.py" else data
+
+    monkeypatch.setattr(Path, "read_bytes", edited)
+    assert rearrangement_planner._numba_cache_dir() != first
+
+
+def test_an_unwritable_cache_home_falls_back_to_the_temp_folder(monkeypatch, tmp_path):
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "home"))
+    real = Path.mkdir
+
+    def refuse(path: Path, *args, **kwargs):
+        if str(path).startswith(str(tmp_path / "home")):
+            raise PermissionError(13, "Permission denied", str(path))
+        return real(path, *args, **kwargs)
+
+    monkeypatch.setattr(Path, "mkdir", refuse)
+    folder = rearrangement_planner._numba_cache_dir()
+    assert Path(folder).name.startswith("rearrangement_planner-numba-")
+    assert Path(folder).is_dir()
