@@ -128,6 +128,19 @@ def capsule_prism(a: np.ndarray, b: np.ndarray, radius: float, kind: int,
     prism `kind` (BOX or CYLINDER) centred at `centre` and turned by `yaw`; writes the prism's
     contact point into `out_point` and the unit normal (out of the prism, towards the capsule)
     into `out_normal`, both in the world frame (module doc)."""
+    return capsule_prism_below(a, b, radius, math.inf, kind, centre, yaw, dims, out_point,
+                               out_normal)
+
+
+@njit(cache=True)
+def capsule_prism_below(a: np.ndarray, b: np.ndarray, radius: float, limit: float, kind: int,
+                        centre: np.ndarray, yaw: float, dims: np.ndarray,
+                        out_point: np.ndarray, out_normal: np.ndarray) -> float:
+    """`capsule_prism` where only distances below `limit` matter: when a cheap lower bound
+    already reaches `limit`, that bound is returned (>= limit, not the distance; the outputs
+    untouched). The bound: sd is 1-Lipschitz in space, so along the axis (length L) it is
+    L-Lipschitz in t, and from samples at t = 0, 1/2, 1 the minimum over each half is at
+    least (f(t_i) + f(t_j) - L/2) / 2 (Piyavskii's bound)."""
     c, s = math.cos(yaw), math.sin(yaw)
     # The axis in the prism frame: q(t) = qa + t (qb - qa).
     qa, qb = np.empty(3), np.empty(3)
@@ -135,6 +148,13 @@ def capsule_prism(a: np.ndarray, b: np.ndarray, radius: float, kind: int,
         dx, dy = p[0] - centre[0], p[1] - centre[1]
         q[0], q[1], q[2] = c * dx + s * dy, -s * dx + c * dy, p[2] - centre[2]
     d = qb - qa
+    if limit < math.inf:
+        half = 0.5 * math.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
+        f0, f_mid = _sd_along(kind, qa, d, 0.0, dims), _sd_along(kind, qa, d, 0.5, dims)
+        f1 = _sd_along(kind, qa, d, 1.0, dims)
+        bound = 0.5 * (min(f0, f1) + f_mid - half) - radius
+        if bound >= limit:
+            return bound
     lo, hi = 0.0, 1.0
     t1, t2 = hi - _GOLDEN, _GOLDEN
     f1, f2 = _sd_along(kind, qa, d, t1, dims), _sd_along(kind, qa, d, t2, dims)

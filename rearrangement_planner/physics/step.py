@@ -379,11 +379,17 @@ def _sweep(poses_a: np.ndarray, poses_b: np.ndarray, shapes: np.ndarray) -> floa
 
 
 @njit(cache=True)
-def _out_of_reach(poses: np.ndarray, shapes: np.ndarray, objects: np.ndarray,
-                  obj_size: np.ndarray, obj_props: np.ndarray, margin: float) -> bool:
-    """True when every contact shape's box (the capsule's segment grown by its radius) is
-    clear of every object's box (its footprint circle and height) grown by `margin`."""
+def _reach(poses: np.ndarray, shapes: np.ndarray, objects: np.ndarray, obj_size: np.ndarray,
+           obj_props: np.ndarray, static_centre: np.ndarray, static_dims: np.ndarray,
+           margin: float, near: np.ndarray, near_static: np.ndarray) -> bool:
+    """Which (contact shape, object) pairs can touch within a step whose points move at most
+    `margin` (the sweep plus FREE_SPACE_MARGIN for the bulge of a joint interpolation): the
+    shape's box at the start (its segment grown by its radius) overlaps the object's box (its
+    footprint circle and height) grown by `margin`; likewise each shape against the table and
+    the obstacles (`kernels.near_prism`). Fills the masks; False when no object is near
+    (free space)."""
     a, b = np.empty(3), np.empty(3)
+    anything = False
     for s in range(poses.shape[0]):
         kernels.segment(poses, s, shapes[s, 0], a, b)
         r = shapes[s, 1]
@@ -391,26 +397,33 @@ def _out_of_reach(poses: np.ndarray, shapes: np.ndarray, objects: np.ndarray,
             ext = obj_props[m, 4] + margin
             ext_z = 0.5 * obj_size[m, 2] + margin
             z = obj_props[m, 0]
-            if (min(a[0], b[0]) - r < objects[m, 0] + ext
-                    and max(a[0], b[0]) + r > objects[m, 0] - ext
-                    and min(a[1], b[1]) - r < objects[m, 1] + ext
-                    and max(a[1], b[1]) + r > objects[m, 1] - ext
-                    and min(a[2], b[2]) - r < z + ext_z
-                    and max(a[2], b[2]) + r > z - ext_z):
-                return False
-    return True
+            near[s, m] = (min(a[0], b[0]) - r < objects[m, 0] + ext
+                          and max(a[0], b[0]) + r > objects[m, 0] - ext
+                          and min(a[1], b[1]) - r < objects[m, 1] + ext
+                          and max(a[1], b[1]) + r > objects[m, 1] - ext
+                          and min(a[2], b[2]) - r < z + ext_z
+                          and max(a[2], b[2]) + r > z - ext_z)
+            anything = anything or near[s, m]
+        for k in range(static_centre.shape[0]):
+            near_static[s, k] = kernels.near_prism(a, b, r + margin, kernels.BOX,
+                                                   static_centre[k], static_dims[k])
+    return anything
 
 
 @njit(cache=True)
 def _static_hit(poses: np.ndarray, shapes: np.ndarray, static_centre: np.ndarray,
-                static_yaw: np.ndarray, static_dims: np.ndarray, info: np.ndarray) -> int:
-    """The first contact shape (in order) that penetrates the table or an obstacle."""
+                static_yaw: np.ndarray, static_dims: np.ndarray, near_static: np.ndarray,
+                info: np.ndarray) -> int:
+    """The first contact shape (in order) that penetrates the table or an obstacle, among the
+    pairs `near_static` allows (`_reach`)."""
     a, b, point, normal = np.empty(3), np.empty(3), np.empty(3), np.empty(3)
     table = static_centre[0]
     top = table[2] + static_dims[0, 2]
     for s in range(poses.shape[0]):
         kernels.segment(poses, s, shapes[s, 0], a, b)
         for k in range(static_centre.shape[0]):
+            if not near_static[s, k]:
+                continue
             if (k == 0 and min(a[2], b[2]) >= top
                     and max(abs(a[0] - table[0]), abs(b[0] - table[0])) <= static_dims[0, 0]
                     and max(abs(a[1] - table[1]), abs(b[1] - table[1])) <= static_dims[0, 1]):
@@ -422,8 +435,9 @@ def _static_hit(poses: np.ndarray, shapes: np.ndarray, static_centre: np.ndarray
             if not kernels.near_prism(a, b, shapes[s, 1], kernels.BOX, static_centre[k],
                                       static_dims[k]):
                 continue
-            if kernels.capsule_prism(a, b, shapes[s, 1], kernels.BOX, static_centre[k],
-                                     static_yaw[k], static_dims[k], point, normal) < 0.0:
+            if kernels.capsule_prism_below(a, b, shapes[s, 1], 0.0, kernels.BOX,
+                                           static_centre[k], static_yaw[k], static_dims[k],
+                                           point, normal) < 0.0:
                 info[1], info[2] = s, k - 1
                 return _ARM_TABLE if k == 0 else _ARM_OBSTACLE
     return _VALID
@@ -431,25 +445,27 @@ def _static_hit(poses: np.ndarray, shapes: np.ndarray, static_centre: np.ndarray
 
 @njit(cache=True)
 def _contacts(poses: np.ndarray, shapes: np.ndarray, objects: np.ndarray,
-              selected: np.ndarray, obj_kind: np.ndarray, obj_dims: np.ndarray,
-              obj_props: np.ndarray, c_shape: np.ndarray, c_obj: np.ndarray,
-              c_point: np.ndarray, c_normal: np.ndarray, c_depth: np.ndarray) -> int:
-    """Penetrating (contact shape, object) pairs among the `selected` objects, in shape then
-    object order: the object's surface point, the unit normal from the arm into the object,
-    the depth (> 0). Returns how many were written."""
+              selected: np.ndarray, near: np.ndarray, obj_kind: np.ndarray,
+              obj_dims: np.ndarray, obj_props: np.ndarray, c_shape: np.ndarray,
+              c_obj: np.ndarray, c_point: np.ndarray, c_normal: np.ndarray,
+              c_depth: np.ndarray) -> int:
+    """Penetrating (contact shape, object) pairs among the `selected` objects and the pairs
+    `near` allows (`_reach`), in shape then object order: the object's surface point, the
+    unit normal from the arm into the object, the depth (> 0). Returns how many were
+    written."""
     a, b, point, normal, centre = (np.empty(3), np.empty(3), np.empty(3), np.empty(3),
                                    np.empty(3))
     count = 0
     for s in range(poses.shape[0]):
         kernels.segment(poses, s, shapes[s, 0], a, b)
         for m in range(objects.shape[0]):
-            if not selected[m]:
+            if not (selected[m] and near[s, m]):
                 continue
             centre[0], centre[1], centre[2] = objects[m, 0], objects[m, 1], obj_props[m, 0]
             if not kernels.near_prism(a, b, shapes[s, 1], obj_kind[m], centre, obj_dims[m]):
                 continue
-            d = kernels.capsule_prism(a, b, shapes[s, 1], obj_kind[m], centre, objects[m, 2],
-                                      obj_dims[m], point, normal)
+            d = kernels.capsule_prism_below(a, b, shapes[s, 1], 0.0, obj_kind[m], centre,
+                                            objects[m, 2], obj_dims[m], point, normal)
             if d < 0.0:
                 c_shape[count], c_obj[count], c_depth[count] = s, m, -d
                 for k in range(3):
@@ -618,8 +634,8 @@ def _admissible(count: int, c_shape: np.ndarray, c_obj: np.ndarray, c_normal: np
 def _residual_depth(poses: np.ndarray, shapes: np.ndarray, new_objects: np.ndarray,
                     changed: np.ndarray, any_changed: bool, count: int, c_shape: np.ndarray,
                     c_obj: np.ndarray, c_point: np.ndarray, c_normal: np.ndarray,
-                    c_depth: np.ndarray, obj_kind: np.ndarray, obj_dims: np.ndarray,
-                    obj_props: np.ndarray) -> float:
+                    c_depth: np.ndarray, near: np.ndarray, obj_kind: np.ndarray,
+                    obj_dims: np.ndarray, obj_props: np.ndarray) -> float:
     """The deepest arm-object penetration after the push: objects that did not move keep the
     depths of the substep's contacts; the moved ones are asked again (overwrites the
     contact buffers)."""
@@ -628,43 +644,24 @@ def _residual_depth(poses: np.ndarray, shapes: np.ndarray, new_objects: np.ndarr
         if not changed[c_obj[i]]:
             depth = max(depth, c_depth[i])
     if any_changed:
-        after = _contacts(poses, shapes, new_objects, changed, obj_kind, obj_dims, obj_props,
-                          c_shape, c_obj, c_point, c_normal, c_depth)
+        after = _contacts(poses, shapes, new_objects, changed, near, obj_kind, obj_dims,
+                          obj_props, c_shape, c_obj, c_point, c_normal, c_depth)
         for i in range(after):
             depth = max(depth, c_depth[i])
     return depth
 
 
 @njit(cache=True)
-def _substep(poses_a: np.ndarray, poses_b: np.ndarray, objects: np.ndarray,
-             new_objects: np.ndarray, shapes: np.ndarray, static_centre: np.ndarray,
-             static_yaw: np.ndarray, static_dims: np.ndarray, static_size: np.ndarray,
-             obj_kind: np.ndarray, obj_dims: np.ndarray, obj_size: np.ndarray,
-             obj_props: np.ndarray, table: np.ndarray, options: np.ndarray, info: np.ndarray,
-             value: np.ndarray, pushing_shapes: np.ndarray, moved: np.ndarray) -> int:
-    """One substep (module docstring, 1-6): objects -> new_objects, or an invalid code."""
-    code = _static_hit(poses_b, shapes, static_centre, static_yaw, static_dims, info)
-    if code != _VALID:
-        return code
-    S, M = poses_b.shape[0], objects.shape[0]
-    capacity = S * M
-    c_shape, c_obj = np.empty(capacity, dtype=np.int64), np.empty(capacity, dtype=np.int64)
-    c_point, c_normal = np.empty((capacity, 3)), np.empty((capacity, 3))
-    c_depth = np.empty(capacity)
-    everything = np.ones(M, dtype=np.bool_)
-    count = _contacts(poses_b, shapes, objects, everything, obj_kind, obj_dims, obj_props,
-                      c_shape, c_obj, c_point, c_normal, c_depth)
-    new_objects[:] = objects
-    if count == 0:
-        return _VALID
-    touched = np.zeros(M, dtype=np.bool_)
-    code = _admissible(count, c_shape, c_obj, c_normal, obj_props, options, touched, info,
-                       value)
-    if code != _VALID:
-        return code
-    changed = np.zeros(M, dtype=np.bool_)
-    any_changed = False
-    for m in range(M):
+def _push_touched(touched: np.ndarray, objects: np.ndarray, new_objects: np.ndarray,
+                  count: int, c_shape: np.ndarray, c_obj: np.ndarray, c_point: np.ndarray,
+                  c_normal: np.ndarray, c_depth: np.ndarray, poses_a: np.ndarray,
+                  poses_b: np.ndarray, obj_kind: np.ndarray, obj_size: np.ndarray,
+                  obj_props: np.ndarray, table: np.ndarray, options: np.ndarray,
+                  changed: np.ndarray, pushing_shapes: np.ndarray, moved: np.ndarray,
+                  near: np.ndarray, info: np.ndarray, value: np.ndarray) -> int:
+    """Push every touched object (`_push_object`) into new_objects; flags the moved objects,
+    their pushing shapes and (for the rest of the step) every shape as near them."""
+    for m in range(objects.shape[0]):
         if not touched[m]:
             continue
         code = _push_object(m, objects[m], count, c_shape, c_obj, c_point, c_normal, c_depth,
@@ -680,14 +677,56 @@ def _substep(poses_a: np.ndarray, poses_b: np.ndarray, objects: np.ndarray,
                     if c_obj[i] == m:
                         pushing_shapes[c_shape[i]] = 1
             return code
-        changed[m] = any_changed = True
+        changed[m] = True
         moved[m] = 1
+        near[:, m] = True
         for i in range(count):
             if c_obj[i] == m:
                 pushing_shapes[c_shape[i]] = 1
+    return _VALID
+
+
+@njit(cache=True)
+def _substep(poses_a: np.ndarray, poses_b: np.ndarray, objects: np.ndarray,
+             new_objects: np.ndarray, shapes: np.ndarray, static_centre: np.ndarray,
+             static_yaw: np.ndarray, static_dims: np.ndarray, static_size: np.ndarray,
+             obj_kind: np.ndarray, obj_dims: np.ndarray, obj_size: np.ndarray,
+             obj_props: np.ndarray, table: np.ndarray, options: np.ndarray, info: np.ndarray,
+             value: np.ndarray, pushing_shapes: np.ndarray, moved: np.ndarray,
+             near: np.ndarray, near_static: np.ndarray) -> int:
+    """One substep (module docstring, 1-6): objects -> new_objects, or an invalid code. Only
+    the pairs `_reach` found near are asked; an object that moves is asked against every
+    shape from then on."""
+    code = _static_hit(poses_b, shapes, static_centre, static_yaw, static_dims, near_static,
+                       info)
+    if code != _VALID:
+        return code
+    S, M = poses_b.shape[0], objects.shape[0]
+    capacity = S * M
+    c_shape, c_obj = np.empty(capacity, dtype=np.int64), np.empty(capacity, dtype=np.int64)
+    c_point, c_normal = np.empty((capacity, 3)), np.empty((capacity, 3))
+    c_depth = np.empty(capacity)
+    everything = np.ones(M, dtype=np.bool_)
+    count = _contacts(poses_b, shapes, objects, everything, near, obj_kind, obj_dims,
+                      obj_props, c_shape, c_obj, c_point, c_normal, c_depth)
+    new_objects[:] = objects
+    if count == 0:
+        return _VALID
+    touched = np.zeros(M, dtype=np.bool_)
+    code = _admissible(count, c_shape, c_obj, c_normal, obj_props, options, touched, info,
+                       value)
+    if code != _VALID:
+        return code
+    changed = np.zeros(M, dtype=np.bool_)
+    code = _push_touched(touched, objects, new_objects, count, c_shape, c_obj, c_point,
+                         c_normal, c_depth, poses_a, poses_b, obj_kind, obj_size, obj_props,
+                         table, options, changed, pushing_shapes, moved, near, info, value)
+    if code != _VALID:
+        return code
+    any_changed = changed.any()
     depth = _residual_depth(poses_b, shapes, new_objects, changed, any_changed, count,
-                            c_shape, c_obj, c_point, c_normal, c_depth, obj_kind, obj_dims,
-                            obj_props)
+                            c_shape, c_obj, c_point, c_normal, c_depth, near, obj_kind,
+                            obj_dims, obj_props)
     if depth > options[1]:
         value[0] = depth
         return _RESIDUAL
@@ -721,8 +760,10 @@ def step_kernel(q0: np.ndarray, q1: np.ndarray, objects: np.ndarray, chain: tupl
     _poses(q1, chain, poses_b)
     sweep = _sweep(poses_a, poses_b, shapes)
     n = max(1, math.ceil(sweep / options[0] - 1e-9))
-    if n > 1 and _out_of_reach(poses_a, shapes, objects, obj_size, obj_props,
-                               sweep + options[5]):
+    near = np.empty((S, objects.shape[0]), dtype=np.bool_)
+    near_static = np.empty((S, static_centre.shape[0]), dtype=np.bool_)
+    if not _reach(poses_a, shapes, objects, obj_size, obj_props, static_centre, static_dims,
+                  sweep + options[5], near, near_static):
         # Free space: no substep can touch an object, so the substeps would only repeat the
         # static check. One substep at q1 (DESIGN §5 substepping is for contacts).
         n = 1
@@ -737,7 +778,8 @@ def step_kernel(q0: np.ndarray, q1: np.ndarray, objects: np.ndarray, chain: tupl
             _poses(q1, chain, poses_b)
         code = _substep(poses_a, poses_b, current, following, shapes, static_centre,
                         static_yaw, static_dims, static_size, obj_kind, obj_dims, obj_size,
-                        obj_props, table, options, info, value, pushing_shapes, moved)
+                        obj_props, table, options, info, value, pushing_shapes, moved, near,
+                        near_static)
         if code != _VALID:
             info[0], info[3] = code, i
             return code
@@ -762,7 +804,9 @@ def check_state_kernel(q: np.ndarray, objects: np.ndarray, chain: tuple, shapes:
     S, M = shapes.shape[0], objects.shape[0]
     poses = np.empty((S, 4, 4))
     _poses(q, chain, poses)
-    code = _static_hit(poses, shapes, static_centre, static_yaw, static_dims, info)
+    near_static = np.ones((S, static_centre.shape[0]), dtype=np.bool_)
+    code = _static_hit(poses, shapes, static_centre, static_yaw, static_dims, near_static,
+                       info)
     if code != _VALID:
         return code
     capacity = S * M
@@ -770,8 +814,9 @@ def check_state_kernel(q: np.ndarray, objects: np.ndarray, chain: tuple, shapes:
     c_point, c_normal, c_depth = np.empty((capacity, 3)), np.empty((capacity, 3)), \
         np.empty(capacity)
     everything = np.ones(M, dtype=np.bool_)
-    count = _contacts(poses, shapes, objects, everything, obj_kind, obj_dims, obj_props,
-                      c_shape, c_obj, c_point, c_normal, c_depth)
+    count = _contacts(poses, shapes, objects, everything, np.ones((S, M), dtype=np.bool_),
+                      obj_kind, obj_dims, obj_props, c_shape, c_obj, c_point, c_normal,
+                      c_depth)
     depth = 0.0
     for i in range(count):
         depth = max(depth, c_depth[i])

@@ -174,7 +174,7 @@ def _errors_from_pose(
     robot: RobotModel, pose: np.ndarray, table_height: float
 ) -> tuple[float, float, float]:
     up = np.array(_up_in_tool(robot.config.push_posture))
-    dz, tilt_x, tilt_y = _manifold_errors(np.ascontiguousarray(pose), up,
+    dz, tilt_x, tilt_y = _manifold_errors(np.array(pose, dtype=float), up,
                                           push_height(robot, table_height))
     return float(dz), float(tilt_x), float(tilt_y)
 
@@ -231,7 +231,7 @@ def joint_limit_gradient(robot: RobotModel, q: np.ndarray, gain: float) -> np.nd
     joint nearest its limit dominates and mid-range joints are left alone (with the square, a
     joint can sit on its limit while the others pull the self-motion the other way). `gain` is
     the speed at which a joint at its limit is pulled back."""
-    return _limit_gradient(np.asarray(q, dtype=float), robot.lower, robot.upper, float(gain))
+    return _limit_gradient(np.array(q, dtype=float), robot.lower, robot.upper, float(gain))
 
 
 @njit(cache=True)
@@ -332,7 +332,8 @@ def project_step(
     if nullspace_velocity is not None:
         extra += nullspace_velocity
     arrays = project_arrays(robot, table_height)
-    return project_kernel(np.asarray(q, dtype=float), np.asarray(action, dtype=float),
+    # Fresh writable arrays: one compiled signature whoever calls.
+    return project_kernel(np.array(q, dtype=float), np.array(action, dtype=float),
                           float(dt), extra, *arrays, float(nullspace_gain),  # type: ignore[call-arg]
                           float(correction_gain), float(velocity_scale))
 

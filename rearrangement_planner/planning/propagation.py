@@ -25,14 +25,17 @@ import numpy as np
 from numba import njit
 
 from rearrangement_planner.model.state import State
+from rearrangement_planner.physics.kernels import tool_kinematics
 from rearrangement_planner.physics.step import Invalid, Physics, step_kernel
 from rearrangement_planner.planning.interface import StopReason
-from rearrangement_planner.planning.manifold import project_arrays, project_kernel, project_step
+from rearrangement_planner.planning.manifold import project_arrays, project_kernel
 
 StopCheck = Callable[[State], StopReason | None]
 """Called after every valid step; a reason ends the action there, keeping that state."""
 
-_GOAL, _CHECK_EVERY = 1, 64
+_GOAL, _ARRIVED, _CHECK_EVERY = 1, 2, 64
+PUSH_BAND = 0.02
+"""Lateral offset (m) of the tool from the push line within which the push policy pushes."""
 
 
 @dataclass(frozen=True)
@@ -99,15 +102,36 @@ def constrained_prop(physics: Physics, state: State, action: Action, dt: float,
     `stop` may end the action early (`Stops`); that state is kept. TIMEOUT and CANCEL are
     checked between batches of _CHECK_EVERY steps; a batch that ends past the deadline ends
     the action with TIMEOUT, whatever it reached (a plan is never found after its budget)."""
-    steps = int(round(action.duration / dt))
+    return propagate(physics, state, int(round(action.duration / dt)), dt, action.nullspace,
+                     stop, velocity=action.velocity)
+
+
+@dataclass(frozen=True)
+class PushTarget:
+    """A closed-loop push (`push_policy.push_velocity`, compiled here as `_push_velocity`):
+    object `obj` towards `target` (x, y), the tool at most `speed` m/s per component."""
+
+    obj: int
+    target: tuple[float, float]
+    speed: float
+
+
+def propagate(physics: Physics, state: State, steps: int, dt: float, nullspace: np.ndarray,
+              stop: Stops | None, velocity: np.ndarray | None = None,
+              push: PushTarget | None = None) -> Propagation:
+    """Up to `steps` steps through Project and the physics, the tool's planar velocity either
+    held (`velocity`, an action of Algorithm 2) or fed back (`push`, which ends the action when
+    the object is within 1 cm of its target); stops at the first invalid step and keeps the
+    valid prefix (see `constrained_prop` for `stop`)."""
     nq, shape = len(state.q), state.objects.shape
     arm, objects = np.empty((steps, nq)), np.empty((steps, *shape))
     flags = np.zeros(physics.flag_count, dtype=np.int64)
     goal = (np.array([stop.goal_index, *stop.goal_xy, stop.goal_radius]) if stop is not None
             else np.array([-1.0, 0.0, 0.0, 0.0]))
     project = project_arrays(physics.robot, physics.scene.table.height)
-    velocity = np.asarray(action.velocity, dtype=float)
-    nullspace = np.asarray(action.nullspace, dtype=float)
+    held = np.zeros(3) if velocity is None else np.asarray(velocity, dtype=float)
+    policy = _policy_array(physics, push)
+    nullspace = np.asarray(nullspace, dtype=float)
     done = 0
     stopped: Invalid | StopReason | None = None
     while done < steps and stopped is None:
@@ -115,7 +139,7 @@ def constrained_prop(physics: Physics, state: State, action: Action, dt: float,
         # Writable copies (one compiled signature, whether from the state or the last batch).
         q0 = np.array(state.q if done == 0 else arm[done - 1])
         objects0 = np.array(state.objects if done == 0 else objects[done - 1])
-        count, code = _propagate_kernel(q0, objects0, velocity, nullspace, batch, dt, goal,
+        count, code = _propagate_kernel(q0, objects0, held, policy, nullspace, batch, dt, goal,
                                         project, physics.arrays, arm[done:], objects[done:],
                                         flags)
         done += count
@@ -123,25 +147,100 @@ def constrained_prop(physics: Physics, state: State, action: Action, dt: float,
             stopped = physics.reason(code)
         elif code == -_GOAL:
             stopped = StopReason.GOAL
+        elif code == -_ARRIVED:
+            break
         if stop is not None:
             stopped = stop.interrupted() or stopped
     states = tuple(State.trusted(arm[i], objects[i]) for i in range(done))
     return Propagation(states, done * dt, stopped, physics.pushing_links(flags))
 
 
+def _policy_array(physics: Physics, push: PushTarget | None) -> np.ndarray:
+    """The push for `_propagate_kernel`: (object, target x, y, speed, cylinder (0/1), size x,
+    size y, footprint radius, push band, the rows of R0, the posture's tool rotation); object
+    -1: no push (the velocity is held)."""
+    posture = physics.robot.config.push_posture.rotation
+    if push is None:
+        return np.concatenate([[-1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, PUSH_BAND],
+                               posture.ravel()])
+    obj = physics.scene.objects[push.obj]
+    return np.concatenate([[push.obj, push.target[0], push.target[1], push.speed,
+                            float(obj.shape == "cylinder"), obj.size[0], obj.size[1],
+                            obj.footprint_radius, PUSH_BAND], posture.ravel()])
+
+
 @njit(cache=True)
-def _propagate_kernel(q: np.ndarray, objects: np.ndarray, velocity: np.ndarray,
-                      nullspace: np.ndarray, steps: int, dt: float, goal: np.ndarray,
-                      project: tuple, world: tuple, arm: np.ndarray, out: np.ndarray,
-                      flags: np.ndarray) -> tuple[int, int]:
-    """Up to `steps` steps of Project and the physics step from (q, objects); the valid ones
-    into arm[i], out[i], the pushing shapes and moved objects OR-ed into `flags`. Returns
-    (valid steps, 0 | the invalid step's code | -_GOAL when the goal test held after the last
-    valid step)."""
+def _push_velocity(tool_x: float, tool_y: float, cx: float, cy: float, yaw: float,
+                   policy: np.ndarray, dt: float, out: np.ndarray) -> bool:
+    """`push_policy.push_velocity` compiled, the object's shape from `policy`
+    (`_policy_array`): writes the tool velocity into out[:2]; False once the object is
+    within 1 cm of the target."""
+    tx, ty, speed, band = policy[1], policy[2], policy[3], policy[8]
+    dx, dy = tx - cx, ty - cy
+    distance = math.hypot(dx, dy)
+    if distance < 0.01:
+        return False
+    ux, uy = dx / distance, dy / distance
+    px, py = -uy, ux
+    rx, ry = tool_x - cx, tool_y - cy
+    along, across = rx * ux + ry * uy, rx * px + ry * py
+    radius = policy[7]
+    if policy[4] > 0.0:                                    # support distance along u
+        extent = radius
+    else:
+        c, s = math.cos(yaw), math.sin(yaw)
+        extent = 0.5 * (abs(c * ux + s * uy) * policy[5] + abs(-s * ux + c * uy) * policy[6])
+    if abs(across) <= band and -(extent + 0.06) <= along <= -extent + 0.005:
+        vx = ux * speed - (0.5 / dt) * across * px         # push, staying on the line
+        vy = uy * speed - (0.5 / dt) * across * py
+    elif along > -extent - 0.005 and abs(across) < radius + 0.04:
+        side = 1.0 if across >= 0 else -1.0                # go round it, on the tool's side
+        vx = (cx + px * side * (radius + 0.07) - ux * (extent + 0.03) - tool_x) / dt
+        vy = (cy + py * side * (radius + 0.07) - uy * (extent + 0.03) - tool_y) / dt
+    else:                                                  # line up behind it
+        vx = (cx - ux * (extent + 0.025) - tool_x) / dt
+        vy = (cy - uy * (extent + 0.025) - tool_y) / dt
+    norm = math.hypot(vx, vy)
+    if norm > speed:
+        vx, vy = vx * (speed / norm), vy * (speed / norm)
+    out[0], out[1], out[2] = vx, vy, 0.0
+    return True
+
+
+@njit(cache=True)
+def _tool_planar(q: np.ndarray, project: tuple, policy: np.ndarray) -> tuple[float, float,
+                                                                            float]:
+    """`manifold.tool_planar_pose` compiled: the tool's (x, y) and the yaw of R R0^T."""
+    pose, jac = np.empty((4, 4)), np.empty((6, q.shape[0]))
+    chain = project[0]
+    tool_kinematics(q, chain[0], chain[1], chain[2], chain[3], project[1], project[2], pose,
+                    jac)
+    r0 = policy[9:18]                                       # R0, row-major
+    m00 = pose[0, 0] * r0[0] + pose[0, 1] * r0[1] + pose[0, 2] * r0[2]
+    m10 = pose[1, 0] * r0[0] + pose[1, 1] * r0[1] + pose[1, 2] * r0[2]
+    return pose[0, 3], pose[1, 3], math.atan2(m10, m00)
+
+
+@njit(cache=True)
+def _propagate_kernel(q: np.ndarray, objects: np.ndarray, held: np.ndarray,
+                      policy: np.ndarray, nullspace: np.ndarray, steps: int, dt: float,
+                      goal: np.ndarray, project: tuple, world: tuple, arm: np.ndarray,
+                      out: np.ndarray, flags: np.ndarray) -> tuple[int, int]:
+    """Up to `steps` steps of Project and the physics step from (q, objects), the tool velocity
+    `held` or, for policy[0] >= 0, the push policy's; the valid ones into arm[i], out[i], the
+    pushing shapes and moved objects OR-ed into `flags`. Returns (valid steps, 0 | the invalid
+    step's code | -_GOAL when the goal test held after the last valid step | -_ARRIVED when
+    the pushed object reached its target)."""
     info = np.zeros(4 + flags.shape[0], dtype=np.int64)
     value = np.zeros(1)
-    g = int(goal[0])
+    g, pushed = int(goal[0]), int(policy[0])
+    velocity = held.copy()
     for i in range(steps):
+        if pushed >= 0:
+            x, y, _ = _tool_planar(q, project, policy)
+            if not _push_velocity(x, y, objects[pushed, 0], objects[pushed, 1],
+                                  objects[pushed, 2], policy, dt, velocity):
+                return i, -_ARRIVED
         q_new = project_kernel(q, velocity, dt, nullspace, project[0], project[1], project[2],
                                project[3], project[4], project[5], project[6], 0.5, 1.0, 1.0)
         info[:] = 0
@@ -157,35 +256,6 @@ def _propagate_kernel(q: np.ndarray, objects: np.ndarray, velocity: np.ndarray,
         if g >= 0 and math.hypot(objects[g, 0] - goal[1], objects[g, 1] - goal[2]) <= goal[3]:
             return i + 1, -_GOAL
     return steps, 0
-
-
-def propagate(physics: Physics, state: State, velocity: Callable[[State], np.ndarray | None],
-               steps: int, dt: float, nullspace: np.ndarray,
-               stop: StopCheck | None) -> Propagation:
-    """Up to `steps` steps: tool velocity `velocity(x)` (None ends the action) through Project
-    and the physics; stops at the first invalid step and keeps the valid prefix."""
-    robot, table_height = physics.robot, physics.scene.table.height
-    states: list[State] = []
-    links: set[str] = set()
-    x = state
-    stopped: Invalid | StopReason | None = None
-    for _ in range(steps):
-        v = velocity(x)
-        if v is None:
-            break
-        q_new = project_step(robot, x.q, v, dt, table_height, nullspace_velocity=nullspace)
-        result = physics.step(x, q_new)
-        if not result.valid:
-            stopped = result.reason
-            break
-        x = result.state
-        states.append(x)
-        links |= result.pushing_links
-        if stop is not None:
-            stopped = stop(x)
-            if stopped is not None:
-                break
-    return Propagation(tuple(states), len(states) * dt, stopped, frozenset(links))
 
 
 def replay(physics: Physics, start: State, arm_path: np.ndarray) -> tuple[list[State], str]:

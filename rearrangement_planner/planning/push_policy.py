@@ -27,11 +27,13 @@ from rearrangement_planner.model.scene import MovableObject
 from rearrangement_planner.model.state import State
 from rearrangement_planner.physics.step import Invalid, Physics
 from rearrangement_planner.planning.interface import StopReason
-from rearrangement_planner.planning.manifold import tool_planar_pose
-from rearrangement_planner.planning.propagation import Propagation, StopCheck, propagate
+from rearrangement_planner.planning.propagation import (
+    Propagation,
+    PushTarget,
+    Stops,
+    propagate,
+)
 
-PUSH_BAND = 0.02
-"""Lateral offset (m) of the tool from the push line within which the push policy pushes."""
 GREEDY_STEPS = 3
 """The greedy goal push may take this many times `push_steps` (it has to go round the goal
 object and then push it all the way)."""
@@ -67,51 +69,19 @@ def support_distance(obj: MovableObject, yaw: float, u: np.ndarray) -> float:
     return 0.5 * (abs(ux) * float(obj.size[0]) + abs(uy) * float(obj.size[1]))
 
 
-def push_velocity(tool: np.ndarray, centre: np.ndarray, yaw: float, obj: MovableObject,
-                  target: np.ndarray, speed: float, dt: float) -> np.ndarray | None:
-    """The planar tool velocity (m/s) of the feedback push of `obj` (centre, heading `yaw`)
-    towards `target`, from the tool's planar position; None once the object is within 1 cm of
-    the target. In the push band behind the object: along the line with a lateral correction;
-    beside or in front of it: round it on the tool's side; else: to the place behind it."""
-    to_target = target - centre
-    distance = float(np.hypot(*to_target))
-    if distance < 0.01:
-        return None
-    u = to_target / distance
-    perp = np.array([-u[1], u[0]])
-    rel = tool - centre
-    along, across = float(rel @ u), float(rel @ perp)
-    extent = support_distance(obj, yaw, u)
-    radius = obj.footprint_radius
-    if abs(across) <= PUSH_BAND and -(extent + 0.06) <= along <= -extent + 0.005:
-        v = u * speed - (0.5 / dt) * across * perp        # push, staying on the line
-    elif along > -extent - 0.005 and abs(across) < radius + 0.04:
-        side = 1.0 if across >= 0 else -1.0                # go round it, on the tool's side
-        v = (centre + perp * side * (radius + 0.07) - u * (extent + 0.03) - tool) / dt
-    else:                                                  # line up behind it
-        v = (centre - u * (extent + 0.025) - tool) / dt
-    norm = float(np.hypot(*v))
-    return v * (speed / norm) if norm > speed else v
-
-
 def push_policy_prop(physics: Physics, state: State, obj: int, target: np.ndarray,
                      max_steps: int, dt: float, speed: float, nullspace: np.ndarray,
-                     stop: StopCheck | None = None) -> Propagation:
+                     stop: Stops | None = None) -> Propagation:
     """The feedback push of object `obj` from `state` towards `target` (x, y), at most
-    `max_steps` steps of `dt`, the tool at most `speed` m/s per component (`push_velocity`);
-    the hand keeps its yaw and steers by the tool point (the finger pads, `tool_reach` past it,
-    make the contact: the feedback closes the gap)."""
-    robot = physics.robot
-    shape = physics.scene.objects[obj]
-    target = np.asarray(target, dtype=float)
-
-    def velocity(x: State) -> np.ndarray | None:
-        tool = tool_planar_pose(robot, x.q)
-        v = push_velocity(tool[:2], x.objects[obj, :2], x.objects[obj, 2], shape, target,
-                          speed, dt)
-        return None if v is None else np.array([v[0], v[1], 0.0])
-
-    return propagate(physics, state, velocity, max_steps, dt, nullspace, stop)
+    `max_steps` steps of `dt`, the tool at most `speed` m/s per component, compiled
+    (`propagation.propagate` with a `PushTarget`). The policy: from the tool's planar position
+    and the object's pose, in the push band behind the object push along the line through
+    object and target with a lateral correction; beside or in front of it, go round it on the
+    tool's side; else go to the place behind it; done once the object is within 1 cm of the
+    target. The hand keeps its yaw and steers by the tool point (the finger pads, `tool_reach`
+    past it, make the contact: the feedback closes the gap)."""
+    push = PushTarget(int(obj), (float(target[0]), float(target[1])), float(speed))
+    return propagate(physics, state, max_steps, dt, nullspace, stop, push=push)
 
 
 class PushPolicy:
@@ -127,7 +97,7 @@ class PushPolicy:
         self.pushable = pushable
 
     def sample_push(self, x_near: State, sample_objects: np.ndarray, rng: np.random.Generator,
-                    stop: StopCheck) -> Propagation:
+                    stop: Stops) -> Propagation:
         """The push-bias action: push one object from x_near towards its position in the
         sample: the goal object with probability `push_goal_share`, else another at random."""
         opts, g = self.options, self.scene.goal_index
@@ -144,7 +114,7 @@ class PushPolicy:
             return result
         return self._when_blocked(x_near, result, sample_objects[g, :2], nullspace, rng, stop)
 
-    def goal_push(self, x: State, rng: np.random.Generator, stop: StopCheck) -> Propagation:
+    def goal_push(self, x: State, rng: np.random.Generator, stop: Stops) -> Propagation:
         """The greedy extension: push the goal object from x towards the goal centre."""
         nullspace = self._nullspace(rng)
         result = self.push(x, self.scene.goal_index, self.goal_xy,
@@ -152,7 +122,7 @@ class PushPolicy:
         return self._when_blocked(x, result, self.goal_xy, nullspace, rng, stop)
 
     def push(self, x: State, obj: int, where: np.ndarray, steps: int, nullspace: np.ndarray,
-             stop: StopCheck) -> Propagation:
+             stop: Stops) -> Propagation:
         """One closed-loop push of `obj` from x towards `where` (`push_policy_prop`)."""
         opts = self.options
         return push_policy_prop(self.physics, x, obj, where, steps, opts.dt, opts.max_speed,
@@ -164,7 +134,7 @@ class PushPolicy:
 
     def _when_blocked(self, x: State, result: Propagation, target: np.ndarray,
                       nullspace: np.ndarray, rng: np.random.Generator,
-                      stop: StopCheck) -> Propagation:
+                      stop: Stops) -> Propagation:
         """A push of the goal object towards `target` that ended against another object goes
         on by clearing it away (`clear_blockers`)."""
         if result.stopped is not Invalid.OBJECT_OVERLAP or not self.options.clear_blockers:
@@ -181,7 +151,7 @@ class PushPolicy:
 
     def clear_and_push(self, x_near: State, blocked: Propagation, target: np.ndarray,
                         nullspace: np.ndarray, rng: np.random.Generator,
-                        stop: StopCheck) -> Propagation:
+                        stop: Stops) -> Propagation:
         """The goal object's push towards `target` ran into another object B: push B sideways
         out of the corridor the goal object sweeps on its way to `target` (to a random point
         just clear of it), then push the goal object on; up to CLEAR_ROUNDS blockers. The

@@ -38,26 +38,34 @@ def warm_up() -> float:
 def _exercise() -> None:
     """One call of each compiled entry point, with the argument types the planners use."""
     from rearrangement_planner.model.state import State
+    from rearrangement_planner.physics.collision import prism_penetration
     from rearrangement_planner.physics.step import Physics
     from rearrangement_planner.physics.validation import load_scene
-    from rearrangement_planner.planning.manifold import default_push_configuration
-    from rearrangement_planner.planning.propagation import (
-        Action,
-        Stops,
-        constrained_prop,
-        propagate,
+    from rearrangement_planner.planning.manifold import (
+        default_push_configuration,
+        joint_limit_gradient,
+        manifold_error,
+        project_step,
     )
+    from rearrangement_planner.planning.propagation import Action, Stops, constrained_prop
+    from rearrangement_planner.planning.push_policy import push_policy_prop
 
     scene = load_scene("easy_push")
     physics = Physics(scene)
     start = State(default_push_configuration(scene.robot, scene.table.height),
                   scene.initial_state().objects)
     physics.check_state(start)
-    physics.world.object_overlaps(start.objects)
+    physics.step(start, project_step(scene.robot, start.q, np.array([0.0, 0.1, 0.0]), 0.05,
+                                     scene.table.height))
+    manifold_error(scene.robot, start.q, scene.table.height)
+    joint_limit_gradient(scene.robot, start.q, 0.5)
+    prism_penetration("box", (0.1, 0.1, 0.1), (0.0, 0.0, 0.0), "cylinder", (0.1, 0.1, 0.1),
+                      (0.05, 0.0, 0.0))
     stops = Stops(scene.goal_index, (0.0, 0.0), 0.0, math.inf, lambda: False)
     push = Action(np.array([0.0, 0.1, 0.0]), 0.5, np.zeros(scene.robot.nq))
     constrained_prop(physics, start, push, 0.05, stops)
-    propagate(physics, start, lambda x: push.velocity, 2, 0.05, push.nullspace, stops)
+    push_policy_prop(physics, start, scene.goal_index, np.array([0.5, -0.1]), 2, 0.05, 0.1,
+                     push.nullspace, stops)
 
 
 def compile_seconds() -> float | None:

@@ -17,6 +17,7 @@ from rearrangement_planner.physics.validation import load_scene
 from rearrangement_planner.planning import PCRRTOptions, StopReason, plan_scene
 from rearrangement_planner.planning.manifold import ik_on_manifold
 from rearrangement_planner.planning.pipeline import PipelineOptions
+from rearrangement_planner.planning.propagation import Stops
 from rearrangement_planner.planning.push_policy import push_policy_prop
 from rearrangement_planner.planning.robustness import robustness
 
@@ -38,10 +39,7 @@ def _push_until(scene, distance: float) -> list[State]:
                        scene.robot.home, rng=np.random.default_rng(0))
     start = State(q, scene.object_poses)
 
-    def stop(x: State) -> StopReason | None:
-        near = np.linalg.norm(x.objects[g, :2] - goal) <= distance
-        return StopReason.GOAL if near else None
-
+    stop = Stops(g, (float(goal[0]), float(goal[1])), distance, math.inf, lambda: False)
     result = push_policy_prop(physics, start, g, goal, 1000, 0.02, 0.1, np.zeros(7), stop)
     assert result.stopped is StopReason.GOAL
     return [start, *result.states]

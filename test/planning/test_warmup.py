@@ -45,3 +45,29 @@ def test_an_unwritable_cache_home_falls_back_to_the_temp_folder(monkeypatch, tmp
     folder = rearrangement_planner._numba_cache_dir()
     assert Path(folder).name.startswith("rearrangement_planner-numba-")
     assert Path(folder).is_dir()
+
+
+def test_no_plan_compiles_anything_after_the_warm_up():
+    """Every compiled entry point the planners reach was compiled by `warm_up`, with the
+    argument types they pass: a plan of each planner (with shortcutting) adds no compiled
+    signature, so no plan's time includes the compiler."""
+    import gc
+
+    from numba.core.registry import CPUDispatcher
+
+    from rearrangement_planner.physics.validation import load_scene
+    from rearrangement_planner.planning import PCRRTOptions, plan_scene
+
+    def signatures() -> dict[str, int]:
+        return {f"{d.py_func.__module__}.{d.py_func.__name__}": len(d.signatures)
+                for d in gc.get_objects() if isinstance(d, CPUDispatcher)
+                and d.py_func.__module__.startswith("rearrangement_planner")}
+
+    warmup.warm_up()
+    before = signatures()
+    for scene, planner in (("easy_push", "pc-rrt"), ("default", "static-rrt"),
+                           ("easy_push", "darrt")):
+        plan_scene(load_scene(scene), planner, PCRRTOptions(max_iterations=60, trees=1), 0,
+                   shortcut_time=5.0, shortcut_attempts=5)
+    after = signatures()
+    assert after == {name: before.get(name, 0) for name in after}
