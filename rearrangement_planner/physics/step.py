@@ -723,7 +723,7 @@ def _substep(poses_a: np.ndarray, poses_b: np.ndarray, objects: np.ndarray,
                          table, options, changed, pushing_shapes, moved, near, info, value)
     if code != _VALID:
         return code
-    any_changed = changed.any()
+    any_changed = bool(changed.any())
     depth = _residual_depth(poses_b, shapes, new_objects, changed, any_changed, count,
                             c_shape, c_obj, c_point, c_normal, c_depth, near, obj_kind,
                             obj_dims, obj_props)
