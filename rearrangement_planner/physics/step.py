@@ -227,7 +227,7 @@ class Physics:
         links, moved = named
         if code != _VALID:
             return StepResult(state, False, _REASONS[code],
-                              self._detail(code, info, value, q_next, flags[:self._shapes]),
+                              self.describe(code, info, value, q_next),
                               links, moved, int(info[3]))
         return StepResult(State.trusted(q_next, out), True, None, "", links, moved,
                           int(info[3]))
@@ -261,6 +261,11 @@ class Physics:
         reason = _REASONS[code]
         assert reason is not None
         return reason, self._detail(code, info, value, q, None)
+
+    def describe(self, code: int, info: np.ndarray, value: np.ndarray, q_next: np.ndarray) -> str:
+        """The sentence for an invalid outcome of `step_kernel` (its `info` and `value`
+        outputs, q_next the step's target configuration)."""
+        return self._detail(code, info, value, q_next, info[4:4 + self._shapes])
 
     # -- internals ---------------------------------------------------------------------------
 

@@ -12,6 +12,14 @@ h(q) "samples the nullspace", drawn once per action so that the arm's self-motio
 
 Everything a replay needs is the sequence of arm configurations: the physics is a pure
 function, so stepping it along the stored configurations reproduces the object poses exactly.
+
+Compiled (issue 19): `_propagate_kernel` runs Project (`manifold.project_kernel`), the physics
+step (`step.step_kernel`) and the goal test for a batch of up to _CHECK_EVERY steps in one
+call, with the tool velocity either held (an action) or fed back (the closed-loop push of
+`push_policy`, `PushTarget`); the clock and the cancel flag are read between batches.
+`replay` re-simulates a whole arm path in one call (`_replay_kernel`). Batching further (the
+k actions of an iteration, the robustness rollouts) would save only the Python call around
+each, under 2 % of their time (docs/benchmark.md, "The compiled core").
 """
 
 from __future__ import annotations
@@ -30,9 +38,6 @@ from rearrangement_planner.physics.step import Invalid, Physics, step_kernel
 from rearrangement_planner.planning.interface import StopReason
 from rearrangement_planner.planning.manifold import project_arrays, project_kernel
 
-StopCheck = Callable[[State], StopReason | None]
-"""Called after every valid step; a reason ends the action there, keeping that state."""
-
 _GOAL, _ARRIVED, _CHECK_EVERY = 1, 2, 64
 PUSH_BAND = 0.02
 """Lateral offset (m) of the tool from the push line within which the push policy pushes."""
@@ -40,7 +45,7 @@ PUSH_BAND = 0.02
 
 @dataclass(frozen=True)
 class Stops:
-    """The early ends of PC-RRT's propagations, as a `StopCheck` (after every valid step:
+    """The early ends of PC-RRT's propagations, callable on a state (after every valid step:
     TIMEOUT past `deadline` (`time.monotonic()`), GOAL when object `goal_index`'s centre is
     within `goal_radius` of `goal_xy`, CANCEL when `cancelled()`), and in the form the compiled
     propagation (`constrained_prop`) takes: the goal test runs inside it, the clock and the
@@ -258,16 +263,42 @@ def _propagate_kernel(q: np.ndarray, objects: np.ndarray, held: np.ndarray,
     return steps, 0
 
 
-def replay(physics: Physics, start: State, arm_path: np.ndarray) -> tuple[list[State], str]:
+def replay(physics: Physics, start: State, arm_path: np.ndarray,
+           until: Stops | None = None) -> tuple[list[State], str]:
     """Re-simulate the objects along a sequence of arm configurations (the first equal to
-    start.q). Returns the states (one per configuration) and '' or the first invalid reason."""
-    states = [start]
-    x = start
-    for q in np.asarray(arm_path)[1:]:
-        result = physics.step(x, q)
-        if not result.valid:
-            reason = result.reason.value if result.reason is not None else "invalid"
-            return states, f"{reason}: {result.detail}"
-        x = result.state
-        states.append(x)
+    start.q), in one compiled call (`_replay_kernel`). Returns the states (one per
+    configuration, up to the first state where `until`'s goal test holds, when given) and ''
+    or the first invalid reason (with its detail)."""
+    arm = np.array(arm_path, dtype=float)
+    objects = np.empty((len(arm), *start.objects.shape))
+    objects[0] = start.objects
+    goal = (np.array([until.goal_index, *until.goal_xy, until.goal_radius]) if until is not None
+            else np.array([-1.0, 0.0, 0.0, 0.0]))
+    info = np.zeros(4 + physics.flag_count, dtype=np.int64)
+    value = np.zeros(1)
+    count, code = _replay_kernel(arm, objects, goal, physics.arrays, info, value)
+    states = [start, *(State.trusted(arm[i], objects[i]) for i in range(1, count))]
+    if code > 0:
+        reason = physics.reason(code)
+        return states, f"{reason.value}: {physics.describe(code, info, value, arm[count])}"
     return states, ""
+
+
+@njit(cache=True)
+def _replay_kernel(arm: np.ndarray, objects: np.ndarray, goal: np.ndarray, world: tuple,
+                   info: np.ndarray, value: np.ndarray) -> tuple[int, int]:
+    """Physics steps from arm[i - 1] to arm[i], objects[i - 1] -> objects[i], from i = 1 on.
+    Returns (states filled, 0 | the invalid step's code | -_GOAL when the goal test of `goal`
+    (object, x, y, radius; object -1: none) held at the last state filled)."""
+    g = int(goal[0])
+    for i in range(1, arm.shape[0]):
+        info[:] = 0
+        code = step_kernel(arm[i - 1], arm[i], objects[i - 1], world[0], world[1], world[2],
+                           world[3], world[4], world[5], world[6], world[7], world[8],
+                           world[9], world[10], world[11], world[12], objects[i], info, value)
+        if code != 0:
+            return i, code
+        if g >= 0 and math.hypot(objects[i, g, 0] - goal[1],
+                                 objects[i, g, 1] - goal[2]) <= goal[3]:
+            return i + 1, -_GOAL
+    return arm.shape[0], 0

@@ -25,6 +25,7 @@ import numpy as np
 from rearrangement_planner.model.state import State, wrap_angle
 from rearrangement_planner.physics.step import Physics
 from rearrangement_planner.planning.manifold import on_manifold, project_step, tool_planar_pose
+from rearrangement_planner.planning.propagation import Stops, replay
 
 LANDING_STEP = 0.05     # rad, largest joint step allowed to land exactly on q_j
 STEP_LENGTH = 0.01      # m, tool travel per connection step
@@ -130,20 +131,17 @@ def connect(physics: Physics, q_a: np.ndarray, q_b: np.ndarray, dt: float = 0.1,
 
 def _resimulate(physics: Physics, prefix: list[State], bridge: list[np.ndarray],
                 rest: list[np.ndarray], radius: float) -> list[State] | None:
-    """prefix + the states along bridge and rest re-simulated; None if a step is invalid or the
-    goal is not reached. The path is cut at the first state in the goal region."""
+    """prefix + the states along bridge and rest re-simulated (`propagation.replay`, one
+    compiled call); None if a step is invalid or the goal is not reached. The path is cut at
+    the first state in the goal region."""
     scene = physics.scene
-    out = list(prefix)
-    x = prefix[-1]
-    for q in (*bridge, *rest):
-        result = physics.step(x, q)
-        if not result.valid:
-            return None
-        x = result.state
-        out.append(x)
-        if _at_goal(scene, x, radius):
-            return out
-    return None
+    goal = Stops(scene.goal_index, (float(scene.goal.position[0]),
+                                    float(scene.goal.position[1])), radius, math.inf,
+                 lambda: False)
+    states, problem = replay(physics, prefix[-1], [prefix[-1].q, *bridge, *rest], until=goal)
+    if problem or len(states) < 2 or not _at_goal(scene, states[-1], radius):
+        return None
+    return [*prefix, *states[1:]]
 
 
 def _at_goal(scene, state: State, radius: float) -> bool:

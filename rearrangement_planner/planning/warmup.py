@@ -47,7 +47,12 @@ def _exercise() -> None:
         manifold_error,
         project_step,
     )
-    from rearrangement_planner.planning.propagation import Action, Stops, constrained_prop
+    from rearrangement_planner.planning.propagation import (
+        Action,
+        Stops,
+        constrained_prop,
+        replay,
+    )
     from rearrangement_planner.planning.push_policy import push_policy_prop
 
     scene = load_scene("easy_push")
@@ -64,6 +69,7 @@ def _exercise() -> None:
     stops = Stops(scene.goal_index, (0.0, 0.0), 0.0, math.inf, lambda: False)
     push = Action(np.array([0.0, 0.1, 0.0]), 0.5, np.zeros(scene.robot.nq))
     constrained_prop(physics, start, push, 0.05, stops)
+    replay(physics, start, [start.q, start.q], until=stops)
     push_policy_prop(physics, start, scene.goal_index, np.array([0.5, -0.1]), 2, 0.05, 0.1,
                      push.nullspace, stops)
 

@@ -167,3 +167,38 @@ def test_a_sphere_shape_is_a_capsule_of_length_zero_and_a_box_shape_is_refused(p
     assert len(results[0].states) == len(results[1].states) > 0
     assert results[0].pushing_links == {"panda_hand"}
     np.testing.assert_array_equal(results[0].states[-1].objects, results[1].states[-1].objects)
+
+
+def test_the_compiled_replay_equals_physics_steps_and_stops_at_the_goal():
+    """`replay` (one compiled call over a whole arm path, as robustness rollouts and
+    shortcutting use it) gives the states of `Physics.step` taken one by one, the first
+    invalid step's reason and detail, and with `until` ends at the first state in the goal
+    region."""
+    from rearrangement_planner.planning.propagation import replay
+    from rearrangement_planner.planning.push_policy import push_policy_prop
+
+    scene = load_scene("easy_push")
+    physics = Physics(scene)
+    start = State(default_push_configuration(scene.robot, scene.table.height),
+                  scene.initial_state().objects)
+    g, goal = scene.goal_index, np.asarray(scene.goal.position)
+    pushed = push_policy_prop(physics, start, g, goal, 120, 0.05, 0.1, np.zeros(7))
+    assert pushed.pushing_links == {"panda_hand"}
+    arm = np.array([start.q, *(s.q for s in pushed.states)])
+    full, problem = replay(physics, start, arm)
+    assert problem == "" and len(full) == len(arm)
+    for got, want in zip(full[1:], pushed.states, strict=True):
+        np.testing.assert_array_equal(got.objects, want.objects)
+    # A path that dives into the table: the same reason and detail as Physics.step's.
+    bad = arm[:12].copy()
+    bad[-1] = bad[-2] + np.array([0.0, 0.3, 0.0, 0.0, 0.0, 0.0, 0.0])
+    states, problem = replay(physics, start, bad)
+    step = physics.step(states[-1], bad[len(states)])
+    assert step.reason is Invalid.ARM_TABLE and len(states) == len(bad) - 1
+    assert problem == f"{step.reason.value}: {step.detail}"
+    # Cut at the goal: the first state within 5 cm of where the push ends.
+    end = pushed.states[-1].objects[g, :2]
+    until = Stops(g, (float(end[0]), float(end[1])), 0.05, math.inf, lambda: False)
+    cut, problem = replay(physics, start, arm, until=until)
+    inside = [np.hypot(*(s.objects[g, :2] - end)) <= 0.05 for s in full]
+    assert problem == "" and len(cut) == inside.index(True) + 1 < len(arm)
