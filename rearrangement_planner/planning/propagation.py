@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -263,7 +263,7 @@ def _propagate_kernel(q: np.ndarray, objects: np.ndarray, held: np.ndarray,
     return steps, 0
 
 
-def replay(physics: Physics, start: State, arm_path: np.ndarray,
+def replay(physics: Physics, start: State, arm_path: np.ndarray | Sequence[np.ndarray],
            until: Stops | None = None) -> tuple[list[State], str]:
     """Re-simulate the objects along a sequence of arm configurations (the first equal to
     start.q), in one compiled call (`_replay_kernel`). Returns the states (one per
