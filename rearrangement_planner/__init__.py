@@ -8,7 +8,7 @@ import tempfile
 from pathlib import Path
 
 COMPILED_MODULES = ("physics/kernels.py", "physics/pushing.py", "physics/step.py",
-                    "planning/manifold.py", "planning/propagation.py")
+                    "planning/manifold.py", "planning/propagation.py", "planning/tree.py")
 """The modules with Numba-compiled functions (`@njit(cache=True)`)."""
 
 

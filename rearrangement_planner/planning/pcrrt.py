@@ -241,11 +241,7 @@ class PCRRT:
 
     def _nearest(self, tree: Tree, sample_arm: np.ndarray, sample_objects: np.ndarray) -> int:
         """Nearest (§III-D): the node closest to the sample by the weighted metric."""
-        n = tree.n
-        d_arm = np.linalg.norm(tree.arm[:n] - sample_arm, axis=1)
-        diff = tree.objects[:n, :, :2] - sample_objects[:, :2]
-        d_obj = np.sqrt((diff * diff).sum(axis=2)) @ self._weights
-        return int(np.argmin(self.options.arm_weight * d_arm + d_obj))
+        return tree.nearest(sample_arm, sample_objects, self.options.arm_weight, self._weights)
 
     def _sample_action(self, rng: np.random.Generator) -> Action:
         """SampleAction: uniform in the bounds (§V: 'Actions are uniformly sampled from a

@@ -1,9 +1,13 @@
 """The search tree shared by PC-RRT and the baselines: nodes in growing arrays, so that Nearest
-is one vectorised expression, and the edge (the propagated states) into each node."""
+is one compiled pass over them (`Tree.nearest`), and the edge (the propagated states) into each
+node."""
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
+from numba import njit
 
 from rearrangement_planner.model.state import State
 
@@ -37,6 +41,17 @@ class Tree:
         self.n += 1
         return self.n - 1
 
+    def nearest(self, arm: np.ndarray, objects: np.ndarray, arm_weight: float,
+                weights: np.ndarray) -> int:
+        """Nearest (§III-D of King et al.): the node closest to (arm, objects) by
+        Dist = arm_weight |arm_i - arm| + sum_j weights[j] |o_i^j - o^j| (object positions in
+        the plane). One compiled pass: a tree of 20,000 nodes is scanned in well under a
+        millisecond (NumPy's temporaries took half of a long plan's time)."""
+        # Fresh writable copies: one compiled signature whoever calls.
+        return int(_nearest(self.arm, self.objects, self.n, np.array(arm, dtype=float),
+                            np.array(objects, dtype=float), float(arm_weight),
+                            np.array(weights, dtype=float)))
+
     def state(self, node: int) -> State:
         return State(self.q[node], self.objects[node])
 
@@ -50,3 +65,22 @@ class Tree:
         for piece in reversed(pieces):
             states.extend(piece)
         return states
+
+
+@njit(cache=True)
+def _nearest(arms: np.ndarray, objects: np.ndarray, n: int, arm: np.ndarray,
+             sample: np.ndarray, arm_weight: float, weights: np.ndarray) -> int:
+    best, best_node = math.inf, 0
+    for i in range(n):
+        d_arm = 0.0
+        for k in range(arm.shape[0]):
+            d = arms[i, k] - arm[k]
+            d_arm += d * d
+        d_obj = 0.0
+        for j in range(weights.shape[0]):
+            dx, dy = objects[i, j, 0] - sample[j, 0], objects[i, j, 1] - sample[j, 1]
+            d_obj += weights[j] * math.sqrt(dx * dx + dy * dy)
+        total = arm_weight * math.sqrt(d_arm) + d_obj
+        if total < best:
+            best, best_node = total, i
+    return best_node
