@@ -109,7 +109,11 @@ def _build(blob: bytes) -> tuple[Scene, Physics]:
 
 
 def _serve(conn, best, cancel) -> None:
-    """A worker process: plan one tree per task until the pipe closes."""
+    """A worker process: plan one tree per task until the pipe closes. It loads the compiled
+    core first (`warm_up`), while the first task is on its way."""
+    from rearrangement_planner.planning.warmup import warm_up
+
+    warm_up()
     built: dict[str, tuple[Scene, Physics]] = {}
     while True:
         try:
