@@ -194,31 +194,6 @@ def capsule_prism_below(a: np.ndarray, b: np.ndarray, radius: float, limit: floa
     return best - radius
 
 
-@njit(cache=True)
-def capsules_prisms(shape_poses: np.ndarray, half_lengths: np.ndarray, radii: np.ndarray,
-                    kinds: np.ndarray, centres: np.ndarray, yaws: np.ndarray,
-                    dims: np.ndarray, margin: float, distances: np.ndarray,
-                    points: np.ndarray, normals: np.ndarray) -> int:
-    """`capsule_prism` for every capsule (S poses, their axis along the pose's z, half length
-    and radius) against every prism (M), in one call: a broad phase (the capsule's box against
-    the prism's bounding circle and height, grown by `margin`) then the narrow phase for the
-    pairs that pass it. Writes distances (S, M; +inf where the broad phase rules the pair out),
-    prism points and normals (S, M, 3); returns how many pairs reached the narrow phase."""
-    shapes, prisms = shape_poses.shape[0], centres.shape[0]
-    a, b = np.empty(3), np.empty(3)
-    narrow = 0
-    for s in range(shapes):
-        segment(shape_poses, s, half_lengths[s], a, b)
-        for m in range(prisms):
-            distances[s, m] = math.inf
-            if not near_prism(a, b, radii[s] + margin, kinds[m], centres[m], dims[m]):
-                continue
-            narrow += 1
-            distances[s, m] = capsule_prism(a, b, radii[s], kinds[m], centres[m], yaws[m],
-                                            dims[m], points[s, m], normals[s, m])
-    return narrow
-
-
 # -- forward kinematics of the contact shapes -----------------------------------------------------
 
 
