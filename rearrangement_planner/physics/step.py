@@ -14,7 +14,9 @@ Each substep:
 2. contacts: every arm contact shape vs every object at q' (`kernels.capsule_prism` after a
    bounding-box broad phase); each penetrating contact gives a point p, a normal n (arm
    into object) and a depth;
-3. a contact whose normal is mostly vertical presses on the object from above: invalid;
+3. a contact whose normal is mostly vertical presses on the object from above: invalid; so is
+   (with `PhysicsOptions.edge_margin`) a contact at the object's top edge or a box's vertical
+   edge, where no model predicts the push;
 4. the pusher displacement at p is the link's own motion between q and q' (the rigid transform
    of the link, which is J(p) dq to first order), projected on the table plane; it is scaled so
    that its normal component equals the penetration to undo ("the part of the substep spent in
@@ -72,6 +74,7 @@ class Invalid(str, Enum):
     JAMMING = "jamming"
     RESIDUAL_PENETRATION = "residual_penetration"
     TIPPING = "object_would_tip"
+    EDGE_CONTACT = "contact_at_edge"
 
 
 @dataclass(frozen=True)
@@ -90,6 +93,12 @@ class PhysicsOptions:
     object slide whatever the push height); the planners switch it on with their `tipping`
     setting (`PlannerOptions.tipping`, on by default). Off = objects never tip, as in King
     et al."""
+    edge_margin: float = 0.0
+    """Refuse a push whose contact lies within this distance (m) of its object's top edge or
+    of a box's vertical edge (`Invalid.EDGE_CONTACT`). There the contact normal is set by the
+    exact shape of the link and the corner, which no contact shape reproduces: the real arm
+    slides off where the model sticks, or presses the object down and tips it. Off here (0,
+    as in King et al.); the planners set it with their `edge_margin` setting."""
     static_objects: frozenset[str] = frozenset()
     """Names of movable objects treated as static obstacles: any arm contact with one is
     invalid (`Invalid.ARM_OBSTACLE`). The Static RRT baseline makes every object but the goal
@@ -140,11 +149,11 @@ def tips_over(obj: MovableObject, twist: np.ndarray, height: float) -> bool:
 
 
 # Outcome codes of the compiled step (`_REASONS[code]`; 0 is a valid step).
-_VALID, _STATIC_OBJECT = 0, 11
+_VALID, _STATIC_OBJECT, _EDGE = 0, 11, 12
 _REASONS: tuple[Invalid | None, ...] = (
     None, Invalid.JOINT_LIMIT, Invalid.ARM_TABLE, Invalid.ARM_OBSTACLE, Invalid.OBJECT_OVERLAP,
     Invalid.OBJECT_OBSTACLE, Invalid.OFF_TABLE, Invalid.CONTACT_FROM_ABOVE, Invalid.JAMMING,
-    Invalid.RESIDUAL_PENETRATION, Invalid.TIPPING, Invalid.ARM_OBSTACLE)
+    Invalid.RESIDUAL_PENETRATION, Invalid.TIPPING, Invalid.ARM_OBSTACLE, Invalid.EDGE_CONTACT)
 (_JOINT_LIMIT, _ARM_TABLE, _ARM_OBSTACLE, _OBJECT_OVERLAP, _OBJECT_OBSTACLE, _OFF_TABLE,
  _FROM_ABOVE, _JAMMING, _RESIDUAL, _TIPPING) = range(1, 11)
 
@@ -283,6 +292,8 @@ class Physics:
             return f"{links[a]} penetrates obstacle '{self._obstacle_names[b]}'"
         if code == _STATIC_OBJECT:
             return f"{links[a]} touches '{names[b]}', a static object for this planner"
+        if code == _EDGE:
+            return f"{links[a]} touches '{names[b]}' at an edge"
         if code == _FROM_ABOVE:
             return f"{links[a]} presses on '{names[b]}' from above (normal z = {v:+.2f})"
         if code == _JAMMING:
@@ -351,7 +362,8 @@ def _world_arrays(scene: Scene, robot: RobotModel, options: PhysicsOptions,
                         0.5 * table.size[1]], dtype=float),
         options=np.array([options.max_substep, options.penetration_tolerance,
                           options.overlap_tolerance, options.vertical_normal_limit,
-                          float(options.tipping), FREE_SPACE_MARGIN], dtype=float))
+                          float(options.tipping), FREE_SPACE_MARGIN, options.edge_margin],
+                         dtype=float))
 
 
 # -- the compiled step ---------------------------------------------------------------------------
@@ -617,10 +629,39 @@ def _object_checks(objects: np.ndarray, which: np.ndarray, static_centre: np.nda
     return _VALID
 
 
+EDGE_NORMAL_TILT = 0.17
+"""sin(10 deg): at an edge, a contact normal tilted more than this from the face's own normal
+is set by the corner, not by a face (`_at_edge`)."""
+
+
 @njit(cache=True)
-def _admissible(count: int, c_shape: np.ndarray, c_obj: np.ndarray, c_normal: np.ndarray,
-                obj_props: np.ndarray, options: np.ndarray, touched: np.ndarray,
-                info: np.ndarray, value: np.ndarray) -> int:
+def _at_edge(point: np.ndarray, normal: np.ndarray, pose: np.ndarray, kind: int,
+             dims: np.ndarray, centre_z: float, margin: float) -> bool:
+    """Whether a contact at `point` (normal `normal`, world frame) meets its object at an edge
+    (`PhysicsOptions.edge_margin`): within `margin` of the top edge with the normal tilted out
+    of the horizontal, or within `margin` of a box's vertical edge with the normal between the
+    two faces' normals. A link lying flat against a face up to its edge meets the face, not the
+    edge: its normal is the face's."""
+    half_z = dims[2] if kind == kernels.BOX else dims[1]
+    if point[2] - centre_z > half_z - margin and abs(normal[2]) > EDGE_NORMAL_TILT:
+        return True
+    if kind != kernels.BOX:
+        return False
+    c, s = math.cos(pose[2]), math.sin(pose[2])
+    dx, dy = point[0] - pose[0], point[1] - pose[1]
+    if (abs(c * dx + s * dy) <= dims[0] - margin
+            or abs(-s * dx + c * dy) <= dims[1] - margin):
+        return False
+    nx, ny = c * normal[0] + s * normal[1], -s * normal[0] + c * normal[1]
+    across = math.hypot(nx, ny)
+    return across > 0.0 and min(abs(nx), abs(ny)) > EDGE_NORMAL_TILT * across
+
+
+@njit(cache=True)
+def _admissible(count: int, c_shape: np.ndarray, c_obj: np.ndarray, c_point: np.ndarray,
+                c_normal: np.ndarray, objects: np.ndarray, obj_kind: np.ndarray,
+                obj_dims: np.ndarray, obj_props: np.ndarray, options: np.ndarray,
+                touched: np.ndarray, info: np.ndarray, value: np.ndarray) -> int:
     """No contact presses from above (module docstring, step 3) or touches a static object;
     marks the touched objects."""
     for i in range(count):
@@ -631,6 +672,11 @@ def _admissible(count: int, c_shape: np.ndarray, c_obj: np.ndarray, c_normal: np
         if obj_props[c_obj[i], 5] > 0.0:
             info[1], info[2] = c_shape[i], c_obj[i]
             return _STATIC_OBJECT
+        if options[6] > 0.0 and _at_edge(c_point[i], c_normal[i], objects[c_obj[i]],
+                                         obj_kind[c_obj[i]], obj_dims[c_obj[i]],
+                                         obj_props[c_obj[i], 0], options[6]):
+            info[1], info[2] = c_shape[i], c_obj[i]
+            return _EDGE
         touched[c_obj[i]] = True
     return _VALID
 
@@ -718,8 +764,8 @@ def _substep(poses_a: np.ndarray, poses_b: np.ndarray, objects: np.ndarray,
     if count == 0:
         return _VALID
     touched = np.zeros(M, dtype=np.bool_)
-    code = _admissible(count, c_shape, c_obj, c_normal, obj_props, options, touched, info,
-                       value)
+    code = _admissible(count, c_shape, c_obj, c_point, c_normal, objects, obj_kind, obj_dims,
+                       obj_props, options, touched, info, value)
     if code != _VALID:
         return code
     changed = np.zeros(M, dtype=np.bool_)

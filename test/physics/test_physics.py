@@ -368,3 +368,66 @@ def test_a_tipping_push_is_invalid_and_the_same_push_slides_without_the_check(pa
         reasons[tipping] = (reason, state.objects[0, 0] - 0.46)
     assert reasons[True][0] is Invalid.TIPPING
     assert reasons[False][0] is None and reasons[False][1] > 0.01
+
+
+# --------------------------------------------------------------------------------------------
+# Edge contacts (issue 18 item 2: pushes whose outcome no contact model predicts)
+# --------------------------------------------------------------------------------------------
+
+
+def _push_along_x(panda, obj):
+    """The hand on the pushing plane moving along +x from 0.40 to 0.50 m (IK every 5 mm) into
+    `obj`: the first invalid reason and detail with and without a 1 cm edge margin, and where
+    the object ends without it."""
+    from rearrangement_planner.planning.manifold import ik_on_manifold
+
+    q = default_push_configuration(panda, 0.0)
+    path = []
+    for x in np.arange(0.40, 0.50, 0.005):
+        q = ik_on_manifold(panda, float(x), 0.0, 0.0, 0.0, q)
+        path.append(q)
+    scene = make_scene([obj], path[0], robot=panda)
+    outcome = {}
+    for margin in (0.0, 0.01):
+        physics = Physics(scene, PhysicsOptions(edge_margin=margin))
+        state, result = scene.initial_state(), None
+        for q_next in path[1:]:
+            result = physics.step(state, q_next)
+            if not result.valid:
+                break
+            state = result.state
+        assert result is not None
+        outcome[margin] = (result.reason, result.detail, state.objects[0])
+    return outcome
+
+
+@pytest.mark.parametrize("height", [0.12, 0.08])
+def test_a_push_on_the_middle_of_a_face_is_valid_with_the_edge_margin(panda, height):
+    """The finger pads meet the face flat, up to the box's top edge for the 8 cm box: the
+    normal is the face's, so the edge margin leaves the push alone."""
+    outcome = _push_along_x(panda, box("b", [0.46, 0.0, 0.0], size=(0.06, 0.08, height)))
+    for margin in (0.0, 0.01):
+        reason, detail, pose = outcome[margin]
+        assert reason is None, detail
+        assert pose[0] > 0.5 and abs(pose[2]) < 1e-6
+
+
+def test_a_push_at_a_vertical_edge_of_a_box_is_invalid_with_the_edge_margin(panda):
+    """The box stands 6 cm aside: the pads meet its vertical edge, with a normal between the
+    two faces'. Without the margin the model turns the box (by 0.46 rad); with it the step is
+    refused, naming the link and the object."""
+    outcome = _push_along_x(panda, box("b", [0.46, 0.06, 0.0], size=(0.06, 0.08, 0.12)))
+    reason, _, pose = outcome[0.0]
+    assert reason is None and pose[2] > 0.3
+    reason, detail, pose = outcome[0.01]
+    assert reason is Invalid.EDGE_CONTACT
+    assert detail == "panda_hand touches 'b' at an edge"
+    assert pose[0] < 0.47
+
+
+def test_a_push_over_the_top_edge_is_invalid_with_the_edge_margin(panda):
+    """A 6.5 cm box: the hand's lower capsule meets its top edge from above at a slant (not
+    steep enough for contact_from_above)."""
+    outcome = _push_along_x(panda, box("b", [0.46, 0.0, 0.0], size=(0.06, 0.08, 0.065)))
+    assert outcome[0.0][0] is None
+    assert outcome[0.01][0] is Invalid.EDGE_CONTACT

@@ -257,3 +257,19 @@ def test_the_tipping_setting_keeps_plans_from_toppling_the_goal_object(panda):
         options = PCRRTOptions(time_limit=60.0, max_iterations=300, tipping=tipping)
         output = plan_scene(scene, "pc-rrt", options, seed=1)
         assert output.solved is solved, (tipping, output.result.message)
+
+
+def test_the_edge_margin_setting_reaches_the_planners_physics(easy):
+    """`edge_margin` (a planner setting, off by default) becomes the physics option of the
+    world the planner plans in; of a margin given with the physics and the setting, the larger
+    wins; 0 leaves the physics as given (world_sim's execution physics keeps 0)."""
+    from rearrangement_planner.physics.step import Physics, PhysicsOptions
+    from rearrangement_planner.planning.interface import planning_physics
+
+    assert PCRRT(easy).physics.options.edge_margin == 0.0
+    assert PCRRT(easy, PCRRTOptions(edge_margin=0.02)).physics.options.edge_margin == 0.02
+    given = Physics(easy, PhysicsOptions(edge_margin=0.03))
+    assert planning_physics(easy, PCRRTOptions(), given).options.edge_margin == 0.03
+    plain = Physics(easy)
+    assert planning_physics(easy, PCRRTOptions(edge_margin=0.0, tipping=False), plain) is plain
+    assert Physics(easy).options.edge_margin == 0.0
