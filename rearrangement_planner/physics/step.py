@@ -75,6 +75,7 @@ class Invalid(str, Enum):
     RESIDUAL_PENETRATION = "residual_penetration"
     TIPPING = "object_would_tip"
     EDGE_CONTACT = "contact_at_edge"
+    TURNING = "object_turns"
 
 
 @dataclass(frozen=True)
@@ -99,6 +100,13 @@ class PhysicsOptions:
     exact shape of the link and the corner, which no contact shape reproduces: the real arm
     slides off where the model sticks, or presses the object down and tips it. Off here (0,
     as in King et al.); the planners set it with their `edge_margin` setting."""
+    max_turn: float = 0.0
+    """Refuse a push that turns its object by more than this many radians per metre its
+    centre travels (`Invalid.TURNING`; 10 = a turn of 1 rad over a 10 cm push). How fast an
+    off-centre push turns an object depends on the pressure under it and the friction at the
+    contact, which no model knows well: a turn predicted 30 % off sends every later push of the
+    plan somewhere else. 0 = off (as in King et al.); the planners set it with their
+    `max_turn` setting."""
     static_objects: frozenset[str] = frozenset()
     """Names of movable objects treated as static obstacles: any arm contact with one is
     invalid (`Invalid.ARM_OBSTACLE`). The Static RRT baseline makes every object but the goal
@@ -149,11 +157,12 @@ def tips_over(obj: MovableObject, twist: np.ndarray, height: float) -> bool:
 
 
 # Outcome codes of the compiled step (`_REASONS[code]`; 0 is a valid step).
-_VALID, _STATIC_OBJECT, _EDGE = 0, 11, 12
+_VALID, _STATIC_OBJECT, _EDGE, _TURNING = 0, 11, 12, 13
 _REASONS: tuple[Invalid | None, ...] = (
     None, Invalid.JOINT_LIMIT, Invalid.ARM_TABLE, Invalid.ARM_OBSTACLE, Invalid.OBJECT_OVERLAP,
     Invalid.OBJECT_OBSTACLE, Invalid.OFF_TABLE, Invalid.CONTACT_FROM_ABOVE, Invalid.JAMMING,
-    Invalid.RESIDUAL_PENETRATION, Invalid.TIPPING, Invalid.ARM_OBSTACLE, Invalid.EDGE_CONTACT)
+    Invalid.RESIDUAL_PENETRATION, Invalid.TIPPING, Invalid.ARM_OBSTACLE, Invalid.EDGE_CONTACT,
+    Invalid.TURNING)
 (_JOINT_LIMIT, _ARM_TABLE, _ARM_OBSTACLE, _OBJECT_OVERLAP, _OBJECT_OBSTACLE, _OFF_TABLE,
  _FROM_ABOVE, _JAMMING, _RESIDUAL, _TIPPING) = range(1, 11)
 
@@ -292,6 +301,8 @@ class Physics:
             return f"{links[a]} penetrates obstacle '{self._obstacle_names[b]}'"
         if code == _STATIC_OBJECT:
             return f"{links[a]} touches '{names[b]}', a static object for this planner"
+        if code == _TURNING:
+            return f"'{names[a]}' would turn too fast: {v:.1f} rad per m it moves"
         if code == _EDGE:
             return f"{links[a]} touches '{names[b]}' at an edge"
         if code == _FROM_ABOVE:
@@ -362,7 +373,8 @@ def _world_arrays(scene: Scene, robot: RobotModel, options: PhysicsOptions,
                         0.5 * table.size[1]], dtype=float),
         options=np.array([options.max_substep, options.penetration_tolerance,
                           options.overlap_tolerance, options.vertical_normal_limit,
-                          float(options.tipping), FREE_SPACE_MARGIN, options.edge_margin],
+                          float(options.tipping), FREE_SPACE_MARGIN, options.edge_margin,
+                          options.max_turn],
                          dtype=float))
 
 
@@ -580,6 +592,10 @@ def _push_object(m: int, pose: np.ndarray, count: int, c_shape: np.ndarray,
         return _JAMMING
     if twist[0] == 0.0 and twist[1] == 0.0 and twist[2] == 0.0:
         return -1
+    if options[7] > 0.0 and abs(twist[2]) > options[7] * math.hypot(twist[0], twist[1]) \
+            + TURN_SLACK:
+        value[0] = abs(twist[2]) / max(math.hypot(twist[0], twist[1]), 1e-9)
+        return _TURNING
     if options[4] > 0.0:
         height -= table[0]
         if _tips_over(obj_kind[m], obj_size[m], obj_props[m, 3], twist[0], twist[1], height):
@@ -629,6 +645,9 @@ def _object_checks(objects: np.ndarray, which: np.ndarray, static_centre: np.nda
     return _VALID
 
 
+TURN_SLACK = 1e-4
+"""rad per substep a push may turn its object beyond `PhysicsOptions.max_turn` (a substep
+moves a contact at most `max_substep`, 4 mm: a grazing touch may nudge an object in place)."""
 EDGE_NORMAL_TILT = 0.17
 """sin(10 deg): at an edge, a contact normal tilted more than this from the face's own normal
 is set by the corner, not by a face (`_at_edge`)."""

@@ -80,6 +80,10 @@ class PlannerOptions(Settings):
     the push depends on the exact shape of link and corner, and traced executions went
     elsewhere than predicted. Off by default: with 0.01 fewer plans reached the goal in MuJoCo
     (13/33 against 19/33, docs/benchmark.md "Executed"). 0 = any contact, as in King et al."""
+    max_turn: float = setting(0.0, low=0.0, high=1000.0)
+    """Refuse a push that turns its object by more than this many radians per metre of its
+    travel (`PhysicsOptions.max_turn`): how fast an off-centre push turns an object is what
+    the quasistatic model predicts worst. 0 = off, as in King et al."""
     dt: float = setting(0.1, low=0.001, high=1.0)
     """Propagation step, s (Δt of Algorithm 2 of King et al.)."""
     progress_period: float = setting(0.25, low=0.0, high=60.0)
@@ -110,15 +114,17 @@ class PlannerOptions(Settings):
 def planning_physics(scene: Scene, options: PlannerOptions,
                      physics: Physics | None = None) -> Physics:
     """The physics a planner plans in: `physics` (default the scene's), with the tipping check
-    on when the options' `tipping` or the physics' own options say so, and the larger of the
-    two edge margins."""
+    on when the options' `tipping` or the physics' own options say so, the larger of the two
+    edge margins and the tighter of the two turn limits."""
     base = physics or Physics(scene)
-    tipping = base.options.tipping or options.tipping
-    margin = max(base.options.edge_margin, options.edge_margin)
-    if tipping == base.options.tipping and margin == base.options.edge_margin:
+    given = base.options
+    tipping = given.tipping or options.tipping
+    margin = max(given.edge_margin, options.edge_margin)
+    turn = min((t for t in (given.max_turn, options.max_turn) if t > 0), default=0.0)
+    if (tipping, margin, turn) == (given.tipping, given.edge_margin, given.max_turn):
         return base
-    return Physics(base.scene, dataclasses.replace(base.options, tipping=tipping,
-                                                   edge_margin=margin), base.robot)
+    return Physics(base.scene, dataclasses.replace(given, tipping=tipping, edge_margin=margin,
+                                                   max_turn=turn), base.robot)
 
 
 @dataclass(frozen=True)

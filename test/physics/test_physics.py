@@ -431,3 +431,38 @@ def test_a_push_over_the_top_edge_is_invalid_with_the_edge_margin(panda):
     outcome = _push_along_x(panda, box("b", [0.46, 0.0, 0.0], size=(0.06, 0.08, 0.065)))
     assert outcome[0.0][0] is None
     assert outcome[0.01][0] is Invalid.EDGE_CONTACT
+
+
+def test_a_push_that_turns_its_object_fast_is_invalid_with_max_turn(panda):
+    """Pushed 2.5 cm off its centre line the box turns about a radian over the push (6 rad
+    per metre at first): refused with max_turn 5, named with its rate; the centred push and
+    the 1.5 cm offset one (the pads' face still reaches the centre line) go straight and stay
+    valid."""
+    from rearrangement_planner.planning.manifold import ik_on_manifold
+
+    q = default_push_configuration(panda, 0.0)
+    path = []
+    for x in np.arange(0.40, 0.55, 0.005):
+        q = ik_on_manifold(panda, float(x), 0.0, 0.0, 0.0, q)
+        path.append(q)
+
+    def push(offset, max_turn):
+        scene = make_scene([box("b", [0.46, offset, 0.0], size=(0.06, 0.08, 0.12))], path[0],
+                           robot=panda)
+        physics = Physics(scene, PhysicsOptions(max_turn=max_turn))
+        state = scene.initial_state()
+        for q_next in path[1:]:
+            result = physics.step(state, q_next)
+            if not result.valid:
+                return result, state
+            state = result.state
+        return result, state
+
+    result, state = push(0.025, 0.0)
+    assert result.valid and state.objects[0, 2] > 0.8
+    result, state = push(0.025, 5.0)
+    assert result.reason is Invalid.TURNING and state.objects[0, 0] == 0.46
+    assert result.detail == "'b' would turn too fast: 6.0 rad per m it moves"
+    for offset in (0.0, 0.015):
+        result, state = push(offset, 5.0)
+        assert result.valid and abs(state.objects[0, 2]) < 1e-3 and state.objects[0, 0] > 0.55

@@ -273,3 +273,16 @@ def test_the_edge_margin_setting_reaches_the_planners_physics(easy):
     plain = Physics(easy)
     assert planning_physics(easy, PCRRTOptions(edge_margin=0.0, tipping=False), plain) is plain
     assert Physics(easy).options.edge_margin == 0.0
+
+
+def test_the_max_turn_setting_reaches_the_planners_physics(easy):
+    """`max_turn` (a planner setting) becomes the physics option; of two limits, the
+    tighter wins (0 is no limit)."""
+    from rearrangement_planner.physics.step import Physics, PhysicsOptions
+    from rearrangement_planner.planning.interface import planning_physics
+
+    assert PCRRT(easy, PCRRTOptions(max_turn=7.0)).physics.options.max_turn == 7.0
+    given = Physics(easy, PhysicsOptions(max_turn=4.0))
+    assert planning_physics(easy, PCRRTOptions(max_turn=7.0), given).options.max_turn == 4.0
+    assert planning_physics(easy, PCRRTOptions(max_turn=0.0), given).options.max_turn == 4.0
+    assert planning_physics(easy, PCRRTOptions(max_turn=3.0), given).options.max_turn == 3.0
