@@ -195,7 +195,7 @@ def test_clear_blockers_pushes_the_blocking_object_out_of_the_line(panda):
          "pose": [0.3, -0.3, 0.0]}]
     data["goal"] = {"object": "target", "position": [0.5, -0.2], "radius": 0.06}
     scene = parse_scene(data, robot=panda)
-    planner = PCRRT(scene, PCRRTOptions())
+    planner = PCRRT(scene, PCRRTOptions(max_turn=0.0))   # the blocker, pushed aside, turns
     start = approach_path(planner.physics, scene.initial_state(), np.random.default_rng(0))[0][-1]
     blocked = Propagation((), 0.0, Invalid.OBJECT_OVERLAP, frozenset())
     stop = planner.stop_check(lambda: False, math.inf)
@@ -271,7 +271,8 @@ def test_the_edge_margin_setting_reaches_the_planners_physics(easy):
     given = Physics(easy, PhysicsOptions(edge_margin=0.03))
     assert planning_physics(easy, PCRRTOptions(), given).options.edge_margin == 0.03
     plain = Physics(easy)
-    assert planning_physics(easy, PCRRTOptions(edge_margin=0.0, tipping=False), plain) is plain
+    assert planning_physics(easy, PCRRTOptions(edge_margin=0.0, tipping=False, max_turn=0.0),
+                            plain) is plain
     assert Physics(easy).options.edge_margin == 0.0
 
 
