@@ -23,6 +23,8 @@ Each substep:
    contact"), which also pushes out a small residual from earlier steps;
 5. per object, the contacts in the object frame go to `pushing.object_twist`: one contact uses
    the motion-cone closed form, several the complementarity problem (no solution = jamming);
+   with `PhysicsOptions.max_turn`, a twist that turns the object faster than that per metre of
+   travel is invalid, and with `tipping` one that would tip it;
 6. the object twist is applied on SE(2); then the moved objects are checked: residual arm-object
    penetration below `penetration_tolerance`, no object-object or object-obstacle overlap, centre
    on the table.
