@@ -79,14 +79,14 @@ class PlannerOptions(Settings):
     a box's vertical edge with a normal set by the edge (`PhysicsOptions.edge_margin`): there
     the push depends on the exact shape of link and corner, and traced executions went
     elsewhere than predicted. Off by default: with 0.01 fewer plans reached the goal in MuJoCo
-    (13/33 against 19/33, docs/benchmark.md "Executed"). 0 = any contact, as in King et al."""
+    (13/33 against 19/33, docs/benchmark.md "Session 13"). 0 = any contact, as in King et al."""
     max_turn: float = setting(5.0, low=0.0, high=1000.0)
     """Refuse a push that turns its object by more than this many radians per metre of its
     travel (`PhysicsOptions.max_turn`): how fast an off-centre push turns an object is what
     the quasistatic model predicts worst, and a turn mispredicted sends every later push of
     the plan elsewhere. 5 by executed success in MuJoCo: 47 of 105 benchmark requests reached
-    the goal, against 37 with no limit, though 86 were solved in the model against 92
-    (docs/benchmark.md "Executed"). 0 = off, as in King et al."""
+    the goal, against 38 with no limit, though 86 were solved in the model against 97
+    (docs/benchmark.md "Session 13"). 0 = off, as in King et al."""
     dt: float = setting(0.1, low=0.001, high=1.0)
     """Propagation step, s (Δt of Algorithm 2 of King et al.)."""
     progress_period: float = setting(0.25, low=0.0, high=60.0)

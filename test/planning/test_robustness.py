@@ -57,6 +57,17 @@ def test_a_plan_ending_on_the_goal_edge_is_fragile_and_one_ending_inside_is_robu
     assert robustness(easy, edge, rollouts=3, seed=0, perturbation=nothing) == 1.0
 
 
+def test_rollouts_judge_the_goal_not_the_planners_choice_of_pushes(easy):
+    """The turn limit and the edge margin restrict which pushes a plan may use; a perturbed
+    world that turns the box faster still counts if the box reaches the goal (judged with the
+    turn limit, none of these 20 rollouts would count)."""
+    inside = _push_until(easy, 0.02)
+    plain = robustness(easy, inside, rollouts=20, seed=0)
+    restricted = PhysicsOptions(max_turn=5.0, edge_margin=0.01)
+    assert plain == 1.0
+    assert robustness(easy, inside, rollouts=20, seed=0, physics_options=restricted) == plain
+
+
 def test_the_pipeline_accepts_only_robust_enough_plans(easy):
     options = PCRRTOptions(time_limit=60.0, goal_margin=0.03)
     lenient = plan_scene(easy, "pc-rrt", options, seed=1,
