@@ -55,6 +55,18 @@ def sweep(physics, state, joint, delta, steps):
     return state, results
 
 
+def _push_path(panda, end):
+    """The tool on the pushing plane moving along +x from 0.40 m to `end` (IK every 5 mm)."""
+    from rearrangement_planner.planning.manifold import ik_on_manifold
+
+    q = default_push_configuration(panda, 0.0)
+    path = []
+    for x in np.arange(0.40, end, 0.005):
+        q = ik_on_manifold(panda, float(x), 0.0, 0.0, 0.0, q)
+        path.append(q)
+    return path
+
+
 @pytest.fixture(scope="module")
 def push_q(panda):
     return np.array(default_push_configuration(panda, 0.0))
@@ -346,13 +358,7 @@ def test_a_tipping_push_is_invalid_and_the_same_push_slides_without_the_check(pa
     """The hand, on the pushing plane (tool 7 cm up), pushes a tall narrow box on a grippy
     table along +x: with the tipping check the first pushing step is invalid (object_would_tip);
     without it the box slides (the model of King et al.)."""
-    from rearrangement_planner.planning.manifold import ik_on_manifold
-
-    q = default_push_configuration(panda, 0.0)
-    path = []
-    for x in np.arange(0.40, 0.50, 0.005):
-        q = ik_on_manifold(panda, float(x), 0.0, 0.0, 0.0, q)
-        path.append(q)
+    path = _push_path(panda, 0.50)
     tall = {**box("tall", [0.46, 0.0, 0.0], size=(0.04, 0.08, 0.25)), "support_friction": 1.0}
     scene = make_scene([tall], path[0], robot=panda)
     reasons = {}
@@ -376,16 +382,10 @@ def test_a_tipping_push_is_invalid_and_the_same_push_slides_without_the_check(pa
 
 
 def _push_along_x(panda, obj):
-    """The hand on the pushing plane moving along +x from 0.40 to 0.50 m (IK every 5 mm) into
+    """The hand on the pushing plane moving along +x from 0.40 to 0.50 m (`_push_path`) into
     `obj`: the first invalid reason and detail with and without a 1 cm edge margin, and where
     the object ends without it."""
-    from rearrangement_planner.planning.manifold import ik_on_manifold
-
-    q = default_push_configuration(panda, 0.0)
-    path = []
-    for x in np.arange(0.40, 0.50, 0.005):
-        q = ik_on_manifold(panda, float(x), 0.0, 0.0, 0.0, q)
-        path.append(q)
+    path = _push_path(panda, 0.50)
     scene = make_scene([obj], path[0], robot=panda)
     outcome = {}
     for margin in (0.0, 0.01):
@@ -438,13 +438,7 @@ def test_a_push_that_turns_its_object_fast_is_invalid_with_max_turn(panda):
     per metre at first): refused with max_turn 5, named with its rate; the centred push and
     the 1.5 cm offset one (the pads' face still reaches the centre line) go straight and stay
     valid."""
-    from rearrangement_planner.planning.manifold import ik_on_manifold
-
-    q = default_push_configuration(panda, 0.0)
-    path = []
-    for x in np.arange(0.40, 0.55, 0.005):
-        q = ik_on_manifold(panda, float(x), 0.0, 0.0, 0.0, q)
-        path.append(q)
+    path = _push_path(panda, 0.55)
 
     def push(offset, max_turn):
         scene = make_scene([box("b", [0.46, offset, 0.0], size=(0.06, 0.08, 0.12))], path[0],
