@@ -179,13 +179,38 @@ def test_limit_surface_c_uses_each_objects_footprint(panda):
     scene = make_scene([cylinder("can", [0.5, 0.3, 0.0], radius=0.04),
                         box("block", [0.5, -0.3, 0.0], size=(0.06, 0.08, 0.1))],
                        LOW_ARM, robot=panda)
-    physics = Physics(scene)
-    assert physics.c[0] == pytest.approx(2 * 0.04 / 3, rel=1e-12)
+    even = Physics(scene, PhysicsOptions(pressure_at_rim=0.0))
+    assert even.c[0] == pytest.approx(2 * 0.04 / 3, rel=1e-12)
     # 6 x 8 cm rectangle: mean distance from the centre, by numerical integration.
     xs = (np.arange(600) + 0.5) / 600 * 0.06 - 0.03
     ys = (np.arange(800) + 0.5) / 800 * 0.08 - 0.04
     rbar = np.hypot(*np.meshgrid(xs, ys)).mean()
-    assert physics.c[1] == pytest.approx(rbar, rel=1e-5)
+    assert even.c[1] == pytest.approx(rbar, rel=1e-5)
+    # By default half the weight rests on the rim (the can) and the corners (the block).
+    default = Physics(scene)
+    assert default.c[0] == pytest.approx(0.5 * 2 * 0.04 / 3 + 0.5 * 0.04, rel=1e-12)
+    assert default.c[1] == pytest.approx(0.5 * rbar + 0.5 * 0.05, rel=1e-5)
+    assert default.arrays.obj_props[1, 1] == default.c[1]
+
+
+def test_weight_on_the_rim_turns_a_pushed_box_less(panda):
+    """The same off-centre push turns a box less when more of its weight rests on its
+    corners (a larger c: more moment to turn it per unit of force); the push is otherwise the
+    same."""
+    path = _push_path(panda, 0.56)
+    scene = make_scene([box("b", [0.48, 0.02, 0.0], size=(0.06, 0.08, 0.08))], path[0],
+                       robot=panda)
+    turns = []
+    for rim in (0.0, 0.5, 1.0):
+        physics = Physics(scene, PhysicsOptions(pressure_at_rim=rim))
+        state = scene.initial_state()
+        for q_next in path[1:]:
+            result = physics.step(state, q_next)
+            assert result.valid, result.detail
+            state = result.state
+        assert state.objects[0, 0] > 0.52                    # pushed, not passed by
+        turns.append(abs(state.objects[0, 2]))
+    assert turns[0] > turns[1] > turns[2] > 0.05, turns
 
 
 def test_step_is_deterministic(whole_arm_scene):
@@ -443,7 +468,9 @@ def test_a_push_that_turns_its_object_fast_is_invalid_with_max_turn(panda):
     def push(offset, max_turn):
         scene = make_scene([box("b", [0.46, offset, 0.0], size=(0.06, 0.08, 0.12))], path[0],
                            robot=panda)
-        physics = Physics(scene, PhysicsOptions(max_turn=max_turn))
+        # Uniform pressure: the turn rates quoted are the uniform model's (the default, with
+        # half the weight on the corners, turns the box more slowly).
+        physics = Physics(scene, PhysicsOptions(max_turn=max_turn, pressure_at_rim=0.0))
         state = scene.initial_state()
         for q_next in path[1:]:
             result = physics.step(state, q_next)
