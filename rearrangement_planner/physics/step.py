@@ -112,7 +112,7 @@ class PhysicsOptions:
     pressure_at_rim: float = 0.5
     """Share of an object's weight that rests on its footprint's outline (a box's corners, a
     cylinder's rim) rather than evenly on its base; it sets how hard the object resists
-    turning (`pushing.limit_surface_c`). 0.5 by the per-push error against MuJoCo: over 36
+    turning (`pushing.limit_surface_c`). 0.5 by the per-push error against MuJoCo: over 34
     primitive box pushes the median position error falls from 1.1 cm (uniform) to 0.7 cm,
     the mean yaw error from 0.13 to 0.11 rad (docs/benchmark.md "Session 14"). 0 = uniform
     pressure, as in King et al."""
