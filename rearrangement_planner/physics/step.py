@@ -109,13 +109,14 @@ class PhysicsOptions:
     contact, which no model knows well: a turn predicted 30 % off sends every later push of the
     plan somewhere else. 0 = off (as in King et al.); the planners set it with their
     `max_turn` setting."""
-    pressure_at_rim: float = 0.5
+    pressure_at_rim: float = 0.0
     """Share of an object's weight that rests on its footprint's outline (a box's corners, a
     cylinder's rim) rather than evenly on its base; it sets how hard the object resists
-    turning (`pushing.limit_surface_c`). 0.5 by the per-push error against MuJoCo: over 34
-    primitive box pushes the median position error falls from 1.1 cm (uniform) to 0.7 cm,
-    the mean yaw error from 0.13 to 0.11 rad (docs/benchmark.md "Session 14"). 0 = uniform
-    pressure, as in King et al."""
+    turning (`pushing.limit_surface_c`). 0.5 matches MuJoCo's pushes better (over 34
+    primitive box pushes the median position error falls from 1.1 cm to 0.7 cm, the mean yaw
+    error from 0.13 to 0.11 rad), but whole plans made with it reached the goal in MuJoCo less
+    often (26 of 70 benchmark requests against 32; docs/benchmark.md "Session 14"), so the
+    default stays 0: uniform pressure, as in King et al."""
     static_objects: frozenset[str] = frozenset()
     """Names of movable objects treated as static obstacles: any arm contact with one is
     invalid (`Invalid.ARM_OBSTACLE`). The Static RRT baseline makes every object but the goal

@@ -99,9 +99,9 @@ def test_an_off_centre_push_turns_the_box_as_much_as_in_mujoco(panda, push_path,
 
 def test_weight_on_the_corners_predicts_the_turn_mujoco_makes(panda):
     """The hand turned 0.6 rad pushes a box 4 cm off its centre line: MuJoCo turns it by about
-    a radian. The model with half the weight on the box's corners (the default
-    `pressure_at_rim`) predicts that turn within 0.1 rad and the box's place within 1 cm;
-    with uniform pressure it turns the box a quarter radian more."""
+    a radian. The model with half the weight on the box's corners (`pressure_at_rim` 0.5)
+    predicts that turn within 0.1 rad and the box's place within 1 cm; with uniform pressure
+    (the default) it turns the box a quarter radian more."""
     xs = np.arange(0.40, 0.56 + 1e-9, 0.005)
     q, path = default_push_configuration(panda, 0.0), []
     for x in xs:
@@ -110,8 +110,9 @@ def test_weight_on_the_corners_predicts_the_turn_mujoco_makes(panda):
     turned = (np.concatenate([[0.0], 1.0 + np.arange(len(xs)) * 0.1]),
               np.vstack([path[:1], path]))
     box = {**BOX, "pose": [0.50, 0.04, 0.0]}
-    scene, trajectory, predicted = _pushed(panda, turned, [box])
-    _, _, uniform = _pushed(panda, turned, [box], PhysicsOptions(pressure_at_rim=0.0))
+    scene, trajectory, predicted = _pushed(panda, turned, [box],
+                                           PhysicsOptions(pressure_at_rim=0.5))
+    _, _, uniform = _pushed(panda, turned, [box])
     executed = np.asarray(check_execution(scene, trajectory).objects[0].pose)
     assert 0.8 < executed[2] < 1.2, executed
     assert abs(predicted.objects[0, 2] - executed[2]) < 0.1, (predicted.objects[0], executed)

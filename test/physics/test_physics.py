@@ -186,11 +186,12 @@ def test_limit_surface_c_uses_each_objects_footprint(panda):
     ys = (np.arange(800) + 0.5) / 800 * 0.08 - 0.04
     rbar = np.hypot(*np.meshgrid(xs, ys)).mean()
     assert even.c[1] == pytest.approx(rbar, rel=1e-5)
-    # By default half the weight rests on the rim (the can) and the corners (the block).
-    default = Physics(scene)
-    assert default.c[0] == pytest.approx(0.5 * 2 * 0.04 / 3 + 0.5 * 0.04, rel=1e-12)
-    assert default.c[1] == pytest.approx(0.5 * rbar + 0.5 * 0.05, rel=1e-5)
-    assert default.arrays.obj_props[1, 1] == default.c[1]
+    assert Physics(scene).c == even.c                    # uniform by default
+    # Half the weight on the rim (the can) and the corners (the block).
+    rim = Physics(scene, PhysicsOptions(pressure_at_rim=0.5))
+    assert rim.c[0] == pytest.approx(0.5 * 2 * 0.04 / 3 + 0.5 * 0.04, rel=1e-12)
+    assert rim.c[1] == pytest.approx(0.5 * rbar + 0.5 * 0.05, rel=1e-5)
+    assert rim.arrays.obj_props[1, 1] == rim.c[1]
 
 
 def test_weight_on_the_rim_turns_a_pushed_box_less(panda):
@@ -468,8 +469,7 @@ def test_a_push_that_turns_its_object_fast_is_invalid_with_max_turn(panda):
     def push(offset, max_turn):
         scene = make_scene([box("b", [0.46, offset, 0.0], size=(0.06, 0.08, 0.12))], path[0],
                            robot=panda)
-        # Uniform pressure: the turn rates quoted are the uniform model's (the default, with
-        # half the weight on the corners, turns the box more slowly).
+        # Uniform pressure (the default): the turn rates quoted are the uniform model's.
         physics = Physics(scene, PhysicsOptions(max_turn=max_turn, pressure_at_rim=0.0))
         state = scene.initial_state()
         for q_next in path[1:]:

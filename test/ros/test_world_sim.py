@@ -358,7 +358,7 @@ def test_preemption_goal_updates_empty_trajectory_and_reset(session, reference):
 # noise of 1 cm std dev with seed 3 leaves the easy_push box 0.13 m from the goal, with seed 1
 # it aborts the default scene's plan on an invalid step). Each plan succeeds unperturbed; the
 # plans, made with the 5 cm goal margin, survive five times the friction.
-PERTURBATIONS = (("easy_push_1obj", {"pose_noise": 0.01, "seed": 1}),
+PERTURBATIONS = (("easy_push_1obj", {"pose_noise": 0.01, "seed": 3}),
                  ("default_3obj", {"pose_noise": 0.01, "seed": 1}))
 
 
