@@ -69,6 +69,10 @@ class PipelineOptions(Settings):
     """Perturbed rollouts per candidate plan (with min_robustness > 0)."""
     candidates: int = setting(3, low=1, high=20)
     """Most candidate plans planned for min_robustness, within the one time limit."""
+    accept_best: bool = setting(False)
+    """When no candidate reaches min_robustness: answer with the most robust one (its
+    robustness reported) instead of failing. A request then fails only when no plan is found
+    at all, as without robust selection; the candidates only choose among plans."""
 
     @property
     def timing(self) -> TimingOptions:
@@ -322,6 +326,10 @@ def _robust_search(search: _Search, seed: int, robust: PipelineOptions
         return _Candidate(last or PlanResult(Outcome.TIMEOUT, "no time for a candidate",
                                              seed)), None
     fragile, score = best
+    if robust.accept_best:
+        spent = time.monotonic() - t0 - fragile.shortcut_time
+        return dataclasses.replace(fragile, result=dataclasses.replace(
+            fragile.result, plan_time=spent)), score
     return _Candidate(dataclasses.replace(
         fragile.result, outcome=Outcome.TIMEOUT, states=(),
         message=f"no plan reached min_robustness {robust.min_robustness:g} within "

@@ -80,6 +80,9 @@ def build_parser() -> argparse.ArgumentParser:
                         help="perturbed rollouts per candidate (default 10)")
     parser.add_argument("--candidates", type=int, default=3, metavar="K",
                         help="most candidate plans for --min-robustness (default 3)")
+    parser.add_argument("--accept-best", action="store_true",
+                        help="when no candidate reaches --min-robustness, answer with the most "
+                             "robust one instead of failing")
     parser.add_argument("--check-execution", action="store_true",
                         help="execute the plan open loop in MuJoCo with the arm's real collision "
                              "meshes (ideal and servo-driven arm) and report whether the goal "
@@ -160,7 +163,7 @@ def main(argv: list[str] | None = None) -> int:
         options = _options(args)
         try:
             robust = PipelineOptions(min_robustness=args.min_robustness, rollouts=args.rollouts,
-                                     candidates=args.candidates)
+                                     candidates=args.candidates, accept_best=args.accept_best)
         except ValueError as exc:
             raise RearrangementError(f"--min-robustness/--rollouts/--candidates: {exc}") \
                 from None

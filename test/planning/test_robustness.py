@@ -16,7 +16,9 @@ from rearrangement_planner.physics.step import Physics, PhysicsOptions
 from rearrangement_planner.physics.validation import load_scene
 from rearrangement_planner.planning import PCRRTOptions, StopReason, plan_scene
 from rearrangement_planner.planning.manifold import ik_on_manifold
-from rearrangement_planner.planning.pipeline import PipelineOptions
+from rearrangement_planner.planning.interface import planning_physics
+from rearrangement_planner.planning.parallel import tree_seed
+from rearrangement_planner.planning.pipeline import CANDIDATE_SEED_OFFSET, PipelineOptions
 from rearrangement_planner.planning.propagation import Stops
 from rearrangement_planner.planning.push_policy import push_policy_prop
 from rearrangement_planner.planning.robustness import robustness
@@ -80,6 +82,32 @@ def test_the_pipeline_accepts_only_robust_enough_plans(easy):
         assert not strict.solved and "no plan reached min_robustness 1" in strict.result.message
     unchecked = plan_scene(easy, "pc-rrt", options, seed=1)
     assert unchecked.robustness is None and unchecked.to_dict()["robustness"] is None
+
+
+def test_with_accept_best_the_most_robust_candidate_answers_when_none_is_robust_enough(easy):
+    """min_robustness 1 is out of reach of all three candidates (each the plan its own seed
+    gives, scored the same way): without accept_best the request fails, with it the most
+    robust candidate, the third, answers."""
+    options = PCRRTOptions(time_limit=60.0)
+    world = planning_physics(easy, options).options
+    seeds = [6] + [tree_seed(6, CANDIDATE_SEED_OFFSET + k) for k in (1, 2)]
+    candidates = []
+    for seed in seeds:
+        plan = plan_scene(easy, "pc-rrt", options, seed=seed)
+        assert plan.solved
+        candidates.append((plan, robustness(easy, plan.result.states, 10, seed,
+                                            physics_options=world)))
+    scores = [score for _, score in candidates]
+    assert 0 < int(np.argmax(scores)) and max(scores) < 1.0, scores    # 0.4, 0.1, 0.8
+    expected = candidates[int(np.argmax(scores))]
+    best = plan_scene(easy, "pc-rrt", options, seed=6, robust=PipelineOptions(
+        min_robustness=1.0, rollouts=10, candidates=3, accept_best=True))
+    assert best.solved and best.robustness == expected[1], (best.robustness, scores)
+    assert [s.q.tolist() for s in best.result.states] == \
+        [s.q.tolist() for s in expected[0].result.states]
+    refused = plan_scene(easy, "pc-rrt", options, seed=6, robust=PipelineOptions(
+        min_robustness=1.0, rollouts=10, candidates=3))
+    assert not refused.solved and refused.robustness == max(scores)
 
 
 def test_a_contact_offset_grows_or_shrinks_every_shape_of_the_arm_alike(easy):
