@@ -15,8 +15,8 @@ from rearrangement_planner.model.state import State
 from rearrangement_planner.physics.step import Physics, PhysicsOptions
 from rearrangement_planner.physics.validation import load_scene
 from rearrangement_planner.planning import PCRRTOptions, StopReason, plan_scene
-from rearrangement_planner.planning.manifold import ik_on_manifold
 from rearrangement_planner.planning.interface import planning_physics
+from rearrangement_planner.planning.manifold import ik_on_manifold
 from rearrangement_planner.planning.parallel import tree_seed
 from rearrangement_planner.planning.pipeline import CANDIDATE_SEED_OFFSET, PipelineOptions
 from rearrangement_planner.planning.propagation import Stops
