@@ -96,6 +96,11 @@ class PhysicsOptions:
     object slide whatever the push height); the planners switch it on with their `tipping`
     setting (`PlannerOptions.tipping`, on by default). Off = objects never tip, as in King
     et al."""
+    tipping_margin: float = 0.0
+    """With `tipping`, judge tipping as if the support friction were this share higher (0.3:
+    x1.3): a push the nominal friction would just let slide, a slightly grippier table tips
+    (the perturbed worlds of the robustness rollouts and of the MuJoCo check draw friction
+    x0.7-1.3). 0 = the nominal condition."""
     edge_margin: float = 0.0
     """Refuse a push whose contact lies within this distance (m) of its object's top edge or
     of a box's vertical edge (`Invalid.EDGE_CONTACT`). There the contact normal is set by the
@@ -388,7 +393,7 @@ def _world_arrays(scene: Scene, robot: RobotModel, options: PhysicsOptions,
         options=np.array([options.max_substep, options.penetration_tolerance,
                           options.overlap_tolerance, options.vertical_normal_limit,
                           float(options.tipping), FREE_SPACE_MARGIN, options.edge_margin,
-                          options.max_turn],
+                          options.max_turn, options.tipping_margin],
                          dtype=float))
 
 
@@ -612,7 +617,8 @@ def _push_object(m: int, pose: np.ndarray, count: int, c_shape: np.ndarray,
         return _TURNING
     if options[4] > 0.0:
         height -= table[0]
-        if _tips_over(obj_kind[m], obj_size[m], obj_props[m, 3], twist[0], twist[1], height):
+        if _tips_over(obj_kind[m], obj_size[m], obj_props[m, 3] * (1.0 + options[8]),
+                      twist[0], twist[1], height):
             value[0] = height
             return _TIPPING
     x, y, yaw = pushing.apply_twist_kernel(pose[0], pose[1], pose[2], twist[0], twist[1],

@@ -74,6 +74,10 @@ class PlannerOptions(Settings):
     plans slide objects rather than topple them (on: no plan toppled an object in MuJoCo,
     docs/benchmark.md "Executed"). Off = objects never tip, as in King et al.
     (`PhysicsOptions(tipping=True)` given with the physics switches it on too.)"""
+    tipping_margin: float = setting(0.0, low=0.0, high=2.0)
+    """With `tipping`, refuse a push that would tip its object were the support friction this
+    share higher (`PhysicsOptions.tipping_margin`; 0.3 = x1.3, the top of the friction range
+    the perturbed executions draw). 0 = the nominal condition."""
     edge_margin: float = setting(0.0, low=0.0, high=0.05)
     """Refuse a push whose contact is within this distance (m) of the object's top edge or of
     a box's vertical edge with a normal set by the edge (`PhysicsOptions.edge_margin`): there
@@ -118,16 +122,19 @@ def planning_physics(scene: Scene, options: PlannerOptions,
                      physics: Physics | None = None) -> Physics:
     """The physics a planner plans in: `physics` (default the scene's), with the tipping check
     on when the options' `tipping` or the physics' own options say so, the larger of the two
-    edge margins and the tighter of the two turn limits."""
+    tipping margins and of the two edge margins, and the tighter of the two turn limits."""
     base = physics or Physics(scene)
     given = base.options
     tipping = given.tipping or options.tipping
+    tip_margin = max(given.tipping_margin, options.tipping_margin)
     margin = max(given.edge_margin, options.edge_margin)
     turn = min((t for t in (given.max_turn, options.max_turn) if t > 0), default=0.0)
-    if (tipping, margin, turn) == (given.tipping, given.edge_margin, given.max_turn):
+    if (tipping, tip_margin, margin, turn) == (given.tipping, given.tipping_margin,
+                                               given.edge_margin, given.max_turn):
         return base
-    return Physics(base.scene, dataclasses.replace(given, tipping=tipping, edge_margin=margin,
-                                                   max_turn=turn), base.robot)
+    return Physics(base.scene, dataclasses.replace(
+        given, tipping=tipping, tipping_margin=tip_margin, edge_margin=margin, max_turn=turn),
+        base.robot)
 
 
 @dataclass(frozen=True)

@@ -402,6 +402,28 @@ def test_a_tipping_push_is_invalid_and_the_same_push_slides_without_the_check(pa
     assert reasons[False][0] is None and reasons[False][1] > 0.01
 
 
+def test_a_push_close_to_tipping_is_refused_with_a_tipping_margin(panda):
+    """The 6 x 8 x 12 cm box of the benchmark scenes (support friction 0.4) pushed along its
+    6 cm side by the hand (contact about 7 cm up): 0.4 x 0.07 is just under the 3 cm lever, so
+    it slides; judged with the friction 30 % higher it would tip, and the push is refused."""
+    path = _push_path(panda, 0.50)
+    target = {**box("target", [0.46, 0.0, 0.0], size=(0.06, 0.08, 0.12)),
+              "support_friction": 0.4}
+    scene = make_scene([target], path[0], robot=panda)
+    outcome = {}
+    for margin in (0.0, 0.3):
+        physics = Physics(scene, PhysicsOptions(tipping=True, tipping_margin=margin))
+        state, result = scene.initial_state(), None
+        for q_next in path[1:]:
+            result = physics.step(state, q_next)
+            if not result.valid:
+                break
+            state = result.state
+        outcome[margin] = (result.reason, state.objects[0, 0] - 0.46)
+    assert outcome[0.0][0] is None and outcome[0.0][1] > 0.01          # slides
+    assert outcome[0.3][0] is Invalid.TIPPING and outcome[0.3][1] == 0.0
+
+
 # --------------------------------------------------------------------------------------------
 # Edge contacts (issue 18 item 2: pushes whose outcome no contact model predicts)
 # --------------------------------------------------------------------------------------------

@@ -287,3 +287,17 @@ def test_the_max_turn_setting_reaches_the_planners_physics(easy):
     assert planning_physics(easy, PCRRTOptions(max_turn=7.0), given).options.max_turn == 4.0
     assert planning_physics(easy, PCRRTOptions(max_turn=0.0), given).options.max_turn == 4.0
     assert planning_physics(easy, PCRRTOptions(max_turn=3.0), given).options.max_turn == 3.0
+
+
+def test_the_tipping_margin_setting_reaches_the_planners_physics(easy):
+    """`tipping_margin` (a planner setting) becomes the physics option; of two margins, the
+    larger wins; the robustness rollouts judge tipping with their own drawn friction."""
+    from rearrangement_planner.physics.step import Physics, PhysicsOptions
+    from rearrangement_planner.planning.interface import planning_physics
+
+    assert PCRRT(easy, PCRRTOptions(tipping_margin=0.3)).physics.options.tipping_margin == 0.3
+    given = Physics(easy, PhysicsOptions(tipping_margin=0.2))
+    assert planning_physics(easy, PCRRTOptions(tipping_margin=0.1),
+                            given).options.tipping_margin == 0.2
+    assert planning_physics(easy, PCRRTOptions(tipping_margin=0.5),
+                            given).options.tipping_margin == 0.5
