@@ -228,6 +228,8 @@ class RobotModel:
             raise RobotModelError(f"robot '{config.name}': URDF does not parse ({exc})") from exc
         self.config = config
         self.urdf_xml = urdf_xml
+        self.contact_offset = 0.0
+        """m by which `grown` grew every contact shape (0 for a loaded robot)."""
         self.data = self.model.createData()
         model = self.model
         idx_q, idx_v = [], []
@@ -291,9 +293,13 @@ class RobotModel:
 
     def grown(self, delta: float) -> RobotModel:
         """The same arm with every contact shape grown by `delta` m (`ContactShape.grown`): a
-        contact-geometry offset of the robustness rollouts (`model.perturbation`)."""
+        contact-geometry offset of the robustness rollouts (`model.perturbation`), where the
+        links meet the objects. `contact_offset` keeps the total, so the physics can keep the
+        table and obstacles against the shapes as they were (`physics.step`)."""
         shapes = tuple(s.grown(delta) for s in self.config.contact_shapes)
-        return RobotModel(replace(self.config, contact_shapes=shapes), urdf_xml=self.urdf_xml)
+        grown = RobotModel(replace(self.config, contact_shapes=shapes), urdf_xml=self.urdf_xml)
+        grown.contact_offset = self.contact_offset + delta
+        return grown
 
     # -- basic facts ------------------------------------------------------------------------
 

@@ -357,8 +357,13 @@ def _world_arrays(scene: Scene, robot: RobotModel, options: PhysicsOptions,
                 f"robot '{robot.name}': contact shape {i} on {shape.link} is a {shape.kind}; "
                 "the physics takes capsules and spheres (a sphere is a capsule of length 0)")
     chain = kernels.compiled_chain(robot)
+    # Columns: half length, radius against the objects, bounding radius, radius against the
+    # table and obstacles (a `RobotModel.grown` arm meets objects a few mm off, the static world
+    # as it was: the offset stands for where the real links touch objects, not for the arm's
+    # clearance, which the plans keep with their own margin).
     shapes = np.array([[0.5 * s.dims[1] if s.kind == "capsule" else 0.0, s.dims[0],
-                        s.bounding_radius] for s in robot.contact_shapes], dtype=float)
+                        s.bounding_radius, max(s.dims[0] - robot.contact_offset, 1e-4)]
+                       for s in robot.contact_shapes], dtype=float)
     table = scene.table
     top = float(table.height)
     static_centre = [[table.center[0], table.center[1], top - 0.5 * TABLE_THICKNESS]]
@@ -476,14 +481,14 @@ def _static_hit(poses: np.ndarray, shapes: np.ndarray, static_centre: np.ndarray
                     and max(abs(a[0] - table[0]), abs(b[0] - table[0])) <= static_dims[0, 0]
                     and max(abs(a[1] - table[1]), abs(b[1] - table[1])) <= static_dims[0, 1]):
                 # Above the slab's top face, over the table: the closed form.
-                if min(a[2], b[2]) - top - shapes[s, 1] < 0.0:
+                if min(a[2], b[2]) - top - shapes[s, 3] < 0.0:
                     info[1], info[2] = s, -1
                     return _ARM_TABLE
                 continue
-            if not kernels.near_prism(a, b, shapes[s, 1], kernels.BOX, static_centre[k],
+            if not kernels.near_prism(a, b, shapes[s, 3], kernels.BOX, static_centre[k],
                                       static_dims[k]):
                 continue
-            if kernels.capsule_prism_below(a, b, shapes[s, 1], 0.0, kernels.BOX,
+            if kernels.capsule_prism_below(a, b, shapes[s, 3], 0.0, kernels.BOX,
                                            static_centre[k], static_yaw[k], static_dims[k],
                                            point, normal) < 0.0:
                 info[1], info[2] = s, k - 1
