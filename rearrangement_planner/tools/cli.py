@@ -72,17 +72,23 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--plot", type=Path, metavar="OUT.png",
                         help="write a top view PNG: table, objects at start and end, their "
                              "paths, the end-effector path and the goal region")
-    parser.add_argument("--min-robustness", type=float, default=0.0, metavar="R",
-                        help="accept a plan only if it reaches the goal in this share (0-1) of "
-                             "perturbed rollouts in the planner's physics; up to --candidates "
-                             "plans compete, the most robust wins (default 0: off)")
-    parser.add_argument("--rollouts", type=int, default=10, metavar="N",
-                        help="perturbed rollouts per candidate (default 10)")
-    parser.add_argument("--candidates", type=int, default=3, metavar="K",
-                        help="most candidate plans for --min-robustness (default 3)")
-    parser.add_argument("--accept-best", action="store_true",
+    robust = PipelineOptions()
+    parser.add_argument("--min-robustness", type=float, default=robust.min_robustness,
+                        metavar="R",
+                        help="robust selection: a candidate plan that reaches the goal in this "
+                             "share (0-1) of perturbed rollouts in the planner's physics ends "
+                             "the search; else up to --candidates plans are planned and the "
+                             "most robust answers (--accept-best) or the request fails "
+                             f"(default {robust.min_robustness:g}; 0: off, the first plan)")
+    parser.add_argument("--rollouts", type=int, default=robust.rollouts, metavar="N",
+                        help=f"perturbed rollouts per candidate (default {robust.rollouts})")
+    parser.add_argument("--candidates", type=int, default=robust.candidates, metavar="K",
+                        help=f"most candidate plans (default {robust.candidates})")
+    parser.add_argument("--accept-best", action=argparse.BooleanOptionalAction,
+                        default=robust.accept_best,
                         help="when no candidate reaches --min-robustness, answer with the most "
-                             "robust one instead of failing")
+                             "robust one instead of failing (default: "
+                             f"{'on' if robust.accept_best else 'off'})")
     parser.add_argument("--check-execution", action="store_true",
                         help="execute the plan open loop in MuJoCo with the arm's real collision "
                              "meshes (ideal and servo-driven arm) and report whether the goal "

@@ -82,11 +82,13 @@ def test_rollouts_judge_the_goal_not_the_planners_choice_of_pushes(easy):
 def test_the_pipeline_accepts_only_robust_enough_plans(easy):
     options = PCRRTOptions(time_limit=60.0, goal_margin=0.03)
     lenient = plan_scene(easy, "pc-rrt", options, seed=1,
-                         robust=PipelineOptions(min_robustness=0.5, rollouts=10, candidates=8))
+                         robust=PipelineOptions(min_robustness=0.5, rollouts=10, candidates=8,
+                                                accept_best=False))
     assert lenient.solved and lenient.robustness is not None and lenient.robustness >= 0.5
     assert lenient.to_dict()["robustness"] == lenient.robustness
     strict = plan_scene(easy, "pc-rrt", options, seed=1,
-                        robust=PipelineOptions(min_robustness=1.0, rollouts=10, candidates=1))
+                        robust=PipelineOptions(min_robustness=1.0, rollouts=10, candidates=1,
+                                               accept_best=False))
     if strict.robustness is not None and strict.robustness < 1.0:
         assert not strict.solved and "no plan reached min_robustness 1" in strict.result.message
     unchecked = plan_scene(easy, "pc-rrt", options, seed=1)
@@ -112,10 +114,11 @@ def test_with_accept_best_the_most_robust_candidate_answers_when_none_is_robust_
     best = plan_scene(easy, "pc-rrt", options, seed=6, robust=PipelineOptions(
         min_robustness=1.0, rollouts=10, candidates=3, accept_best=True))
     assert best.solved and best.robustness == expected[1], (best.robustness, scores)
+    assert best.result.seed == 6           # the request's seed, which reproduces the choice
     assert [s.q.tolist() for s in best.result.states] == \
         [s.q.tolist() for s in expected[0].result.states]
     refused = plan_scene(easy, "pc-rrt", options, seed=6, robust=PipelineOptions(
-        min_robustness=1.0, rollouts=10, candidates=3))
+        min_robustness=1.0, rollouts=10, candidates=3, accept_best=False))
     assert not refused.solved and refused.robustness == max(scores)
 
 

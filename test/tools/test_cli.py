@@ -191,12 +191,13 @@ def test_trials_need_check_execution(capsys):
 
 def test_accept_best_answers_with_the_most_robust_candidate(tmp_path):
     """No candidate of seed 6 on easy_push reaches the goal in every perturbed rollout (0.4
-    and 0.1 of 10, test_robustness): the request fails, unless --accept-best."""
+    and 0.1 of 10, test_robustness): the request fails with --no-accept-best; by default the
+    most robust answers."""
     args = [str(scenes_dir() / "easy_push.yaml"), "--seed", "6", "--trees", "1", "--shortcut",
             "0", "--time-limit", "60", "--min-robustness", "1", "--rollouts", "10",
             "--candidates", "2", "--quiet"]
     out = tmp_path / "plan.json"
-    assert main([*args, "--json", str(out)]) == 1
+    assert main([*args, "--no-accept-best", "--json", str(out)]) == 1
     refused = json.loads(out.read_text())
     assert not refused["solved"] and "no plan reached min_robustness 1" in refused["message"]
     assert main([*args, "--accept-best", "--json", str(out)]) == 0
