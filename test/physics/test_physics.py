@@ -67,6 +67,19 @@ def _push_path(panda, end):
     return path
 
 
+def _walk(physics, state, path):
+    """Step through `path` until a step is invalid: the last step's result and the last valid
+    state."""
+    result = None
+    for q_next in path:
+        result = physics.step(state, q_next)
+        if not result.valid:
+            break
+        state = result.state
+    assert result is not None
+    return result, state
+
+
 @pytest.fixture(scope="module")
 def push_q(panda):
     return np.array(default_push_configuration(panda, 0.0))
@@ -413,12 +426,7 @@ def test_a_push_close_to_tipping_is_refused_with_a_tipping_margin(panda):
     outcome = {}
     for margin in (0.0, 0.3):
         physics = Physics(scene, PhysicsOptions(tipping=True, tipping_margin=margin))
-        state, result = scene.initial_state(), None
-        for q_next in path[1:]:
-            result = physics.step(state, q_next)
-            if not result.valid:
-                break
-            state = result.state
+        result, state = _walk(physics, scene.initial_state(), path[1:])
         outcome[margin] = (result.reason, state.objects[0, 0] - 0.46)
     assert outcome[0.0][0] is None and outcome[0.0][1] > 0.01          # slides
     assert outcome[0.3][0] is Invalid.TIPPING and outcome[0.3][1] == 0.0
@@ -438,13 +446,7 @@ def _push_along_x(panda, obj):
     outcome = {}
     for margin in (0.0, 0.01):
         physics = Physics(scene, PhysicsOptions(edge_margin=margin))
-        state, result = scene.initial_state(), None
-        for q_next in path[1:]:
-            result = physics.step(state, q_next)
-            if not result.valid:
-                break
-            state = result.state
-        assert result is not None
+        result, state = _walk(physics, scene.initial_state(), path[1:])
         outcome[margin] = (result.reason, result.detail, state.objects[0])
     return outcome
 
