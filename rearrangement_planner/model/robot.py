@@ -213,7 +213,8 @@ def _check_xml(urdf_xml: str, robot: str) -> None:
 class RobotModel:
     """Forward kinematics, Jacobians and contact-shape poses of a serial arm."""
 
-    def __init__(self, config: RobotConfig, urdf_xml: str | None = None):
+    def __init__(self, config: RobotConfig, urdf_xml: str | None = None,
+                 contact_offset: float = 0.0):
         if urdf_xml is None:
             if config.urdf_path is None:
                 raise RobotModelError(f"robot '{config.name}': no URDF given")
@@ -228,7 +229,7 @@ class RobotModel:
             raise RobotModelError(f"robot '{config.name}': URDF does not parse ({exc})") from exc
         self.config = config
         self.urdf_xml = urdf_xml
-        self.contact_offset = 0.0
+        self.contact_offset = contact_offset
         """m by which `grown` grew every contact shape (0 for a loaded robot)."""
         self.data = self.model.createData()
         model = self.model
@@ -289,7 +290,8 @@ class RobotModel:
 
     def copy(self) -> RobotModel:
         """An independent model (own Pinocchio data) for another thread."""
-        return RobotModel(self.config, urdf_xml=self.urdf_xml)
+        return RobotModel(self.config, urdf_xml=self.urdf_xml,
+                          contact_offset=self.contact_offset)
 
     def grown(self, delta: float) -> RobotModel:
         """The same arm with every contact shape grown by `delta` m (`ContactShape.grown`): a
@@ -297,9 +299,8 @@ class RobotModel:
         links meet the objects. `contact_offset` keeps the total, so the physics can keep the
         table and obstacles against the shapes as they were (`physics.step`)."""
         shapes = tuple(s.grown(delta) for s in self.config.contact_shapes)
-        grown = RobotModel(replace(self.config, contact_shapes=shapes), urdf_xml=self.urdf_xml)
-        grown.contact_offset = self.contact_offset + delta
-        return grown
+        return RobotModel(replace(self.config, contact_shapes=shapes), urdf_xml=self.urdf_xml,
+                          contact_offset=self.contact_offset + delta)
 
     # -- basic facts ------------------------------------------------------------------------
 

@@ -295,6 +295,14 @@ class _Search:
                           short.elapsed)
 
 
+def _answer(candidate: _Candidate, t0: float, seed: int) -> _Candidate:
+    """The chosen candidate as the request's answer: its plan time all the selection took
+    since `t0` but its own shortcutting, its seed the request's."""
+    spent = time.monotonic() - t0 - candidate.shortcut_time
+    return dataclasses.replace(candidate, result=dataclasses.replace(
+        candidate.result, plan_time=spent, seed=seed))
+
+
 def _robust_search(search: _Search, seed: int, robust: PipelineOptions
                    ) -> tuple[_Candidate, float | None]:
     """Candidates (seed, then derived seeds), each shortcut, until one is robust enough; else
@@ -323,18 +331,14 @@ def _robust_search(search: _Search, seed: int, robust: PipelineOptions
         if best is None or score > best[1]:
             best = (candidate, score)
         if score >= robust.min_robustness:
-            spent = time.monotonic() - t0 - candidate.shortcut_time
-            answer = dataclasses.replace(candidate.result, plan_time=spent, seed=seed)
-            return dataclasses.replace(candidate, result=answer), score
+            return _answer(candidate, t0, seed), score
     if best is None:
         assert last is not None or budget <= 0.001
         return _Candidate(last or PlanResult(Outcome.TIMEOUT, "no time for a candidate",
                                              seed)), None
     fragile, score = best
     if robust.accept_best:
-        spent = time.monotonic() - t0 - fragile.shortcut_time
-        return dataclasses.replace(fragile, result=dataclasses.replace(
-            fragile.result, plan_time=spent, seed=seed)), score
+        return _answer(fragile, t0, seed), score
     return _Candidate(dataclasses.replace(
         fragile.result, outcome=Outcome.TIMEOUT, states=(),
         message=f"no plan reached min_robustness {robust.min_robustness:g} within "

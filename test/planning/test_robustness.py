@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 from rearrangement_planner.model.perturbation import Perturbation
+from rearrangement_planner.model.robot import RobotModel
 from rearrangement_planner.model.state import State
 from rearrangement_planner.physics.step import Invalid, Physics, PhysicsOptions
 from rearrangement_planner.physics.validation import load_scene
@@ -133,10 +134,11 @@ def test_a_grown_arm_meets_objects_sooner_but_keeps_its_table_clearance(easy):
     start = State(q, raised.object_poses)
     grown = easy.robot.grown(0.005)
     assert grown.contact_offset == 0.005 and grown.grown(-0.002).contact_offset == 0.003
+    assert grown.copy().contact_offset == 0.005            # a thread's copy keeps it
     assert Physics(raised).check_state(start) is None
     assert Physics(raised, robot=grown).check_state(start) is None
-    grown.contact_offset = 0.0
-    problem = Physics(raised, robot=grown).check_state(start)
+    forgot = RobotModel(grown.config, urdf_xml=grown.urdf_xml)          # offset 0
+    problem = Physics(raised, robot=forgot).check_state(start)
     assert problem is not None and problem[0] is Invalid.ARM_TABLE
 
 
