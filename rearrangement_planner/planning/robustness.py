@@ -5,8 +5,9 @@ which it still works. `robustness` replays a plan's arm path in N perturbed copi
 scene (object poses, frictions, masses, the arm's contact shapes grown or shrunk a few mm:
 `model.perturbation`) through the planner's own quasistatic physics and counts the rollouts
 that stay valid and end with the goal object in its goal region. `pipeline.plan_scene` uses it
-to accept a candidate plan only at `min_robustness`, or to keep the most robust of several
-candidates.
+to accept a candidate plan only at `min_robustness`, or to keep the best of several
+candidates: the most robust, less `travel_penalty` for each metre its goal object is pushed
+(`goal_travel`).
 """
 
 from __future__ import annotations
@@ -37,6 +38,15 @@ def rollout_reaches(scene: Scene, arm_path: np.ndarray, physics_options: Physics
     if problem:
         return False
     return scene.goal.reached(states[-1].objects[scene.goal_index, :2])
+
+
+def goal_travel(scene: Scene, states: Sequence[State]) -> float:
+    """How far (m) the plan `states` push the goal object, summed along its path on the table.
+    The model's error grows with every push (docs/benchmark.md "Session 13": turns and long
+    pushes are where it loses the object), so of two equally robust plans the one that moves
+    the goal object less is the safer one to execute open loop."""
+    path = np.array([s.objects[scene.goal_index, :2] for s in states])
+    return float(np.linalg.norm(np.diff(path, axis=0), axis=1).sum())
 
 
 def robustness(scene: Scene, states: Sequence[State], rollouts: int, seed: int,

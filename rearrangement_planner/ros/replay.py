@@ -553,9 +553,12 @@ class Session:
             stop = getattr(node, "stop", None)
             if callable(stop):
                 stop()
+        # Stop spinning before shutting the executor down: a callback still running when the
+        # executor drops its guard condition (a service future's done callback creating a
+        # task) would fail with "'NoneType' object has no attribute 'trigger'".
         self._closing = True
-        self.executor.shutdown()
         self._thread.join(timeout=5.0)
+        self.executor.shutdown()
         for node in self._nodes:
             node.destroy_node()
         self._nodes.clear()

@@ -78,16 +78,21 @@ def build_parser() -> argparse.ArgumentParser:
                         help="robust selection: a candidate plan that reaches the goal in this "
                              "share (0-1) of perturbed rollouts in the planner's physics ends "
                              "the search; else up to --candidates plans are planned and the "
-                             "most robust answers (--accept-best) or the request fails "
+                             "best ranked answers (--accept-best) or the request fails "
                              f"(default {robust.min_robustness:g}; 0: off, the first plan)")
     parser.add_argument("--rollouts", type=int, default=robust.rollouts, metavar="N",
                         help=f"perturbed rollouts per candidate (default {robust.rollouts})")
     parser.add_argument("--candidates", type=int, default=robust.candidates, metavar="K",
                         help=f"most candidate plans (default {robust.candidates})")
+    parser.add_argument("--travel-penalty", type=float, default=robust.travel_penalty,
+                        metavar="P",
+                        help="candidates are ranked by robustness less P per metre their goal "
+                             f"object is pushed (default {robust.travel_penalty:g}; 0: the "
+                             "most robust)")
     parser.add_argument("--accept-best", action=argparse.BooleanOptionalAction,
                         default=robust.accept_best,
-                        help="when no candidate reaches --min-robustness, answer with the most "
-                             "robust one instead of failing (default: "
+                        help="when no candidate reaches --min-robustness, answer with the best "
+                             "ranked one instead of failing (default: "
                              f"{'on' if robust.accept_best else 'off'})")
     parser.add_argument("--check-execution", action="store_true",
                         help="execute the plan open loop in MuJoCo with the arm's real collision "
@@ -169,10 +174,12 @@ def main(argv: list[str] | None = None) -> int:
         options = _options(args)
         try:
             robust = PipelineOptions(min_robustness=args.min_robustness, rollouts=args.rollouts,
-                                     candidates=args.candidates, accept_best=args.accept_best)
+                                     candidates=args.candidates,
+                                     travel_penalty=args.travel_penalty,
+                                     accept_best=args.accept_best)
         except ValueError as exc:
-            raise RearrangementError(f"--min-robustness/--rollouts/--candidates: {exc}") \
-                from None
+            raise RearrangementError(f"--min-robustness/--rollouts/--candidates/"
+                                     f"--travel-penalty: {exc}") from None
         for option, path in (("--json", args.json), ("--record", args.record),
                              ("--plot", args.plot)):
             _check_output(option, path)

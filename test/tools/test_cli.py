@@ -142,6 +142,7 @@ def test_recording_failure_keeps_the_plan(tmp_path, capsys, monkeypatch):
 
 @pytest.mark.parametrize("option, value", [("--shortcut", "-1"),
                                            ("--shortcut-attempts", "0"),
+                                           ("--travel-penalty", "-1"),
                                            ("--planner", "rrt-star")])
 def test_bad_planner_options_exit_2(option, value, capsys):
     with pytest.raises(SystemExit) as exc:
