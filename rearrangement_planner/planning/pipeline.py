@@ -27,7 +27,7 @@ from rearrangement_planner.planning.interface import (
 )
 from rearrangement_planner.planning.parallel import plan_race, tree_seed
 from rearrangement_planner.planning.registry import make_planner, planner_spec
-from rearrangement_planner.planning.robustness import goal_travel, robustness
+from rearrangement_planner.planning.robustness import candidate_rank, goal_travel, robustness
 from rearrangement_planner.planning.settings import Settings, setting
 from rearrangement_planner.planning.shortcut import shortcut
 from rearrangement_planner.planning.trajectory import (
@@ -41,6 +41,12 @@ from rearrangement_planner.planning.warmup import warm_up
 CANDIDATE_SEED_OFFSET = 1000
 """Candidate k > 0 of a robust search plans with `tree_seed(seed, CANDIDATE_SEED_OFFSET + k)`
 (apart from the seeds of raced trees)."""
+
+
+def candidate_seed(seed: int, k: int) -> int:
+    """The seed candidate `k` of a robust search with `seed` plans with: the request's own for
+    the first, derived ones after it. Each candidate is the plan its seed gives alone."""
+    return seed if k == 0 else tree_seed(seed, CANDIDATE_SEED_OFFSET + k)
 
 
 @dataclass(frozen=True)
@@ -331,18 +337,18 @@ def _robust_search(search: _Search, seed: int, robust: PipelineOptions
         remaining = budget - (time.monotonic() - t0)
         if remaining <= 0.001:
             break
-        candidate_seed = seed if k == 0 else tree_seed(seed, CANDIDATE_SEED_OFFSET + k)
-        last = search.run(candidate_seed, remaining)
+        k_seed = candidate_seed(seed, k)
+        last = search.run(k_seed, remaining)
         if not last.solved:
             continue
-        candidate = search.finish(last, candidate_seed, time_left=t0 + budget
+        candidate = search.finish(last, k_seed, time_left=t0 + budget
                                   + search.shortcut_time - time.monotonic())
-        score = robustness(search.scene, candidate.result.states, robust.rollouts,
-                           candidate_seed, physics_options=world)
+        score = robustness(search.scene, candidate.result.states, robust.rollouts, k_seed,
+                           physics_options=world)
         if score >= robust.min_robustness:
             return _answer(candidate, t0, seed), score
-        rank = score - robust.travel_penalty * goal_travel(search.scene,
-                                                            candidate.result.states)
+        rank = candidate_rank(score, goal_travel(search.scene, candidate.result.states),
+                              robust.travel_penalty)
         if best is None or rank > best[2]:
             best = (candidate, score, rank)
         most_robust = max(most_robust, score)

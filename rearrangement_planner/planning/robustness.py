@@ -49,6 +49,12 @@ def goal_travel(scene: Scene, states: Sequence[State]) -> float:
     return float(np.linalg.norm(np.diff(path, axis=0), axis=1).sum())
 
 
+def candidate_rank(robustness: float, goal_travel: float, travel_penalty: float) -> float:
+    """How robust selection ranks a candidate plan that is not robust enough to answer at
+    once: its robustness less `travel_penalty` per metre it pushes the goal object."""
+    return robustness - travel_penalty * goal_travel
+
+
 def robustness(scene: Scene, states: Sequence[State], rollouts: int, seed: int,
                perturbation: Perturbation | None = None,
                physics_options: PhysicsOptions | None = None) -> float:

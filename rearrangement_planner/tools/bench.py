@@ -7,6 +7,9 @@
     rearrangement-bench physics [--seconds S] [--json OUT]
     rearrangement-bench scenes [--scenes NAME ...] [--planners P ...] [--seeds N ...]
                                [--time-limit S] [--trees N] [--jsonl OUT]
+    rearrangement-bench candidates [--scenes SCENE ...] [--seeds N ...] [--candidates K]
+                                   [--time-limit S] [--rollouts N] [--travel-penalty P]
+                                   [--workers N] [--out DIR]
 
 `run` (the default) is the benchmark of King et al. §V (DESIGN §9, `benchmark.py`): each
 planner on each of the 35 scenes of config/benchmark/scenes with each seed, one worker process
@@ -20,6 +23,11 @@ the scene set. Exit codes: 0 done, 1 some trials failed with an internal error, 
 `scenes` runs each planner on the shipped demo scenes, one run at a time with 2 trees raced
 per run (`parallel`; `--trees 1` for one tree), one line of JSON per run. `run` grows one tree
 per trial and spreads the trials over the cores instead.
+
+`candidates` measures robust selection (`candidates.py`): per scene and seed it records the
+candidate plans a robust search makes, each executed in MuJoCo, into --out/candidates.jsonl
+(resumable), then replays selection rules over them within the time limit and prints how many
+chosen plans reached the goal (docs/benchmark.md "Session 15").
 """
 
 from __future__ import annotations
@@ -39,10 +47,11 @@ from rearrangement_planner.model.resources import scenes_dir
 from rearrangement_planner.model.scene import Scene
 from rearrangement_planner.physics.step import Physics
 from rearrangement_planner.physics.validation import load_scene, parse_scene
+from rearrangement_planner.planning.pipeline import PipelineOptions
 from rearrangement_planner.planning.registry import PLANNER_NAMES as PLANNERS
 from rearrangement_planner.tools import benchmark
 
-COMMANDS = ("run", "generate", "physics", "scenes")
+COMMANDS = ("run", "generate", "physics", "scenes", "candidates")
 
 PHYSICS_DOC = """`rearrangement-bench physics` measures the throughput of the quasistatic physics
 step (DESIGN §5) on the Panda at the default scene's table: the arm, folded low so that forearm and
@@ -231,7 +240,41 @@ def build_parser() -> argparse.ArgumentParser:
                              "rearrangement-plan --help; default 2, for a 2-core machine "
                              "running one run at a time)")
     scenes.add_argument("--jsonl", type=Path, help="also append the lines to this file")
+    _add_candidates_parser(sub)
     return parser
+
+
+def _add_candidates_parser(sub) -> None:
+    robust = PipelineOptions()
+    cands = sub.add_parser(
+        "candidates", help="robust selection measured: candidate plans recorded and executed "
+                           "in MuJoCo, selection rules replayed over them",
+        description="For each scene and seed, record up to --candidates candidate plans as "
+                    "a robust search makes them (PC-RRT, one tree, shortcut, scored by "
+                    "perturbed rollouts), each executed open loop in MuJoCo, into "
+                    "--out/candidates.jsonl (requests already there are skipped); then print "
+                    "per selection rule how many chosen plans reach the goal.")
+    cands.add_argument("--scenes", nargs="+", metavar="SCENE",
+                       help="benchmark scene names or scene .yaml files (default: the 35)")
+    cands.add_argument("--seeds", nargs="+", type=int, default=[0, 1, 2], metavar="N",
+                       help="request seeds (default 0 1 2)")
+    cands.add_argument("--candidates", type=int, default=6, metavar="K",
+                       help="candidates recorded per request (default 6)")
+    cands.add_argument("--time-limit", type=float, default=60.0, metavar="S",
+                       help="a request's budget, s (default 60)")
+    cands.add_argument("--shortcut", type=float, default=DEFAULTS["shortcut"], metavar="S",
+                       help="seconds of shortcutting per candidate (default 5)")
+    cands.add_argument("--shortcut-attempts", type=int, default=DEFAULTS["shortcut_attempts"],
+                       metavar="N", help="shortcut attempts per candidate (default 100)")
+    cands.add_argument("--rollouts", type=int, default=robust.rollouts, metavar="N",
+                       help=f"perturbed rollouts per candidate (default {robust.rollouts})")
+    cands.add_argument("--travel-penalty", type=float, default=robust.travel_penalty,
+                       metavar="P", help="the ranking replayed beside the most robust "
+                                         f"(default {robust.travel_penalty:g})")
+    cands.add_argument("--workers", type=int, metavar="N",
+                       help="worker processes (default: one per core)")
+    cands.add_argument("--out", type=Path, default=Path("out/candidates"), metavar="DIR",
+                       help="output folder (default out/candidates)")
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -250,6 +293,8 @@ def main(argv: list[str] | None = None) -> int:
             return 0
         if args.command == "scenes":
             return scenes_command(args)
+        if args.command == "candidates":
+            return candidates_command(args)
         return physics_command(args)
     except benchmark.BenchmarkError as exc:
         print(f"rearrangement-bench: {exc}", file=sys.stderr)
@@ -285,6 +330,43 @@ def scenes_command(args: argparse.Namespace) -> int:
                 if args.jsonl:
                     with args.jsonl.open("a") as f:
                         f.write(line + "\n")
+    return 0
+
+
+def candidates_command(args: argparse.Namespace) -> int:
+    from rearrangement_planner.tools import candidates
+
+    cores = benchmark.usable_cores()
+    workers = cores if args.workers is None else args.workers
+    for option, ok, problem in (
+            ("--time-limit", 0 < args.time_limit < math.inf, "a positive number of seconds"),
+            ("--candidates", 1 <= args.candidates <= 20, "between 1 and 20"),
+            ("--rollouts", 1 <= args.rollouts <= 1000, "between 1 and 1000"),
+            ("--travel-penalty", 0 <= args.travel_penalty <= 100, "between 0 and 100"),
+            ("--shortcut", 0 <= args.shortcut < math.inf, ">= 0 s"),
+            ("--shortcut-attempts", args.shortcut_attempts >= 1, ">= 1"),
+            ("--seeds", all(seed >= 0 for seed in args.seeds), "seeds >= 0"),
+            ("--workers", 1 <= workers <= cores, f"between 1 and the {cores} cores")):
+        if not ok:
+            value = getattr(args, option[2:].replace("-", "_"))
+            raise benchmark.BenchmarkError(option, f"must be {problem}, got {value}")
+    scenes = _resolve_scenes(args.scenes or benchmark.set_scene_names())
+    out = args.out / "candidates.jsonl"
+    requests = [(path, seed) for seed in dict.fromkeys(args.seeds) for path, _ in scenes]
+    print(f"candidates: {_count(len(requests), 'request')}, up to {args.candidates} candidates "
+          f"each, {args.time_limit:g} s, {_count(workers, 'worker')} -> {out}",
+          file=sys.stderr, flush=True)
+    failed = candidates.record_all(requests, out, workers, args.candidates, args.time_limit,
+                                   args.shortcut, args.shortcut_attempts, args.rollouts)
+    wanted = {(path.stem, seed) for path, seed in requests}
+    records = [r for r in candidates.read_records(out) if (r["scene"], r["seed"]) in wanted]
+    print(candidates.replay_table(records, candidates.rules(args.candidates,
+                                                            args.travel_penalty),
+                                  args.time_limit))
+    if failed:
+        print(f"rearrangement-bench: {failed} requests failed with an internal error (not in "
+              f"{out}; run again to retry them)", file=sys.stderr)
+        return 1
     return 0
 
 

@@ -551,7 +551,7 @@ def _worker(task: tuple[Trial, float, int | None]) -> tuple[Trial, dict | None, 
         return trial, None, traceback.format_exc()
 
 
-def _start_pool(workers: int):
+def start_pool(workers: int):
     """A pool of `workers` fresh interpreters (spawn: no state copied from the parent, the same
     on every platform). They start with SIGINT ignored (an ignored signal stays ignored across
     exec), so that a Ctrl-C while they import does not print their tracebacks; the parent
@@ -648,7 +648,7 @@ def run_trials(trials: Sequence[Trial], csv_path: Path, workers: int, shortcut_t
     finished = failed = 0
     interrupted = False
     try:
-        pool = _start_pool(min(workers, len(todo)))
+        pool = start_pool(min(workers, len(todo)))
     except BaseException:
         writer.close()
         raise

@@ -1,0 +1,203 @@
+"""`rearrangement-bench candidates`: how well robust selection chooses among candidate plans
+(issue 18; docs/benchmark.md "Session 15").
+
+Robust selection (`pipeline.PipelineOptions`, `planning.robustness`) plans candidates one after
+the other and answers with the best ranked. Whether a ranking picks plans that work when
+executed is measured here without re-planning for every rule:
+
+- `record_request` makes, for one scene and seed, the candidates a robust search makes (the
+  same seeds, `pipeline.candidate_seed`; each the plan its seed gives alone, shortcut, scored
+  with the same rollouts) and executes every one open loop in MuJoCo (`check_execution`, ideal
+  arm). One record per candidate search: its search, shortcut and rollout seconds, its
+  robustness, how far it pushes and turns the goal object, and the executed outcome.
+- `choose` replays a selection `Rule` over a request's records within a time budget: a
+  candidate counts if its search fits in what the budget has left when it starts (a search is
+  determined by its seed: one that finished in t s finishes the same under any limit above t),
+  up to the rule's number of candidates, stopping at one robust in every rollout, as
+  `pipeline._robust_search` does.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+import time
+import traceback
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TextIO
+
+import numpy as np
+
+
+def record_request(scene_path: Path, seed: int, candidates: int, time_limit: float,
+                   shortcut_time: float, shortcut_attempts: int, rollouts: int,
+                   budget: float | None = None) -> list[dict]:
+    """The candidates of a robust PC-RRT search of `scene_path` with `seed` (one tree each),
+    executed in MuJoCo: one record per candidate search, until `candidates` searches or
+    `budget` s (default `time_limit`) of searching, shortcutting and rollouts are spent."""
+    from rearrangement_planner.execution.mujoco_check import check_execution
+    from rearrangement_planner.physics.validation import load_scene
+    from rearrangement_planner.planning.interface import planning_physics
+    from rearrangement_planner.planning.pcrrt import PCRRTOptions
+    from rearrangement_planner.planning.pipeline import candidate_seed, plan_scene
+    from rearrangement_planner.planning.robustness import goal_travel, robustness
+
+    scene = load_scene(scene_path)
+    options = PCRRTOptions(time_limit=time_limit, trees=1)
+    world = planning_physics(scene, options).options
+    g = scene.goal_index
+    budget = time_limit if budget is None else budget
+    records: list[dict] = []
+    spent = 0.0
+    for k in range(candidates):
+        if spent >= budget:
+            break
+        k_seed = candidate_seed(seed, k)
+        out = plan_scene(scene, "pc-rrt", options, seed=k_seed, shortcut_time=shortcut_time,
+                         shortcut_attempts=shortcut_attempts)
+        record: dict = {"scene": Path(scene_path).stem, "seed": seed, "k": k,
+                        "solved": out.solved, "search_s": round(out.result.plan_time, 3)}
+        spent += out.result.plan_time
+        if out.solved:
+            assert out.trajectory is not None
+            t0 = time.monotonic()
+            score = robustness(scene, out.result.states, rollouts, k_seed, physics_options=world)
+            rollout_time = time.monotonic() - t0
+            yaw = np.unwrap([s.objects[g, 2] for s in out.result.states])
+            report = check_execution(scene, out.trajectory, out.trajectory_states)
+            record.update(
+                shortcut_s=round(out.shortcut_time, 3), rollouts_s=round(rollout_time, 3),
+                robustness=score, goal_travel_m=round(goal_travel(scene, out.result.states), 4),
+                goal_turn_rad=round(float(np.abs(np.diff(yaw)).sum()), 4),
+                reached=report.reached, goal_distance_m=round(report.goal_distance_m, 4),
+                toppled=len(report.toppled))
+            spent += out.shortcut_time + rollout_time
+        records.append(record)
+    return records
+
+
+@dataclass(frozen=True)
+class Rule:
+    """A way to choose among candidates: the first plan, the best ranked of `candidates`
+    (`robustness.candidate_rank` with `travel_penalty`), or the best by the executed outcome
+    itself (`oracle`, a bound no ranking can beat)."""
+
+    name: str
+    candidates: int
+    travel_penalty: float | None = 0.0
+    """None: the first plan found (no rollouts, no early stop)."""
+    oracle: bool = False
+
+
+def choose(records: Sequence[dict], rule: Rule, budget: float) -> dict | None:
+    """The candidate `rule` answers with among one request's `records` within `budget` s, or
+    None (no candidate solved in time)."""
+    from rearrangement_planner.planning.robustness import candidate_rank
+
+    spent, solved = 0.0, []
+    for record in sorted(records, key=lambda r: r["k"]):
+        left = budget - spent
+        if record["k"] >= rule.candidates or left <= 0.001 or record["search_s"] > left:
+            break
+        spent += record["search_s"]
+        if not record["solved"]:
+            continue
+        solved.append(record)
+        if rule.travel_penalty is None:
+            break
+        spent += record["shortcut_s"] + record["rollouts_s"]
+        if not rule.oracle and record["robustness"] >= 1.0:
+            break
+    if not solved:
+        return None
+    penalty = rule.travel_penalty
+    if penalty is None:
+        return solved[0]
+    if rule.oracle:
+        return max(solved, key=lambda r: (r["reached"], -r["toppled"], -r["goal_distance_m"]))
+    return max(solved, key=lambda r: (candidate_rank(r["robustness"], r["goal_travel_m"],
+                                                     penalty), -r["k"]))
+
+
+def rules(candidates: int, travel_penalty: float) -> list[Rule]:
+    """The first plan, then for 3 and `candidates` candidates: the most robust, the shipped
+    ranking with `travel_penalty`, and the oracle."""
+    out = [Rule("first plan", 1, None)]
+    for n in sorted({min(3, candidates), candidates}):
+        out += [Rule(f"most robust of {n}", n, 0.0),
+                Rule(f"robustness - {travel_penalty:g} x push path, of {n}", n,
+                     travel_penalty),
+                Rule(f"best of {n} by MuJoCo (oracle)", n, oracle=True)]
+    return out
+
+
+def replay_table(records: Iterable[dict], rule_list: Sequence[Rule], budget: float) -> str:
+    """A Markdown table: per rule, requests solved, and the chosen plans that reached the goal
+    in MuJoCo and that toppled an object."""
+    requests: dict[tuple[str, int], list[dict]] = {}
+    for record in records:
+        requests.setdefault((record["scene"], record["seed"]), []).append(record)
+    lines = [f"| rule ({len(requests)} requests, {budget:g} s) | solved | reached in MuJoCo "
+             f"| toppled |", "|---|---|---|---|"]
+    for rule in rule_list:
+        chosen = [c for c in (choose(r, rule, budget) for r in requests.values()) if c]
+        reached = sum(bool(c["reached"]) for c in chosen)
+        share = f" ({100 * reached / len(chosen):.0f} %)" if chosen else ""
+        lines.append(f"| {rule.name} | {len(chosen)}/{len(requests)} | {reached}/{len(chosen)}"
+                     f"{share} | {sum(c['toppled'] > 0 for c in chosen)} |")
+    return "\n".join(lines)
+
+
+def read_records(path: Path) -> list[dict]:
+    """The records of a candidates.jsonl (empty if it does not exist yet)."""
+    if not path.is_file():
+        return []
+    return [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
+
+
+def _record_task(task: tuple) -> tuple[list[dict], str]:
+    try:
+        return record_request(*task), ""
+    except Exception:   # reported by the parent; the request is not written, a rerun retries
+        return [], traceback.format_exc()
+
+
+def record_all(requests: Sequence[tuple[Path, int]], out: Path, workers: int,
+               candidates: int, time_limit: float, shortcut_time: float,
+               shortcut_attempts: int, rollouts: int,
+               progress: TextIO | None = None) -> int:
+    """Record the (scene file, seed) `requests` not yet in `out` (candidates.jsonl), appending
+    each request's records as it finishes, on `workers` processes. Returns how many requests
+    failed with an internal error (their tracebacks printed to `progress`)."""
+    from rearrangement_planner.tools.benchmark import start_pool
+
+    done = {(r["scene"], r["seed"]) for r in read_records(out)}
+    todo = [(path, seed, candidates, time_limit, shortcut_time, shortcut_attempts, rollouts)
+            for path, seed in requests if (path.stem, seed) not in done]
+    failed = 0
+    if not todo:
+        return 0
+    out.parent.mkdir(parents=True, exist_ok=True)
+    pool = start_pool(min(workers, len(todo)))
+    try:
+        with out.open("a") as f:
+            for n, (records, error) in enumerate(pool.imap_unordered(_record_task, todo), 1):
+                if error:
+                    failed += 1
+                    print(error, file=progress or sys.stderr)
+                    continue
+                for record in records:
+                    f.write(json.dumps(record) + "\n")
+                f.flush()
+                first = records[0]
+                print(f"{n}/{len(todo)} {first['scene']} seed {first['seed']}: "
+                      f"{sum(r['solved'] for r in records)} of {len(records)} candidates "
+                      f"solved, {sum(bool(r.get('reached')) for r in records)} reached the "
+                      f"goal in MuJoCo", file=progress or sys.stderr, flush=True)
+        pool.close()
+    finally:
+        pool.terminate()
+        pool.join()
+    return failed
