@@ -49,10 +49,11 @@ def goal_travel(scene: Scene, states: Sequence[State]) -> float:
     return float(np.linalg.norm(np.diff(path, axis=0), axis=1).sum())
 
 
-def candidate_rank(robustness: float, goal_travel: float, travel_penalty: float) -> float:
+def candidate_rank(score: float, travel: float, travel_penalty: float) -> float:
     """How robust selection ranks a candidate plan that is not robust enough to answer at
-    once: its robustness less `travel_penalty` per metre it pushes the goal object."""
-    return robustness - travel_penalty * goal_travel
+    once: its robustness `score` less `travel_penalty` per metre it pushes the goal object
+    (`travel`, `goal_travel`)."""
+    return score - travel_penalty * travel
 
 
 def robustness(scene: Scene, states: Sequence[State], rollouts: int, seed: int,

@@ -554,8 +554,9 @@ class Session:
             if callable(stop):
                 stop()
         # Stop spinning before shutting the executor down: a callback still running when the
-        # executor drops its guard condition (a service future's done callback creating a
-        # task) would fail with "'NoneType' object has no attribute 'trigger'".
+        # executor drops its guard condition (a done callback creating a task) fails with
+        # "'NoneType' object has no attribute 'trigger'" (the likely cause of that message
+        # after `make demo`, seen now and then; not reproduced on demand).
         self._closing = True
         self._thread.join(timeout=5.0)
         self.executor.shutdown()

@@ -26,17 +26,15 @@ import traceback
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TextIO
 
 import numpy as np
 
 
 def record_request(scene_path: Path, seed: int, candidates: int, time_limit: float,
-                   shortcut_time: float, shortcut_attempts: int, rollouts: int,
-                   budget: float | None = None) -> list[dict]:
+                   shortcut_time: float, shortcut_attempts: int, rollouts: int) -> list[dict]:
     """The candidates of a robust PC-RRT search of `scene_path` with `seed` (one tree each),
     executed in MuJoCo: one record per candidate search, until `candidates` searches or
-    `budget` s (default `time_limit`) of searching, shortcutting and rollouts are spent."""
+    `time_limit` s of searching, shortcutting and rollouts are spent."""
     from rearrangement_planner.execution.mujoco_check import check_execution
     from rearrangement_planner.physics.validation import load_scene
     from rearrangement_planner.planning.interface import planning_physics
@@ -48,11 +46,10 @@ def record_request(scene_path: Path, seed: int, candidates: int, time_limit: flo
     options = PCRRTOptions(time_limit=time_limit, trees=1)
     world = planning_physics(scene, options).options
     g = scene.goal_index
-    budget = time_limit if budget is None else budget
     records: list[dict] = []
     spent = 0.0
     for k in range(candidates):
-        if spent >= budget:
+        if spent >= time_limit:
             break
         k_seed = candidate_seed(seed, k)
         out = plan_scene(scene, "pc-rrt", options, seed=k_seed, shortcut_time=shortcut_time,
@@ -166,11 +163,10 @@ def _record_task(task: tuple) -> tuple[list[dict], str]:
 
 def record_all(requests: Sequence[tuple[Path, int]], out: Path, workers: int,
                candidates: int, time_limit: float, shortcut_time: float,
-               shortcut_attempts: int, rollouts: int,
-               progress: TextIO | None = None) -> int:
+               shortcut_attempts: int, rollouts: int) -> int:
     """Record the (scene file, seed) `requests` not yet in `out` (candidates.jsonl), appending
-    each request's records as it finishes, on `workers` processes. Returns how many requests
-    failed with an internal error (their tracebacks printed to `progress`)."""
+    each request's records as it finishes, on `workers` processes; progress on stderr.
+    Returns how many requests failed with an internal error (their tracebacks on stderr)."""
     from rearrangement_planner.tools.benchmark import start_pool
 
     done = {(r["scene"], r["seed"]) for r in read_records(out)}
@@ -186,7 +182,7 @@ def record_all(requests: Sequence[tuple[Path, int]], out: Path, workers: int,
             for n, (records, error) in enumerate(pool.imap_unordered(_record_task, todo), 1):
                 if error:
                     failed += 1
-                    print(error, file=progress or sys.stderr)
+                    print(error, file=sys.stderr)
                     continue
                 for record in records:
                     f.write(json.dumps(record) + "\n")
@@ -195,7 +191,7 @@ def record_all(requests: Sequence[tuple[Path, int]], out: Path, workers: int,
                 print(f"{n}/{len(todo)} {first['scene']} seed {first['seed']}: "
                       f"{sum(r['solved'] for r in records)} of {len(records)} candidates "
                       f"solved, {sum(bool(r.get('reached')) for r in records)} reached the "
-                      f"goal in MuJoCo", file=progress or sys.stderr, flush=True)
+                      f"goal in MuJoCo", file=sys.stderr, flush=True)
         pool.close()
     finally:
         pool.terminate()
