@@ -78,6 +78,7 @@ class Invalid(str, Enum):
     TIPPING = "object_would_tip"
     EDGE_CONTACT = "contact_at_edge"
     TURNING = "object_turns"
+    OVER_TOP = "arm_over_object_top"
 
 
 @dataclass(frozen=True)
@@ -122,6 +123,17 @@ class PhysicsOptions:
     error from 0.13 to 0.11 rad), but whole plans made with it reached the goal in MuJoCo less
     often (26 of 70 benchmark requests against 32; docs/benchmark.md "Session 14"), so the
     default stays 0: uniform pressure, as in King et al."""
+    top_clearance: float = 0.0
+    """Refuse a step in which a contact shape comes within this distance (m) of a movable
+    object's top from above or over its top rim (`Invalid.OVER_TOP`): the shape's nearest
+    point on the object lies on the top face or rim with a normal tilted out of the horizontal.
+    A link sweeping over an object just clear of it, or grazing its rim, meets it in the real
+    arm (the wrist's corners stand up to 12 mm out of its contact shapes, and the object is a
+    few cm from where the plan has it) and tips it over: 49 of the 162 stored benchmark
+    candidates with a planned rim contact toppled an object in MuJoCo, 17 of the 205 without
+    (docs/benchmark.md "Session 16"). A shape meeting the object's side below the rim, like
+    a hand face pressed flat against it, is not affected. 0 = off (as in King et al.); the
+    planners set it with their `top_clearance` setting."""
     static_objects: frozenset[str] = frozenset()
     """Names of movable objects treated as static obstacles: any arm contact with one is
     invalid (`Invalid.ARM_OBSTACLE`). The Static RRT baseline makes every object but the goal
@@ -174,12 +186,12 @@ def tips_over(obj: MovableObject, twist: np.ndarray, height: float) -> bool:
 
 
 # Outcome codes of the compiled step (`_REASONS[code]`; 0 is a valid step).
-_VALID, _STATIC_OBJECT, _EDGE, _TURNING = 0, 11, 12, 13
+_VALID, _STATIC_OBJECT, _EDGE, _TURNING, _OVER_TOP = 0, 11, 12, 13, 14
 _REASONS: tuple[Invalid | None, ...] = (
     None, Invalid.JOINT_LIMIT, Invalid.ARM_TABLE, Invalid.ARM_OBSTACLE, Invalid.OBJECT_OVERLAP,
     Invalid.OBJECT_OBSTACLE, Invalid.OFF_TABLE, Invalid.CONTACT_FROM_ABOVE, Invalid.JAMMING,
     Invalid.RESIDUAL_PENETRATION, Invalid.TIPPING, Invalid.ARM_OBSTACLE, Invalid.EDGE_CONTACT,
-    Invalid.TURNING)
+    Invalid.TURNING, Invalid.OVER_TOP)
 (_JOINT_LIMIT, _ARM_TABLE, _ARM_OBSTACLE, _OBJECT_OVERLAP, _OBJECT_OBSTACLE, _OFF_TABLE,
  _FROM_ABOVE, _JAMMING, _RESIDUAL, _TIPPING) = range(1, 11)
 
@@ -201,8 +213,9 @@ class World(NamedTuple):
     obj_size: np.ndarray            # (M, 3) full extents (x, y, z), a cylinder's (2r, 2r, h)
     obj_props: np.ndarray           # (M, 6): z of the centre, c, mu_c, mu_s, footprint, static
     table: np.ndarray               # (5,): top z, centre x, y, half size x, y
-    options: np.ndarray             # (6,): max_substep, penetration and overlap tolerances,
-                                    # vertical normal limit, tipping (0/1), free-space margin
+    options: np.ndarray             # (10,): max_substep, penetration and overlap tolerances,
+                                    # vertical normal limit, tipping (0/1), free-space margin,
+                                    # edge margin, max turn, tipping margin, top clearance
 
 
 class Physics:
@@ -323,6 +336,9 @@ class Physics:
             return f"'{names[a]}' would turn too fast: {v:.1f} rad per m it moves"
         if code == _EDGE:
             return f"{links[a]} touches '{names[b]}' at an edge"
+        if code == _OVER_TOP:
+            return (f"{links[a]} passes {v * 100:.1f} cm over the top of '{names[b]}' "
+                    f"(clearance {self.options.top_clearance * 100:.1f} cm)")
         if code == _FROM_ABOVE:
             return f"{links[a]} presses on '{names[b]}' from above (normal z = {v:+.2f})"
         if code == _JAMMING:
@@ -398,7 +414,7 @@ def _world_arrays(scene: Scene, robot: RobotModel, options: PhysicsOptions,
         options=np.array([options.max_substep, options.penetration_tolerance,
                           options.overlap_tolerance, options.vertical_normal_limit,
                           float(options.tipping), FREE_SPACE_MARGIN, options.edge_margin,
-                          options.max_turn, options.tipping_margin],
+                          options.max_turn, options.tipping_margin, options.top_clearance],
                          dtype=float))
 
 
@@ -701,6 +717,41 @@ def _at_edge(point: np.ndarray, normal: np.ndarray, pose: np.ndarray, kind: int,
     return across > 0.0 and min(abs(nx), abs(ny)) > EDGE_NORMAL_TILT * across
 
 
+TOP_RIM = 0.005
+"""m: a nearest point this close below an object's top counts as on its top rim
+(`PhysicsOptions.top_clearance`)."""
+
+
+@njit(cache=True)
+def _over_top(poses: np.ndarray, shapes: np.ndarray, objects: np.ndarray, near: np.ndarray,
+              obj_kind: np.ndarray, obj_dims: np.ndarray, obj_props: np.ndarray,
+              clearance: float, info: np.ndarray, value: np.ndarray) -> int:
+    """The first contact shape (in order) that comes within `clearance` of an object's top
+    from above or over its rim (`PhysicsOptions.top_clearance`): its nearest point on the
+    object within `TOP_RIM` of the top, the normal tilted more than `EDGE_NORMAL_TILT` out of
+    the horizontal. Only the pairs `near` allows (`_reach`, grown by the clearance)."""
+    a, b, point, normal, centre = (np.empty(3), np.empty(3), np.empty(3), np.empty(3),
+                                   np.empty(3))
+    for s in range(poses.shape[0]):
+        kernels.segment(poses, s, shapes[s, 0], a, b)
+        reach = shapes[s, 1] + clearance
+        for m in range(objects.shape[0]):
+            if not near[s, m]:
+                continue
+            centre[0], centre[1], centre[2] = objects[m, 0], objects[m, 1], obj_props[m, 0]
+            if not kernels.near_prism(a, b, reach, obj_kind[m], centre, obj_dims[m]):
+                continue
+            d = kernels.capsule_prism_below(a, b, shapes[s, 1], clearance, obj_kind[m],
+                                            centre, objects[m, 2], obj_dims[m], point, normal)
+            half_z = obj_dims[m, 2] if obj_kind[m] == kernels.BOX else obj_dims[m, 1]
+            if (d < clearance and point[2] > centre[2] + half_z - TOP_RIM
+                    and abs(normal[2]) > EDGE_NORMAL_TILT):
+                info[1], info[2] = s, m
+                value[0] = d
+                return _OVER_TOP
+    return _VALID
+
+
 @njit(cache=True)
 def _admissible(count: int, c_shape: np.ndarray, c_obj: np.ndarray, c_point: np.ndarray,
                 c_normal: np.ndarray, objects: np.ndarray, obj_kind: np.ndarray,
@@ -796,6 +847,11 @@ def _substep(poses_a: np.ndarray, poses_b: np.ndarray, objects: np.ndarray,
                        info)
     if code != _VALID:
         return code
+    if options[9] > 0.0:
+        code = _over_top(poses_b, shapes, objects, near, obj_kind, obj_dims, obj_props,
+                         options[9], info, value)
+        if code != _VALID:
+            return code
     S, M = poses_b.shape[0], objects.shape[0]
     capacity = S * M
     c_shape, c_obj = np.empty(capacity, dtype=np.int64), np.empty(capacity, dtype=np.int64)
@@ -858,7 +914,7 @@ def step_kernel(q0: np.ndarray, q1: np.ndarray, objects: np.ndarray, chain: tupl
     near = np.empty((S, objects.shape[0]), dtype=np.bool_)
     near_static = np.empty((S, static_centre.shape[0]), dtype=np.bool_)
     if not _reach(poses_a, shapes, objects, obj_size, obj_props, static_centre, static_dims,
-                  sweep + options[5], near, near_static):
+                  sweep + max(options[5], options[9]), near, near_static):
         # Free space: no substep can touch an object, so the substeps would only repeat the
         # static check. One substep at q1 (DESIGN §5 substepping is for contacts).
         n = 1

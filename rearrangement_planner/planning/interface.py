@@ -84,6 +84,10 @@ class PlannerOptions(Settings):
     the push depends on the exact shape of link and corner, and traced executions went
     elsewhere than predicted. Off by default: with 0.01 fewer plans reached the goal in MuJoCo
     (13/33 against 19/33, docs/benchmark.md "Session 13"). 0 = any contact, as in King et al."""
+    top_clearance: float = setting(0.0, low=0.0, high=0.1)
+    """Refuse a step in which a link comes within this distance (m) of an object's top from
+    above or over its rim (`PhysicsOptions.top_clearance`): a link sweeping just over an
+    object, or grazing its rim, tips it in the real arm. 0 = off, as in King et al."""
     max_turn: float = setting(5.0, low=0.0, high=1000.0)
     """Refuse a push that turns its object by more than this many radians per metre of its
     travel (`PhysicsOptions.max_turn`): how fast an off-centre push turns an object is what
@@ -122,19 +126,19 @@ def planning_physics(scene: Scene, options: PlannerOptions,
                      physics: Physics | None = None) -> Physics:
     """The physics a planner plans in: `physics` (default the scene's), with the tipping check
     on when the options' `tipping` or the physics' own options say so, the larger of the two
-    tipping margins and of the two edge margins, and the tighter of the two turn limits."""
+    tipping margins, of the two edge margins and of the two top clearances, and the tighter of
+    the two turn limits."""
     base = physics or Physics(scene)
     given = base.options
-    tipping = given.tipping or options.tipping
-    tip_margin = max(given.tipping_margin, options.tipping_margin)
-    margin = max(given.edge_margin, options.edge_margin)
-    turn = min((t for t in (given.max_turn, options.max_turn) if t > 0), default=0.0)
-    if (tipping, tip_margin, margin, turn) == (given.tipping, given.tipping_margin,
-                                               given.edge_margin, given.max_turn):
+    wanted = dict(
+        tipping=given.tipping or options.tipping,
+        tipping_margin=max(given.tipping_margin, options.tipping_margin),
+        edge_margin=max(given.edge_margin, options.edge_margin),
+        top_clearance=max(given.top_clearance, options.top_clearance),
+        max_turn=min((t for t in (given.max_turn, options.max_turn) if t > 0), default=0.0))
+    if all(getattr(given, name) == value for name, value in wanted.items()):
         return base
-    return Physics(base.scene, dataclasses.replace(
-        given, tipping=tipping, tipping_margin=tip_margin, edge_margin=margin, max_turn=turn),
-        base.robot)
+    return Physics(base.scene, dataclasses.replace(given, **wanted), base.robot)
 
 
 @dataclass(frozen=True)

@@ -271,6 +271,11 @@ def _add_candidates_parser(sub) -> None:
     cands.add_argument("--travel-penalty", type=float, default=robust.travel_penalty,
                        metavar="P", help="the ranking replayed beside the most robust "
                                          f"(default {robust.travel_penalty:g})")
+    cands.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
+                       help="a PC-RRT setting for every candidate search, e.g. --set "
+                            "top_clearance=0.02 (repeatable; `rearrangement-plan --planner "
+                            "pc-rrt --list-settings` shows them); give each variant its own "
+                            "--out")
     cands.add_argument("--workers", type=int, metavar="N",
                        help="worker processes (default: one per core)")
     cands.add_argument("--out", type=Path, default=Path("out/candidates"), metavar="DIR",
@@ -350,6 +355,7 @@ def candidates_command(args: argparse.Namespace) -> int:
         if not ok:
             value = getattr(args, option[2:].replace("-", "_"))
             raise benchmark.BenchmarkError(option, f"must be {problem}, got {value}")
+    settings = _pcrrt_settings(args.set)
     scenes = _resolve_scenes(args.scenes or benchmark.set_scene_names())
     out = args.out / "candidates.jsonl"
     requests = [(path, seed) for seed in dict.fromkeys(args.seeds) for path, _ in scenes]
@@ -357,7 +363,8 @@ def candidates_command(args: argparse.Namespace) -> int:
           f"each, {args.time_limit:g} s, {_count(workers, 'worker')} -> {out}",
           file=sys.stderr, flush=True)
     failed = candidates.record_all(requests, out, workers, args.candidates, args.time_limit,
-                                   args.shortcut, args.shortcut_attempts, args.rollouts)
+                                   args.shortcut, args.shortcut_attempts, args.rollouts,
+                                   settings)
     wanted = {(path.stem, seed) for path, seed in requests}
     records = [r for r in candidates.read_records(out) if (r["scene"], r["seed"]) in wanted]
     print(candidates.replay_table(records, candidates.rules(args.candidates,
@@ -368,6 +375,28 @@ def candidates_command(args: argparse.Namespace) -> int:
               f"{out}; run again to retry them)", file=sys.stderr)
         return 1
     return 0
+
+
+def _pcrrt_settings(items: list[str]) -> dict[str, Any]:
+    """PC-RRT settings from --set NAME=VALUE items, checked as PCRRTOptions checks them."""
+    from rearrangement_planner.planning.pcrrt import PCRRTOptions
+
+    known = {s.name: s for s in PCRRTOptions.describe()}
+    settings: dict[str, Any] = {}
+    for item in items:
+        name, sep, text = (part.strip() for part in item.partition("="))
+        if not sep or name not in known:
+            raise benchmark.BenchmarkError("--set", f"expected NAME=VALUE with NAME one of "
+                                                    f"pc-rrt's settings, got '{item}'")
+        try:
+            settings[name] = known[name].parse(text)
+        except ValueError as exc:
+            raise benchmark.BenchmarkError("--set", f"{item}: {exc}") from None
+    try:
+        PCRRTOptions(**settings)
+    except ValueError as exc:
+        raise benchmark.BenchmarkError("--set", str(exc)) from None
+    return settings
 
 
 def _resolve_scenes(names: list[str]) -> list[tuple[Path, Scene]]:

@@ -31,10 +31,12 @@ import numpy as np
 
 
 def record_request(scene_path: Path, seed: int, candidates: int, time_limit: float,
-                   shortcut_time: float, shortcut_attempts: int, rollouts: int) -> list[dict]:
-    """The candidates of a robust PC-RRT search of `scene_path` with `seed` (one tree each),
-    executed in MuJoCo: one record per candidate search, until `candidates` searches or
-    `time_limit` s of searching, shortcutting and rollouts are spent."""
+                   shortcut_time: float, shortcut_attempts: int, rollouts: int,
+                   settings: dict | None = None) -> list[dict]:
+    """The candidates of a robust PC-RRT search of `scene_path` with `seed` (one tree each,
+    PC-RRT's `settings` over its defaults), executed in MuJoCo: one record per candidate
+    search, until `candidates` searches or `time_limit` s of searching, shortcutting and
+    rollouts are spent."""
     from rearrangement_planner.execution.mujoco_check import check_execution
     from rearrangement_planner.physics.validation import load_scene
     from rearrangement_planner.planning.interface import planning_physics
@@ -43,7 +45,7 @@ def record_request(scene_path: Path, seed: int, candidates: int, time_limit: flo
     from rearrangement_planner.planning.robustness import goal_travel, robustness
 
     scene = load_scene(scene_path)
-    options = PCRRTOptions(time_limit=time_limit, trees=1)
+    options = PCRRTOptions(**{**(settings or {}), "time_limit": time_limit, "trees": 1})
     world = planning_physics(scene, options).options
     g = scene.goal_index
     records: list[dict] = []
@@ -163,15 +165,15 @@ def _record_task(task: tuple) -> tuple[list[dict], str]:
 
 def record_all(requests: Sequence[tuple[Path, int]], out: Path, workers: int,
                candidates: int, time_limit: float, shortcut_time: float,
-               shortcut_attempts: int, rollouts: int) -> int:
+               shortcut_attempts: int, rollouts: int, settings: dict | None = None) -> int:
     """Record the (scene file, seed) `requests` not yet in `out` (candidates.jsonl), appending
     each request's records as it finishes, on `workers` processes; progress on stderr.
     Returns how many requests failed with an internal error (their tracebacks on stderr)."""
     from rearrangement_planner.tools.benchmark import start_pool
 
     done = {(r["scene"], r["seed"]) for r in read_records(out)}
-    todo = [(path, seed, candidates, time_limit, shortcut_time, shortcut_attempts, rollouts)
-            for path, seed in requests if (path.stem, seed) not in done]
+    todo = [(path, seed, candidates, time_limit, shortcut_time, shortcut_attempts, rollouts,
+             settings) for path, seed in requests if (path.stem, seed) not in done]
     failed = 0
     if not todo:
         return 0

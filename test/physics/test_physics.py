@@ -483,6 +483,91 @@ def test_a_push_over_the_top_edge_is_invalid_with_the_edge_margin(panda):
     assert outcome[0.01][0] is Invalid.EDGE_CONTACT
 
 
+# --------------------------------------------------------------------------------------------
+# Top clearance (issue 18 item 2: links passing just over an object tip the real one)
+# --------------------------------------------------------------------------------------------
+
+
+def _raised_path(panda, lift):
+    """The hand moving along +x from 0.30 to 0.52 m with the tool `lift` m above the pushing
+    plane (the tool's manifold over a table that high)."""
+    from rearrangement_planner.planning.manifold import ik_on_manifold
+
+    q = default_push_configuration(panda, lift)
+    path = []
+    for x in np.arange(0.30, 0.52, 0.005):
+        q = ik_on_manifold(panda, float(x), 0.0, 0.0, lift, q)
+        path.append(q)
+    return path
+
+
+def _lowest_point(panda, q):
+    """The lowest point of the hand's and the flange's contact shapes at q, m above the table
+    top (z = 0 here)."""
+    poses = panda.shape_poses(q)
+    low = math.inf
+    for pose, shape in zip(poses, panda.contact_shapes, strict=True):
+        if shape.link not in ("panda_hand", "panda_link7"):
+            continue
+        half = 0.5 * shape.dims[1] if shape.kind == "capsule" else 0.0
+        ends = [pose[:3, 3] + sign * half * pose[:3, 2] for sign in (-1.0, 1.0)]
+        low = min(low, min(e[2] for e in ends) - shape.dims[0])
+    return low
+
+
+@pytest.mark.parametrize("gap, refused", [(0.005, True), (0.015, True), (0.03, False)])
+def test_a_link_passing_just_over_an_object_is_invalid_with_the_top_clearance(panda, gap,
+                                                                              refused):
+    """The hand sweeps over a low box whose top is `gap` below its lowest point: without the
+    clearance nothing touches and the step is valid; with 2 cm the passes closer than that
+    are refused as the hand comes within 2 cm of the box's rim, naming the link, the object
+    and the gap."""
+    path = _raised_path(panda, 0.08)
+    height = _lowest_point(panda, path[0]) - gap
+    obj = box("low", [0.44, 0.0, 0.0], size=(0.06, 0.08, height))
+    scene = make_scene([obj], path[0], robot=panda)
+    result, state = _walk(Physics(scene, PhysicsOptions()), scene.initial_state(), path[1:])
+    assert result.valid and state.objects[0, 0] == 0.44
+    result, _ = _walk(Physics(scene, PhysicsOptions(top_clearance=0.02)),
+                      scene.initial_state(), path[1:])
+    if not refused:
+        assert result.valid, result.detail
+        return
+    assert result.reason is Invalid.OVER_TOP
+    link, rest = result.detail.split(" passes ")
+    assert link.startswith("panda_") and rest.endswith("over the top of 'low' "
+                                                      "(clearance 2.0 cm)")
+    assert gap - 0.001 <= float(rest.split(" cm")[0]) / 100 < 0.02   # refused on approach
+
+
+@pytest.mark.parametrize("height", [0.12, 0.08])
+def test_a_push_on_a_face_is_valid_with_the_top_clearance(panda, height):
+    """The finger pads pressed flat against a box's face (up to its top edge for the 8 cm
+    box) push it as without the clearance: they meet its side, not its top."""
+    path = _push_path(panda, 0.50)
+    scene = make_scene([box("b", [0.46, 0.0, 0.0], size=(0.06, 0.08, height))], path[0],
+                       robot=panda)
+    ends = []
+    for clearance in (0.0, 0.02):
+        result, state = _walk(Physics(scene, PhysicsOptions(top_clearance=clearance)),
+                              scene.initial_state(), path[1:])
+        assert result.valid, result.detail
+        ends.append(state.objects[0])
+    assert ends[0][0] > 0.5
+    np.testing.assert_allclose(ends[1], ends[0])
+
+
+def test_a_push_over_the_top_edge_is_invalid_with_the_top_clearance(panda):
+    """The 6.5 cm box whose top edge the hand's lower capsule meets at a slant (the edge
+    margin's case) is refused by the clearance too."""
+    path = _push_path(panda, 0.50)
+    scene = make_scene([box("b", [0.46, 0.0, 0.0], size=(0.06, 0.08, 0.065))], path[0],
+                       robot=panda)
+    result, _ = _walk(Physics(scene, PhysicsOptions(top_clearance=0.02)),
+                      scene.initial_state(), path[1:])
+    assert result.reason is Invalid.OVER_TOP
+
+
 def test_a_push_that_turns_its_object_fast_is_invalid_with_max_turn(panda):
     """Pushed 2.5 cm off its centre line the box turns about a radian over the push (6 rad
     per metre at first): refused with max_turn 5, named with its rate; the centred push and

@@ -276,6 +276,20 @@ def test_the_edge_margin_setting_reaches_the_planners_physics(easy):
     assert Physics(easy).options.edge_margin == 0.0
 
 
+def test_the_top_clearance_setting_reaches_the_planners_physics(easy):
+    """`top_clearance` (a planner setting) becomes the physics option of the world the
+    planner plans in; of a clearance given with the physics and the setting, the larger
+    wins."""
+    from rearrangement_planner.physics.step import Physics, PhysicsOptions
+    from rearrangement_planner.planning.interface import planning_physics
+
+    assert PCRRT(easy, PCRRTOptions(top_clearance=0.02)).physics.options.top_clearance == 0.02
+    given = Physics(easy, PhysicsOptions(top_clearance=0.03))
+    assert planning_physics(easy, PCRRTOptions(top_clearance=0.01),
+                            given).options.top_clearance == 0.03
+    assert Physics(easy).options.top_clearance == 0.0
+
+
 def test_the_max_turn_setting_reaches_the_planners_physics(easy):
     """`max_turn` (a planner setting) becomes the physics option; of two limits, the
     tighter wins (0 is no limit)."""

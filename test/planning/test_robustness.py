@@ -62,13 +62,13 @@ def test_a_plan_ending_on_the_goal_edge_is_fragile_and_one_ending_inside_is_robu
 
 
 def test_rollouts_judge_the_goal_not_the_planners_choice_of_pushes(easy):
-    """The turn limit, the edge margin and the tipping margin restrict which pushes a plan may
-    use; a perturbed world that turns the box faster still counts if the box reaches the goal
+    """The turn limit, the edge margin, the top clearance and the tipping margin restrict
+    which pushes a plan may use; a perturbed world that turns the box faster still counts if the box reaches the goal
     (judged with the turn limit, none of these 20 rollouts would count; with the tipping
     margin, the push along the 6 cm box at 7 cm would tip in every one)."""
     inside = _push_until(easy, 0.02)
     plain = robustness(easy, inside, rollouts=20, seed=0)
-    restricted = PhysicsOptions(max_turn=5.0, edge_margin=0.01)
+    restricted = PhysicsOptions(max_turn=5.0, edge_margin=0.01, top_clearance=0.05)
     assert plain == 1.0
     assert robustness(easy, inside, rollouts=20, seed=0, physics_options=restricted) == plain
     # With the tipping check, each rollout judges tipping with its own drawn friction (some

@@ -71,9 +71,19 @@ def test_candidates_command_records_executes_and_replays(tmp_path, capsys):
 
 @pytest.mark.parametrize("option, value", [("--candidates", "0"), ("--rollouts", "0"),
                                            ("--travel-penalty", "-1"), ("--time-limit", "0"),
-                                           ("--workers", "99")])
+                                           ("--workers", "99"), ("--set", "nope=1"),
+                                           ("--set", "top_clearance=0.5")])
 def test_candidates_command_names_a_bad_option(option, value, capsys, tmp_path):
     assert main(["candidates", option, value, "--out", str(tmp_path)]) == 2
     err = capsys.readouterr().err
     assert option in err and value in err
     assert not (tmp_path / "candidates.jsonl").exists()
+
+
+def test_record_request_plans_with_the_given_settings():
+    """`--set` reaches every candidate search: one iteration cannot solve easy_push."""
+    from rearrangement_planner.tools.candidates import record_request
+
+    scene = scenes_dir() / "easy_push.yaml"
+    records = record_request(scene, 1, 1, 20.0, 0.0, 1, 1, {"max_iterations": 1})
+    assert [(r["k"], r["solved"]) for r in records] == [(0, False)]
