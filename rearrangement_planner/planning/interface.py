@@ -13,7 +13,7 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass
 from enum import Enum
-from typing import Protocol, TypeVar
+from typing import Any, Protocol, TypeVar
 
 import numpy as np
 
@@ -130,7 +130,7 @@ def planning_physics(scene: Scene, options: PlannerOptions,
     the two turn limits."""
     base = physics or Physics(scene)
     given = base.options
-    wanted = dict(
+    wanted: dict[str, Any] = dict(
         tipping=given.tipping or options.tipping,
         tipping_margin=max(given.tipping_margin, options.tipping_margin),
         edge_margin=max(given.edge_margin, options.edge_margin),

@@ -70,8 +70,9 @@ def robustness(scene: Scene, states: Sequence[State], rollouts: int, seed: int,
     # a step up to a few mm inside it, which the planner's 3 mm residual check would call an
     # invalid step although the object is simply pushed. Rollouts judge the goal, not that.
     # The edge margin, the top clearance, the turn limit and the tipping margin choose which
-    # pushes and passes the planner may plan with; a perturbed world that turns an object a little faster does not fail the
-    # plan, and each rollout draws its own friction for the tipping check.
+    # pushes and passes the planner may plan with; a perturbed world that turns an object a
+    # little faster does not fail the plan, and each rollout draws its own friction for the
+    # tipping check.
     options = dataclasses.replace(options, penetration_tolerance=max(
         options.penetration_tolerance, ROLLOUT_PENETRATION_TOLERANCE), edge_margin=0.0,
         top_clearance=0.0, max_turn=0.0, tipping_margin=0.0)

@@ -395,7 +395,7 @@ def _pcrrt_settings(items: list[str]) -> dict[str, Any]:
     try:
         PCRRTOptions(**settings)
     except ValueError as exc:
-        raise benchmark.BenchmarkError("--set", str(exc)) from None
+        raise benchmark.BenchmarkError("--set", f"{' '.join(items)}: {exc}") from None
     return settings
 
 

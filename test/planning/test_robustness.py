@@ -63,7 +63,8 @@ def test_a_plan_ending_on_the_goal_edge_is_fragile_and_one_ending_inside_is_robu
 
 def test_rollouts_judge_the_goal_not_the_planners_choice_of_pushes(easy):
     """The turn limit, the edge margin, the top clearance and the tipping margin restrict
-    which pushes a plan may use; a perturbed world that turns the box faster still counts if the box reaches the goal
+    which pushes a plan may use; a perturbed world that turns the box faster still counts if
+    the box reaches the goal
     (judged with the turn limit, none of these 20 rollouts would count; with the tipping
     margin, the push along the 6 cm box at 7 cm would tip in every one)."""
     inside = _push_until(easy, 0.02)
