@@ -56,6 +56,21 @@ def candidate_rank(score: float, travel: float, travel_penalty: float) -> float:
     return score - travel_penalty * travel
 
 
+def rollout_options(options: PhysicsOptions) -> PhysicsOptions:
+    """The physics options a rollout judges a plan with, from the planner's.
+
+    A perturbed object meets the arm a few mm from where the plan had it: the arm then ends a
+    step up to a few mm inside it, which the planner's 3 mm residual check would call an
+    invalid step although the object is simply pushed. Rollouts judge the goal, not that. The
+    edge margin, the top clearance, the turn limit and the tipping margin choose which pushes
+    and passes the planner may plan with; a perturbed world that turns an object a little
+    faster does not fail the plan, and each rollout draws its own friction for the tipping
+    check."""
+    return dataclasses.replace(options, penetration_tolerance=max(
+        options.penetration_tolerance, ROLLOUT_PENETRATION_TOLERANCE), edge_margin=0.0,
+        top_clearance=0.0, max_turn=0.0, tipping_margin=0.0)
+
+
 def robustness(scene: Scene, states: Sequence[State], rollouts: int, seed: int,
                perturbation: Perturbation | None = None,
                physics_options: PhysicsOptions | None = None) -> float:
@@ -65,17 +80,7 @@ def robustness(scene: Scene, states: Sequence[State], rollouts: int, seed: int,
         raise ValueError(f"rollouts must be >= 1, got {rollouts}")
     rng = np.random.default_rng(seed)
     perturbation = perturbation or Perturbation()
-    options = physics_options or PhysicsOptions()
-    # A perturbed object meets the arm a few mm from where the plan had it: the arm then ends
-    # a step up to a few mm inside it, which the planner's 3 mm residual check would call an
-    # invalid step although the object is simply pushed. Rollouts judge the goal, not that.
-    # The edge margin, the top clearance, the turn limit and the tipping margin choose which
-    # pushes and passes the planner may plan with; a perturbed world that turns an object a
-    # little faster does not fail the plan, and each rollout draws its own friction for the
-    # tipping check.
-    options = dataclasses.replace(options, penetration_tolerance=max(
-        options.penetration_tolerance, ROLLOUT_PENETRATION_TOLERANCE), edge_margin=0.0,
-        top_clearance=0.0, max_turn=0.0, tipping_margin=0.0)
+    options = rollout_options(physics_options or PhysicsOptions())
     arm_path = np.array([s.q for s in states])
     reached = sum(rollout_reaches(perturbation.apply(scene, rng), arm_path, options)
                   for _ in range(rollouts))

@@ -21,6 +21,7 @@ import dataclasses
 import inspect
 import math
 import textwrap
+from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import cache
 from typing import Any, cast
@@ -82,6 +83,23 @@ class Settings:
                                      f.metadata.get("low"), f.metadata.get("high"),
                                      tuple(f.metadata.get("choices", ()))))
         return tuple(specs)
+
+    @classmethod
+    def parse_assignments(cls, items: Sequence[str]) -> dict[str, Value]:
+        """Values from NAME=VALUE texts (the command lines' --set), each parsed by its
+        setting; ValueError beginning with the offending text."""
+        specs = {spec.name: spec for spec in cls.describe()}
+        values: dict[str, Value] = {}
+        for item in items:
+            name, sep, text = (part.strip() for part in item.partition("="))
+            if not sep or name not in specs:
+                raise ValueError(f"{item}: expected NAME=VALUE with NAME one of "
+                                 f"{', '.join(specs)}")
+            try:
+                values[name] = specs[name].parse(text)
+            except ValueError as exc:
+                raise ValueError(f"{item}: {exc}") from None
+        return values
 
 
 def check_value(spec: SettingSpec, value: Any) -> None:

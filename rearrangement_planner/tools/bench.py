@@ -381,17 +381,10 @@ def _pcrrt_settings(items: list[str]) -> dict[str, Any]:
     """PC-RRT settings from --set NAME=VALUE items, checked as PCRRTOptions checks them."""
     from rearrangement_planner.planning.pcrrt import PCRRTOptions
 
-    known = {s.name: s for s in PCRRTOptions.describe()}
-    settings: dict[str, Any] = {}
-    for item in items:
-        name, sep, text = (part.strip() for part in item.partition("="))
-        if not sep or name not in known:
-            raise benchmark.BenchmarkError("--set", f"expected NAME=VALUE with NAME one of "
-                                                    f"pc-rrt's settings, got '{item}'")
-        try:
-            settings[name] = known[name].parse(text)
-        except ValueError as exc:
-            raise benchmark.BenchmarkError("--set", f"{item}: {exc}") from None
+    try:
+        settings: dict[str, Any] = dict(PCRRTOptions.parse_assignments(items))
+    except ValueError as exc:
+        raise benchmark.BenchmarkError("--set", f"{exc} (pc-rrt's settings)") from None
     try:
         PCRRTOptions(**settings)
     except ValueError as exc:

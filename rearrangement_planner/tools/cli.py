@@ -122,18 +122,11 @@ def _progress_printer(quiet: bool):
 def _options(args: argparse.Namespace) -> PlannerOptions:
     """The planner's options from --time-limit, --trees and every --set NAME=VALUE."""
     spec = planner_spec(args.planner)
-    settings = {s.name: s for s in spec.options_type.describe()}
     values: dict[str, Any] = {"time_limit": args.time_limit, "trees": args.trees}
-    for item in args.set:
-        name, sep, text = item.partition("=")
-        if not sep or name.strip() not in settings:
-            raise RearrangementError(
-                f"--set {item}: expected NAME=VALUE with NAME one of {args.planner}'s settings "
-                f"({', '.join(settings)})")
-        try:
-            values[name.strip()] = settings[name.strip()].parse(text.strip())
-        except ValueError as exc:
-            raise RearrangementError(f"--set {item}: {exc}") from None
+    try:
+        values.update(spec.options_type.parse_assignments(args.set))
+    except ValueError as exc:
+        raise RearrangementError(f"--set {exc} ({args.planner}'s settings)") from None
     try:
         return spec.options(**values)
     except ValueError as exc:

@@ -228,3 +228,17 @@ def test_the_rollouts_judge_the_shortcut_plan_and_count_in_its_plan_time(easy, m
     monkeypatch.setattr(pipeline, "robustness", slow)
     timed = plan_scene(easy, "pc-rrt", options, seed=1, robust=robust)
     assert timed.solved and timed.result.plan_time >= 0.3
+
+
+def test_rollouts_leave_out_the_planners_restrictions():
+    """The settings that choose which pushes the planner may use are off in a rollout; the
+    tipping check and the world's own options stay."""
+    from rearrangement_planner.planning.robustness import rollout_options
+
+    planner = PhysicsOptions(tipping=True, tipping_margin=0.3, edge_margin=0.01,
+                             top_clearance=0.02, max_turn=5.0, pressure_at_rim=0.5)
+    rollout = rollout_options(planner)
+    assert (rollout.edge_margin, rollout.top_clearance, rollout.max_turn,
+            rollout.tipping_margin) == (0.0, 0.0, 0.0, 0.0)
+    assert rollout.tipping and rollout.pressure_at_rim == 0.5
+    assert rollout.penetration_tolerance > planner.penetration_tolerance

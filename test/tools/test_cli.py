@@ -68,6 +68,17 @@ def test_bad_option_exits_2(capsys):
     assert "--trees must be between 1 and 64, got 0" in capsys.readouterr().err
 
 
+@pytest.mark.parametrize("item, problem", [
+    ("nope=1", "--set nope=1: expected NAME=VALUE with NAME one of"),
+    ("top_clearance", "--set top_clearance: expected NAME=VALUE"),
+    ("greedy_goal=maybe", "--set greedy_goal=maybe: "),
+    ("top_clearance=0.5", "top_clearance must be in [0, 0.1], got 0.5")])
+def test_a_bad_set_exits_2_naming_it(item, problem, capsys):
+    assert main([str(scenes_dir() / "easy_push.yaml"), "--set", item, "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert problem in err, err
+
+
 def test_two_trees_race_by_default(tmp_path):
     out = tmp_path / "plan.json"
     assert main([str(scenes_dir() / "easy_push.yaml"), "--seed", "10", "--json", str(out),
@@ -204,3 +215,11 @@ def test_accept_best_answers_with_the_most_robust_candidate(tmp_path):
     assert main([*args, "--accept-best", "--json", str(out)]) == 0
     accepted = json.loads(out.read_text())
     assert accepted["solved"] and accepted["robustness"] == refused["robustness"] == 0.4
+
+
+def test_set_reaches_the_planner(tmp_path):
+    """--set max_iterations=1: one iteration cannot solve easy_push (exit 1, not solved)."""
+    out = tmp_path / "plan.json"
+    code = main([str(scenes_dir() / "easy_push.yaml"), "--set", "max_iterations=1",
+                 "--min-robustness", "0", "--json", str(out), "--quiet"])
+    assert code == 1 and json.loads(out.read_text())["solved"] is False
