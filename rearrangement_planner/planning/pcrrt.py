@@ -16,7 +16,8 @@ Goal bias (`goal_bias`): with this probability the goal object is sampled inside
 region. The metric weighs the goal object higher (`goal_weight`), as §III-D suggests.
 
 Beyond the paper, switchable (`push_policy`): a push bias (one of the k actions a closed-loop
-push), a greedy goal push from every new best node and clearing of blocking objects.
+push), a greedy goal push from every new best node (and, with `root_push`, from the start
+before the first iteration) and clearing of blocking objects.
 `push_bias=0, greedy_goal=False` is the paper's planner.
 
 Reproducible: all randomness comes from one numpy Generator seeded by the request.
@@ -91,6 +92,10 @@ class PCRRTOptions(PlannerOptions):
     greedy_goal: bool = setting(True)
     """On every new best goal distance, push the goal object from that node straight for the
     goal (a greedy extension, like the Connect step of RRT-Connect)."""
+    root_push: bool = setting(False)
+    """Before the first iteration, push the goal object from the root straight for the goal
+    (the greedy extension from the start): where nothing blocks the line, the plan is one
+    straight push, the kind that works best when executed open loop."""
     clear_blockers: bool = setting(True)
     """When a push of the goal object runs into another object, push that object out of the
     way and push on, within the same action."""
@@ -132,6 +137,10 @@ class PCRRT:
         early = run.begin(start)
         if early is not None:
             return early
+        if self.options.root_push:
+            found = self._root_push(run)
+            if found is not None:
+                return found
         while True:
             ended = run.check()
             if ended is not None:
@@ -167,6 +176,12 @@ class PCRRT:
             if result.stopped in (StopReason.CANCEL, StopReason.TIMEOUT):
                 break
         return None if chosen is None else self._extend(run, near, chosen)
+
+    def _root_push(self, run: _Run) -> PlanResult | None:
+        """The greedy goal push from the root (`root_push`), added like any extension."""
+        chosen = run.policy.goal_push(run.tree.state(0), run.rng, run.stop)
+        run.steps += len(chosen.states)
+        return self._extend(run, 0, chosen) if chosen.states else None
 
     def _extend(self, run: _Run, parent: int, chosen: Propagation) -> PlanResult | None:
         """Add the chosen edge; from a new best goal distance, push the goal object on for the

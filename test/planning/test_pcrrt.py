@@ -175,6 +175,38 @@ def test_greedy_goal_push_runs_only_when_switched_on(easy, monkeypatch, greedy):
         assert calls == []
 
 
+@pytest.mark.parametrize("root_push", [True, False])
+def test_root_push_pushes_the_goal_object_from_the_start_first(easy, monkeypatch, root_push):
+    """With `root_push` the search begins with the greedy goal push from the root, the goal
+    object still where the scene puts it; without it, a greedy push only ever starts from a
+    node where the goal object has already moved closer."""
+    from rearrangement_planner.planning.push_policy import PushPolicy
+
+    starts, iterations_seen = [], []
+    original_push, original_iteration = PushPolicy.goal_push, PCRRT._iteration
+
+    def recording_push(self, x, rng, stop):
+        starts.append(x.objects[easy.goal_index, :2].copy())
+        return original_push(self, x, rng, stop)
+
+    def recording_iteration(self, run):
+        iterations_seen.append(len(starts))
+        return original_iteration(self, run)
+
+    monkeypatch.setattr(PushPolicy, "goal_push", recording_push)
+    monkeypatch.setattr(PCRRT, "_iteration", recording_iteration)
+    PCRRT(easy, PCRRTOptions(time_limit=60.0, max_iterations=40,
+                             root_push=root_push)).plan(seed=0)
+    start_xy = easy.initial_state().objects[easy.goal_index, :2]
+    from_start = [bool(np.allclose(xy, start_xy)) for xy in starts]
+    if root_push:
+        assert from_start[:1] == [True]
+        assert not iterations_seen or iterations_seen[0] >= 1
+    else:
+        assert not any(from_start)
+        assert not iterations_seen or iterations_seen[0] == 0
+
+
 def test_clear_blockers_pushes_the_blocking_object_out_of_the_line(panda):
     """The goal object's push ran into `blocker`: `clear_and_push` pushes the blocker (not the
     bystander) away from the line to the goal, and the whole action replays through the
