@@ -262,7 +262,7 @@ def check_execution(scene: Scene, trajectory: Trajectory,
         raise ExecutionCheckError(f"{len(predicted)} predicted states for {len(trajectory)} "
                                   f"trajectory points")
     started = time.perf_counter()
-    run = _Run(build_model(scene, options), scene, _command(trajectory), predicted, options)
+    run = _Execution(build_model(scene, options), scene, _command(trajectory), predicted, options)
     run.begin()
     run.advance(run.command.duration + options.hold)
     return run.report(time.perf_counter() - started)
@@ -279,7 +279,7 @@ def _command(trajectory: Trajectory) -> Command:
                    np.asarray(trajectory.positions, dtype=float)[:, order])
 
 
-class _Run:
+class _Execution:
     """One simulated execution and its bookkeeping."""
 
     def __init__(self, model: mujoco.MjModel, scene: Scene, command: Command,
@@ -470,7 +470,7 @@ class MujocoExecution(Updates):
         self.command, self.period, self.start, self.state = command, float(period), start, start
         self.t, self.updates, self.steps = 0.0, 0, 0
         self.invalid: InvalidStep | None = None
-        self._run = _Run(build_model(scene, self.options), scene, command, None, self.options)
+        self._run = _Execution(build_model(scene, self.options), scene, command, None, self.options)
         self._run.begin()
 
     def update(self) -> None:

@@ -5,7 +5,7 @@ stopped the execution. ROS-free: `ros/world_sim.py` drives it from a ROS topic, 
 call it directly.
 
     command = Command(times, positions)
-    execution = OpenLoopExecution(Physics(world, PhysicsOptions(max_substep=0.001)), start,
+    execution = OpenLoopExecution(Physics(world, simulation_options(max_substep=0.001)), start,
                                   command, period=0.01)
     execution.run()
 """

@@ -209,35 +209,26 @@ def rectangle_mean_distance(half_x: float, half_y: float) -> float:
     return d / 3.0 + a * a / (6.0 * b) * math.asinh(b / a) + b * b / (6.0 * a) * math.asinh(a / b)
 
 
-def limit_surface_c(shape: str, size: float | Sequence[float] | np.ndarray,
-                    rim: float = 0.0) -> float:
+def limit_surface_c(shape: str, size: float | Sequence[float] | np.ndarray) -> float:
     """c = m_max / f_max = rbar of the ellipsoidal limit surface (LS), a length in metres.
 
     Uniform pressure over the support footprint (Lynch, Maekawa & Tanie 1992; DESIGN §5):
     - 'disk' / 'cylinder': `size` is the radius R (or a sequence starting with it); c = 2R/3.
     - 'box' / 'rectangle': `size` is the FULL side lengths (x, y) or (x, y, z) as in the scene
       file; c = `rectangle_mean_distance(x/2, y/2)`.
-
-    With `rim` in [0, 1], that share of the weight rests on the footprint's outline instead
-    (a disk's rim, c = R; a rectangle's four corners, c = half its diagonal) and c is the
-    weighted mean: an object rarely stands on its whole base evenly, more often on its rim
-    (a base that is slightly concave, or a box's corners, as MuJoCo's box-table contact has
-    them).
     """
-    if not 0.0 <= rim <= 1.0:
-        raise PushingError(f"limit_surface_c: rim must be in [0, 1], got {rim!r}")
     dims = np.atleast_1d(np.asarray(size, dtype=float))
     if shape in _DISK_SHAPES:
         if dims.size < 1 or not (np.isfinite(dims[0]) and dims[0] > 0):
             raise PushingError(f"limit_surface_c('{shape}', {size!r}): size must be a positive "
                                "finite radius in metres")
-        return (2.0 / 3.0 * (1.0 - rim) + rim) * float(dims[0])
+        return 2.0 / 3.0 * float(dims[0])
     if shape in _RECTANGLE_SHAPES:
         if dims.size not in (2, 3) or not (np.isfinite(dims[:2]).all() and dims[:2].min() > 0):
             raise PushingError(f"limit_surface_c('{shape}', {size!r}): size must be the positive "
                                "full side lengths (x, y) or (x, y, z) in metres")
         a, b = 0.5 * float(dims[0]), 0.5 * float(dims[1])
-        return (1.0 - rim) * rectangle_mean_distance(a, b) + rim * math.hypot(a, b)
+        return rectangle_mean_distance(a, b)
     raise PushingError(f"limit_surface_c: unknown shape '{shape}'; expected one of "
                        f"{_DISK_SHAPES + _RECTANGLE_SHAPES}")
 

@@ -1,10 +1,10 @@
-"""One quasistatic physics step: how the objects move when the arm moves (DESIGN §5).
+"""One quasistatic physics step: how the objects move when the arm moves.
 
-King et al. §III-A: "objects only move when pushed by the manipulator. Objects stop immediately
-when forces cease to be imparted on the object." The arm is position controlled: its motion
-q -> q' is kinematic and never changed by the objects. Objects live in SE(2) on the table and
-do not touch each other (the paper does not model object-object contact; an overlap makes the
-state invalid).
+King et al. 2015, §III-A: "objects only move when pushed by the manipulator. Objects stop
+immediately when forces cease to be imparted on the object." The arm is position controlled: its
+motion q -> q' is kinematic and never changed by the objects. Objects live in SE(2) on the table
+and do not touch each other (the paper does not model object-object contact; an overlap makes
+the state invalid).
 
 A step q -> q' is cut into substeps so that no point of any contact shape moves more than
 `PhysicsOptions.max_substep` (the result then hardly depends on how a caller chops a motion).
@@ -14,9 +14,7 @@ Each substep:
 2. contacts: every arm contact shape vs every object at q' (`kernels.capsule_prism` after a
    bounding-box broad phase); each penetrating contact gives a point p, a normal n (arm
    into object) and a depth;
-3. a contact whose normal is mostly vertical presses on the object from above: invalid; so is
-   (with `PhysicsOptions.edge_margin`) a contact at the object's top edge or a box's vertical
-   edge, where no model predicts the push;
+3. a contact whose normal is mostly vertical presses on the object from above: invalid;
 4. the pusher displacement at p is the link's own motion between q and q' (the rigid transform
    of the link, which is J(p) dq to first order), projected on the table plane; it is scaled so
    that its normal component equals the penetration to undo ("the part of the substep spent in
@@ -29,15 +27,14 @@ Each substep:
    penetration below `penetration_tolerance`, no object-object or object-obstacle overlap, centre
    on the table.
 
-All of it is compiled with Numba (issue 19; `step_kernel`, `check_state_kernel`), from the
+All of it is compiled with Numba (`step_kernel`, `check_state_kernel`), from the
 scene as arrays (`World`): the contact shapes' kinematics (`kernels.shape_poses`), their
 distances to the table, obstacles and objects (`kernels.capsule_prism`, exact where
 python-fcl's GJK errs by up to 2 mm; tests compare them), the pushing model
 (`pushing.object_twist_kernel`) and the object checks (`kernels.prism_penetration`).
 `CollisionWorld` (python-fcl) stays the geometry of the validation and the baselines' free-space
-queries. The compiled code is cached on disk (`__pycache__/*.nbi`, `*.nbc`); Numba does not
-track calls across modules, so after editing a kernel in one module delete the cache
-(`make clean`) or the callers in other modules keep the old code.
+queries. The compiled code is cached on disk, in a folder named after a digest of the compiled
+modules' sources (`rearrangement_planner/__init__.py`), so an edited kernel is compiled afresh.
 """
 
 from __future__ import annotations
@@ -57,6 +54,7 @@ from rearrangement_planner.model.scene import MovableObject, Scene
 from rearrangement_planner.model.state import State
 from rearrangement_planner.physics import kernels, pushing
 from rearrangement_planner.physics.collision import TABLE_THICKNESS, CollisionWorld
+from rearrangement_planner.physics.options import PhysicsOptions
 
 _INV_SQRT2 = 1.0 / math.sqrt(2.0)
 FREE_SPACE_MARGIN = 0.01
@@ -76,68 +74,7 @@ class Invalid(str, Enum):
     JAMMING = "jamming"
     RESIDUAL_PENETRATION = "residual_penetration"
     TIPPING = "object_would_tip"
-    EDGE_CONTACT = "contact_at_edge"
     TURNING = "object_turns"
-    OVER_TOP = "arm_over_object_top"
-
-
-@dataclass(frozen=True)
-class PhysicsOptions:
-    max_substep: float = 0.004
-    """Largest displacement (m) of any point of any contact shape within one substep."""
-    penetration_tolerance: float = 0.003
-    """Largest arm-object penetration (m) allowed after a step."""
-    vertical_normal_limit: float = 0.7
-    """|n_z| of a contact normal above which the arm presses on an object from above (45 deg)."""
-    overlap_tolerance: float = 1e-4
-    """Object-object and object-obstacle penetration (m) still counted as touching."""
-    tipping: bool = False
-    """Refuse a push that would tip its object over (the quasistatic tipping condition,
-    `tips_over`). Off here, where the physics also serves execution (world_sim lets a pushed
-    object slide whatever the push height); the planners switch it on with their `tipping`
-    setting (`PlannerOptions.tipping`, on by default). Off = objects never tip, as in King
-    et al."""
-    tipping_margin: float = 0.0
-    """With `tipping`, judge tipping as if the support friction were this share higher (0.3:
-    x1.3): a push the nominal friction would just let slide, a slightly grippier table tips
-    (the perturbed worlds of the robustness rollouts and of the MuJoCo check draw friction
-    x0.7-1.3). 0 = the nominal condition."""
-    edge_margin: float = 0.0
-    """Refuse a push whose contact lies within this distance (m) of its object's top edge or
-    of a box's vertical edge (`Invalid.EDGE_CONTACT`). There the contact normal is set by the
-    exact shape of the link and the corner, which no contact shape reproduces: the real arm
-    slides off where the model sticks, or presses the object down and tips it. Off here (0,
-    as in King et al.); the planners set it with their `edge_margin` setting."""
-    max_turn: float = 0.0
-    """Refuse a push that turns its object by more than this many radians per metre its
-    centre travels (`Invalid.TURNING`; 10 = a turn of 1 rad over a 10 cm push). How fast an
-    off-centre push turns an object depends on the pressure under it and the friction at the
-    contact, which no model knows well: a turn predicted 30 % off sends every later push of the
-    plan somewhere else. 0 = off (as in King et al.); the planners set it with their
-    `max_turn` setting."""
-    pressure_at_rim: float = 0.0
-    """Share of an object's weight that rests on its footprint's outline (a box's corners, a
-    cylinder's rim) rather than evenly on its base; it sets how hard the object resists
-    turning (`pushing.limit_surface_c`). 0.5 matches MuJoCo's pushes better (over 34
-    primitive box pushes the median position error falls from 1.1 cm to 0.7 cm, the mean yaw
-    error from 0.13 to 0.11 rad), but whole plans made with it reached the goal in MuJoCo less
-    often (26 of 70 benchmark requests against 32; docs/benchmark.md "Session 14"), so the
-    default stays 0: uniform pressure, as in King et al."""
-    top_clearance: float = 0.0
-    """Refuse a step in which a contact shape comes within this distance (m) of a movable
-    object's top from above or over its top rim (`Invalid.OVER_TOP`): the shape's nearest
-    point on the object lies on the top face or rim with a normal tilted out of the horizontal.
-    A link sweeping over an object just clear of it, or grazing its rim, meets it in the real
-    arm (the wrist's corners stand up to 12 mm out of its contact shapes, and the object is a
-    few cm from where the plan has it) and tips it over: 49 of the 162 stored benchmark
-    candidates with a planned rim contact toppled an object in MuJoCo, 17 of the 205 without
-    (docs/benchmark.md "Session 16"). A shape meeting the object's side below the rim, like
-    a hand face pressed flat against it, is not affected. 0 = off (as in King et al.); the
-    planners set it with their `top_clearance` setting."""
-    static_objects: frozenset[str] = frozenset()
-    """Names of movable objects treated as static obstacles: any arm contact with one is
-    invalid (`Invalid.ARM_OBSTACLE`). The Static RRT baseline makes every object but the goal
-    object static (§V-A of King et al.)."""
 
 
 @dataclass(frozen=True)
@@ -153,26 +90,26 @@ class StepResult:
     substeps: int = 0
 
 
-def object_limit_surface_c(obj: MovableObject, rim: float = 0.0) -> float:
-    """c = m_max / f_max (m) of a scene object's footprint, with the share `rim` of its weight
-    on the footprint's outline (`PhysicsOptions.pressure_at_rim`): 2R/3 for a cylinder of
-    radius R, the integrated mean distance for a box when rim is 0 (DESIGN §5;
+def object_limit_surface_c(obj: MovableObject) -> float:
+    """c = m_max / f_max (m) of a scene object's footprint under uniform pressure: 2R/3 for a
+    cylinder of radius R, the integrated mean distance for a box (King et al. 2015, §III-A;
     `pushing.limit_surface_c`)."""
     if obj.shape == "cylinder":
         radius = obj.radius
         assert radius is not None  # MovableObject.radius is a float for every cylinder
-        return pushing.limit_surface_c("cylinder", radius, rim)
-    return pushing.limit_surface_c("box", obj.size, rim)
+        return pushing.limit_surface_c("cylinder", radius)
+    return pushing.limit_surface_c("box", obj.size)
 
 
 def tips_over(obj: MovableObject, twist: np.ndarray, height: float) -> bool:
-    """The quasistatic tipping condition (DESIGN §5): an object sliding under a horizontal push
-    at `height` (m above the table) carries the friction load mu_s m g at the table; it tips
-    about its leading bottom edge when the push's moment mu_s m g h exceeds gravity's m g d,
-    d the footprint's extent from the centre along the motion (support function): tips when
-    mu_s h > d. `twist` (dx, dy, dtheta) is the object-frame motion; a pure rotation (no
-    translation) never tips. Conservative: friction at the pusher, which pulls the edge down,
-    is left out (MuJoCo tips a 6 cm box pushed at 7 cm between mu_s 0.5 and 0.6; this says 0.43)."""
+    """The quasistatic tipping condition (beyond King et al. 2015, whose objects never tip): an
+    object sliding under a horizontal push at `height` (m above the table) carries the friction
+    load mu_s m g at the table; it tips about its leading bottom edge when the push's moment mu_s m
+    g h exceeds gravity's m g d, d the footprint's extent from the centre along the motion (support
+    function): tips when mu_s h > d. `twist` (dx, dy, dtheta) is the object-frame motion; a pure
+    rotation (no translation) never tips. Conservative: friction at the pusher, which pulls the
+    edge down, is left out (MuJoCo tips a 6 cm box pushed at 7 cm between mu_s 0.5 and 0.6; this
+    says 0.43)."""
     dx, dy = float(twist[0]), float(twist[1])
     speed = math.hypot(dx, dy)
     if speed < 1e-12:
@@ -186,14 +123,25 @@ def tips_over(obj: MovableObject, twist: np.ndarray, height: float) -> bool:
 
 
 # Outcome codes of the compiled step (`_REASONS[code]`; 0 is a valid step).
-_VALID, _STATIC_OBJECT, _EDGE, _TURNING, _OVER_TOP = 0, 11, 12, 13, 14
+(_VALID, _JOINT_LIMIT, _ARM_TABLE, _ARM_OBSTACLE, _OBJECT_OVERLAP, _OBJECT_OBSTACLE, _OFF_TABLE,
+ _FROM_ABOVE, _JAMMING, _RESIDUAL, _TIPPING, _STATIC_OBJECT, _TURNING) = range(13)
 _REASONS: tuple[Invalid | None, ...] = (
     None, Invalid.JOINT_LIMIT, Invalid.ARM_TABLE, Invalid.ARM_OBSTACLE, Invalid.OBJECT_OVERLAP,
     Invalid.OBJECT_OBSTACLE, Invalid.OFF_TABLE, Invalid.CONTACT_FROM_ABOVE, Invalid.JAMMING,
-    Invalid.RESIDUAL_PENETRATION, Invalid.TIPPING, Invalid.ARM_OBSTACLE, Invalid.EDGE_CONTACT,
-    Invalid.TURNING, Invalid.OVER_TOP)
-(_JOINT_LIMIT, _ARM_TABLE, _ARM_OBSTACLE, _OBJECT_OVERLAP, _OBJECT_OBSTACLE, _OFF_TABLE,
- _FROM_ABOVE, _JAMMING, _RESIDUAL, _TIPPING) = range(1, 11)
+    Invalid.RESIDUAL_PENETRATION, Invalid.TIPPING, Invalid.ARM_OBSTACLE, Invalid.TURNING)
+
+# The compiled step takes its options and per-object constants as packed float arrays (Numba
+# takes no Python objects); these name their columns. `_world_arrays` packs them in this order
+# (a test checks it against `PhysicsOptions`).
+(OPT_MAX_SUBSTEP, OPT_PENETRATION, OPT_OVERLAP, OPT_VERTICAL_NORMAL, OPT_TIPPING,
+ OPT_FREE_SPACE, OPT_MAX_TURN) = range(7)
+OPTION_FIELDS = ("max_substep", "penetration_tolerance", "overlap_tolerance",
+                 "vertical_normal_limit", "tipping", None, "max_turn")
+"""The `PhysicsOptions` field packed in each `World.options` column (None: a module constant,
+`FREE_SPACE_MARGIN`)."""
+(OBJ_CENTRE_Z, OBJ_C, OBJ_PUSHER_MU, OBJ_SUPPORT_MU, OBJ_FOOTPRINT, OBJ_STATIC) = range(6)
+"""The columns of `World.obj_props`: the centre's height, the limit surface's c, the pusher and
+support frictions, the footprint radius, 1 for a static object."""
 
 
 class World(NamedTuple):
@@ -211,11 +159,9 @@ class World(NamedTuple):
     obj_kind: np.ndarray            # (M,) kernels.BOX | kernels.CYLINDER
     obj_dims: np.ndarray            # (M, 3)
     obj_size: np.ndarray            # (M, 3) full extents (x, y, z), a cylinder's (2r, 2r, h)
-    obj_props: np.ndarray           # (M, 6): z of the centre, c, mu_c, mu_s, footprint, static
+    obj_props: np.ndarray           # (M, 6): columns OBJ_CENTRE_Z .. OBJ_STATIC
     table: np.ndarray               # (5,): top z, centre x, y, half size x, y
-    options: np.ndarray             # (10,): max_substep, penetration and overlap tolerances,
-                                    # vertical normal limit, tipping (0/1), free-space margin,
-                                    # edge margin, max turn, tipping margin, top clearance
+    options: np.ndarray             # (7,): columns OPT_MAX_SUBSTEP .. OPT_MAX_TURN
 
 
 class Physics:
@@ -229,9 +175,8 @@ class Physics:
         self.scene = scene
         self.options = options or PhysicsOptions()
         self.robot = robot or scene.robot
-        # c = m_max / f_max per object (a length; DESIGN §5), and the pusher friction mu_c.
-        self.c = [object_limit_surface_c(o, self.options.pressure_at_rim)
-                  for o in scene.objects]
+        # c = m_max / f_max per object (a length), and the pusher friction mu_c.
+        self.c = [object_limit_surface_c(o) for o in scene.objects]
         self.mu = [float(o.pusher_friction) for o in scene.objects]
         self._shape_links = [s.link for s in self.robot.contact_shapes]
         self._names = [o.name for o in scene.objects]
@@ -299,7 +244,7 @@ class Physics:
         return frozenset(self._shape_links[s] for s in np.flatnonzero(flags[:self._shapes]))
 
     def check_state(self, state: State) -> tuple[Invalid, str] | None:
-        """Validity of a resting state (DESIGN §5), or None when valid."""
+        """Validity of a resting state, or None when valid."""
         info = np.zeros(4, dtype=np.int64)
         value = np.zeros(1)
         q = np.ascontiguousarray(state.q, dtype=float)
@@ -334,11 +279,6 @@ class Physics:
             return f"{links[a]} touches '{names[b]}', a static object for this planner"
         if code == _TURNING:
             return f"'{names[a]}' would turn too fast: {v:.1f} rad per m it moves"
-        if code == _EDGE:
-            return f"{links[a]} touches '{names[b]}' at an edge"
-        if code == _OVER_TOP:
-            return (f"{links[a]} passes {v * 100:.1f} cm over the top of '{names[b]}' "
-                    f"(clearance {self.options.top_clearance * 100:.1f} cm)")
         if code == _FROM_ABOVE:
             return f"{links[a]} presses on '{names[b]}' from above (normal z = {v:+.2f})"
         if code == _JAMMING:
@@ -397,8 +337,7 @@ def _world_arrays(scene: Scene, robot: RobotModel, options: PhysicsOptions,
                          else 0.5 * np.asarray(o.size) for o in objects],
                         dtype=float).reshape(-1, 3)
     obj_size = np.array([o.size for o in objects], dtype=float).reshape(-1, 3)
-    obj_props = np.array([[top + 0.5 * o.size[2],
-                           object_limit_surface_c(o, options.pressure_at_rim),
+    obj_props = np.array([[top + 0.5 * o.size[2], object_limit_surface_c(o),
                            o.pusher_friction, o.support_friction, o.footprint_radius,
                            float(i in static)] for i, o in enumerate(objects)],
                          dtype=float).reshape(-1, 6)
@@ -411,11 +350,13 @@ def _world_arrays(scene: Scene, robot: RobotModel, options: PhysicsOptions,
         obj_kind=obj_kind, obj_dims=obj_dims, obj_size=obj_size, obj_props=obj_props,
         table=np.array([top, table.center[0], table.center[1], 0.5 * table.size[0],
                         0.5 * table.size[1]], dtype=float),
-        options=np.array([options.max_substep, options.penetration_tolerance,
-                          options.overlap_tolerance, options.vertical_normal_limit,
-                          float(options.tipping), FREE_SPACE_MARGIN, options.edge_margin,
-                          options.max_turn, options.tipping_margin, options.top_clearance],
-                         dtype=float))
+        options=packed_options(options))
+
+
+def packed_options(options: PhysicsOptions) -> np.ndarray:
+    """`World.options`: the fields of `OPTION_FIELDS` in its order, as floats."""
+    return np.array([FREE_SPACE_MARGIN if name is None else float(getattr(options, name))
+                     for name in OPTION_FIELDS], dtype=float)
 
 
 # -- the compiled step ---------------------------------------------------------------------------
@@ -463,9 +404,9 @@ def _reach(poses: np.ndarray, shapes: np.ndarray, objects: np.ndarray, obj_size:
         kernels.segment(poses, s, shapes[s, 0], a, b)
         r = shapes[s, 1]
         for m in range(objects.shape[0]):
-            ext = obj_props[m, 4] + margin
+            ext = obj_props[m, OBJ_FOOTPRINT] + margin
             ext_z = 0.5 * obj_size[m, 2] + margin
-            z = obj_props[m, 0]
+            z = obj_props[m, OBJ_CENTRE_Z]
             near[s, m] = (min(a[0], b[0]) - r < objects[m, 0] + ext
                           and max(a[0], b[0]) + r > objects[m, 0] - ext
                           and min(a[1], b[1]) - r < objects[m, 1] + ext
@@ -530,7 +471,8 @@ def _contacts(poses: np.ndarray, shapes: np.ndarray, objects: np.ndarray,
         for m in range(objects.shape[0]):
             if not (selected[m] and near[s, m]):
                 continue
-            centre[0], centre[1], centre[2] = objects[m, 0], objects[m, 1], obj_props[m, 0]
+            centre[0], centre[1] = objects[m, 0], objects[m, 1]
+            centre[2] = obj_props[m, OBJ_CENTRE_Z]
             if not kernels.near_prism(a, b, shapes[s, 1], obj_kind[m], centre, obj_dims[m]):
                 continue
             d = kernels.capsule_prism_below(a, b, shapes[s, 1], 0.0, obj_kind[m], centre,
@@ -622,23 +564,25 @@ def _push_object(m: int, pose: np.ndarray, count: int, c_shape: np.ndarray,
             k += 1
     P, N, V = np.empty((k, 2)), np.empty((k, 2)), np.empty((k, 2))
     height = _object_frame_contacts(m, pose, count, c_shape, c_obj, c_point, c_normal,
-                                    c_depth, poses_a, poses_b, options[1], P, N, V)
+                                    c_depth, poses_a, poses_b, options[OPT_PENETRATION], P, N,
+                                    V)
     twist, f_n, f_t = np.empty(3), np.empty(k), np.empty(k)
     modes = np.empty(k, dtype=np.int64)
-    mus = np.full(k, obj_props[m, 2])
-    code = pushing.object_twist_kernel(obj_props[m, 1], P, N, V, mus, max(100, 80 * k), twist,
+    mus = np.full(k, obj_props[m, OBJ_PUSHER_MU])
+    code = pushing.object_twist_kernel(obj_props[m, OBJ_C], P, N, V, mus, max(100, 80 * k), twist,
                                        f_n, f_t, modes)
     if code == pushing.JAMMED:
         return _JAMMING
     if twist[0] == 0.0 and twist[1] == 0.0 and twist[2] == 0.0:
         return -1
-    if options[7] > 0.0 and abs(twist[2]) > options[7] * math.hypot(twist[0], twist[1]) \
+    turn = options[OPT_MAX_TURN]
+    if turn > 0.0 and abs(twist[2]) > turn * math.hypot(twist[0], twist[1]) \
             + TURN_SLACK:
         value[0] = abs(twist[2]) / max(math.hypot(twist[0], twist[1]), 1e-9)
         return _TURNING
-    if options[4] > 0.0:
+    if options[OPT_TIPPING] > 0.0:
         height -= table[0]
-        if _tips_over(obj_kind[m], obj_size[m], obj_props[m, 3] * (1.0 + options[8]),
+        if _tips_over(obj_kind[m], obj_size[m], obj_props[m, OBJ_SUPPORT_MU],
                       twist[0], twist[1], height):
             value[0] = height
             return _TIPPING
@@ -656,7 +600,7 @@ def _object_checks(objects: np.ndarray, which: np.ndarray, static_centre: np.nda
     """The objects in `which` overlap no other object or obstacle (beyond the overlap
     tolerance) and keep their centres on the table."""
     M = objects.shape[0]
-    tol = options[2]
+    tol = options[OPT_OVERLAP]
     for i in range(M):
         for j in range(i + 1, M):
             if not (which[i] or which[j]):
@@ -689,69 +633,6 @@ def _object_checks(objects: np.ndarray, which: np.ndarray, static_centre: np.nda
 TURN_SLACK = 1e-4
 """rad per substep a push may turn its object beyond `PhysicsOptions.max_turn` (a substep
 moves a contact at most `max_substep`, 4 mm: a grazing touch may nudge an object in place)."""
-EDGE_NORMAL_TILT = 0.17
-"""sin(10 deg): at an edge, a contact normal tilted more than this from the face's own normal
-is set by the corner, not by a face (`_at_edge`)."""
-
-
-@njit(cache=True)
-def _at_edge(point: np.ndarray, normal: np.ndarray, pose: np.ndarray, kind: int,
-             dims: np.ndarray, centre_z: float, margin: float) -> bool:
-    """Whether a contact at `point` (normal `normal`, world frame) meets its object at an edge
-    (`PhysicsOptions.edge_margin`): within `margin` of the top edge with the normal tilted out
-    of the horizontal, or within `margin` of a box's vertical edge with the normal between the
-    two faces' normals. A link lying flat against a face up to its edge meets the face, not the
-    edge: its normal is the face's."""
-    half_z = dims[2] if kind == kernels.BOX else dims[1]
-    if point[2] - centre_z > half_z - margin and abs(normal[2]) > EDGE_NORMAL_TILT:
-        return True
-    if kind != kernels.BOX:
-        return False
-    c, s = math.cos(pose[2]), math.sin(pose[2])
-    dx, dy = point[0] - pose[0], point[1] - pose[1]
-    if (abs(c * dx + s * dy) <= dims[0] - margin
-            or abs(-s * dx + c * dy) <= dims[1] - margin):
-        return False
-    nx, ny = c * normal[0] + s * normal[1], -s * normal[0] + c * normal[1]
-    across = math.hypot(nx, ny)
-    return across > 0.0 and min(abs(nx), abs(ny)) > EDGE_NORMAL_TILT * across
-
-
-TOP_RIM = 0.005
-"""m: a nearest point this close below an object's top counts as on its top rim
-(`PhysicsOptions.top_clearance`)."""
-
-
-@njit(cache=True)
-def _over_top(poses: np.ndarray, shapes: np.ndarray, objects: np.ndarray, near: np.ndarray,
-              obj_kind: np.ndarray, obj_dims: np.ndarray, obj_props: np.ndarray,
-              clearance: float, info: np.ndarray, value: np.ndarray) -> int:
-    """The first contact shape (in order) that comes within `clearance` of an object's top
-    from above or over its rim (`PhysicsOptions.top_clearance`): its nearest point on the
-    object within `TOP_RIM` of the top, the normal tilted more than `EDGE_NORMAL_TILT` out of
-    the horizontal. Only the pairs `near` allows (`_reach`, grown by the clearance)."""
-    a, b, point, normal, centre = (np.empty(3), np.empty(3), np.empty(3), np.empty(3),
-                                   np.empty(3))
-    for s in range(poses.shape[0]):
-        kernels.segment(poses, s, shapes[s, 0], a, b)
-        reach = shapes[s, 1] + clearance
-        for m in range(objects.shape[0]):
-            if not near[s, m]:
-                continue
-            centre[0], centre[1], centre[2] = objects[m, 0], objects[m, 1], obj_props[m, 0]
-            if not kernels.near_prism(a, b, reach, obj_kind[m], centre, obj_dims[m]):
-                continue
-            d = kernels.capsule_prism_below(a, b, shapes[s, 1], clearance, obj_kind[m],
-                                            centre, objects[m, 2], obj_dims[m], point, normal)
-            half_z = obj_dims[m, 2] if obj_kind[m] == kernels.BOX else obj_dims[m, 1]
-            if (d < clearance and point[2] > centre[2] + half_z - TOP_RIM
-                    and abs(normal[2]) > EDGE_NORMAL_TILT):
-                info[1], info[2] = s, m
-                value[0] = d
-                return _OVER_TOP
-    return _VALID
-
-
 @njit(cache=True)
 def _admissible(count: int, c_shape: np.ndarray, c_obj: np.ndarray, c_point: np.ndarray,
                 c_normal: np.ndarray, objects: np.ndarray, obj_kind: np.ndarray,
@@ -760,18 +641,13 @@ def _admissible(count: int, c_shape: np.ndarray, c_obj: np.ndarray, c_point: np.
     """No contact presses from above (module docstring, step 3) or touches a static object;
     marks the touched objects."""
     for i in range(count):
-        if abs(c_normal[i, 2]) > options[3]:
+        if abs(c_normal[i, 2]) > options[OPT_VERTICAL_NORMAL]:
             info[1], info[2] = c_shape[i], c_obj[i]
             value[0] = c_normal[i, 2]
             return _FROM_ABOVE
-        if obj_props[c_obj[i], 5] > 0.0:
+        if obj_props[c_obj[i], OBJ_STATIC] > 0.0:
             info[1], info[2] = c_shape[i], c_obj[i]
             return _STATIC_OBJECT
-        if options[6] > 0.0 and _at_edge(c_point[i], c_normal[i], objects[c_obj[i]],
-                                         obj_kind[c_obj[i]], obj_dims[c_obj[i]],
-                                         obj_props[c_obj[i], 0], options[6]):
-            info[1], info[2] = c_shape[i], c_obj[i]
-            return _EDGE
         touched[c_obj[i]] = True
     return _VALID
 
@@ -847,11 +723,6 @@ def _substep(poses_a: np.ndarray, poses_b: np.ndarray, objects: np.ndarray,
                        info)
     if code != _VALID:
         return code
-    if options[9] > 0.0:
-        code = _over_top(poses_b, shapes, objects, near, obj_kind, obj_dims, obj_props,
-                         options[9], info, value)
-        if code != _VALID:
-            return code
     S, M = poses_b.shape[0], objects.shape[0]
     capacity = S * M
     c_shape, c_obj = np.empty(capacity, dtype=np.int64), np.empty(capacity, dtype=np.int64)
@@ -878,7 +749,7 @@ def _substep(poses_a: np.ndarray, poses_b: np.ndarray, objects: np.ndarray,
     depth = _residual_depth(poses_b, shapes, new_objects, changed, any_changed, count,
                             c_shape, c_obj, c_point, c_normal, c_depth, near, obj_kind,
                             obj_dims, obj_props)
-    if depth > options[1]:
+    if depth > options[OPT_PENETRATION]:
         value[0] = depth
         return _RESIDUAL
     if any_changed:
@@ -910,13 +781,13 @@ def step_kernel(q0: np.ndarray, q1: np.ndarray, objects: np.ndarray, chain: tupl
     _poses(q0, chain, poses_a)
     _poses(q1, chain, poses_b)
     sweep = _sweep(poses_a, poses_b, shapes)
-    n = max(1, math.ceil(sweep / options[0] - 1e-9))
+    n = max(1, math.ceil(sweep / options[OPT_MAX_SUBSTEP] - 1e-9))
     near = np.empty((S, objects.shape[0]), dtype=np.bool_)
     near_static = np.empty((S, static_centre.shape[0]), dtype=np.bool_)
     if not _reach(poses_a, shapes, objects, obj_size, obj_props, static_centre, static_dims,
-                  sweep + max(options[5], options[9]), near, near_static):
+                  sweep + options[OPT_FREE_SPACE], near, near_static):
         # Free space: no substep can touch an object, so the substeps would only repeat the
-        # static check. One substep at q1 (DESIGN §5 substepping is for contacts).
+        # static check. One substep at q1 (substeps are for contacts).
         n = 1
     current, following = objects.copy(), np.empty_like(objects)
     q_b = np.empty_like(q1)
@@ -971,7 +842,7 @@ def check_state_kernel(q: np.ndarray, objects: np.ndarray, chain: tuple, shapes:
     depth = 0.0
     for i in range(count):
         depth = max(depth, c_depth[i])
-    if depth > options[1]:
+    if depth > options[OPT_PENETRATION]:
         value[0] = depth
         return _RESIDUAL
     return _object_checks(objects, everything, static_centre, static_yaw, static_size,

@@ -13,8 +13,10 @@ from rearrangement_planner.planning.interface import (
 from rearrangement_planner.planning.pcrrt import PCRRT, PCRRTOptions
 from rearrangement_planner.planning.pipeline import PathMetrics, PlanOutput, plan_scene
 from rearrangement_planner.planning.registry import PLANNER_NAMES, PLANNERS, make_planner
+from rearrangement_planner.planning.request import PlanRequest
 from rearrangement_planner.planning.static_rrt import StaticRRT
 
 __all__ = ["DARRT", "PCRRT", "PLANNERS", "PLANNER_NAMES", "DARRTOptions", "Outcome",
-           "PCRRTOptions", "PathMetrics", "PlanOutput", "PlanResult", "Planner", "PlannerOptions",
+           "PCRRTOptions", "PathMetrics", "PlanOutput", "PlanRequest", "PlanResult", "Planner",
+           "PlannerOptions",
            "Progress", "StaticRRT", "StopReason", "make_planner", "plan_scene"]

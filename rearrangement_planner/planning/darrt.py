@@ -29,6 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from rearrangement_planner.model.scene import Scene
+from rearrangement_planner.model.settings import setting
 from rearrangement_planner.model.state import State
 from rearrangement_planner.physics.step import Physics
 from rearrangement_planner.planning.interface import (
@@ -38,12 +39,10 @@ from rearrangement_planner.planning.interface import (
     PlannerOptions,
     PlanResult,
     ProgressCallback,
-    planning_physics,
 )
 from rearrangement_planner.planning.manifold import ik_on_manifold, project_step, tool_planar_pose
 from rearrangement_planner.planning.push_policy import support_distance
 from rearrangement_planner.planning.search import Search
-from rearrangement_planner.planning.settings import setting
 from rearrangement_planner.planning.tree import Tree
 
 TRANSIT_STEP = 0.02      # rad, joint-space resolution of transit motions (collision checks)
@@ -74,7 +73,7 @@ class DARRT:
                  physics: Physics | None = None):
         self.scene = scene
         self.options = DARRTOptions.adopt(options)
-        self.physics = planning_physics(scene, self.options, physics)
+        self.physics = physics or Physics(scene)
         self.robot = self.physics.robot
         self.world = self.physics.world
         self._goal_xy = np.asarray(scene.goal.position, dtype=float)

@@ -19,7 +19,7 @@ whatever the machine's speed. The one exception is the time limit: a plan found 
 before the budget runs out is returned even if a tree that might have beaten it in iterations
 was cut off by the budget.
 
-    result = plan_race("pc-rrt", scene, PlannerOptions(trees=2), seed=0)
+    result = plan_race(PLANNERS["pc-rrt"], scene, PCRRTOptions(), trees=2, seed=0)
 """
 
 from __future__ import annotations
@@ -32,20 +32,34 @@ import threading
 import time
 import traceback
 from collections.abc import Callable
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from rearrangement_planner.model.scene import Scene
+from rearrangement_planner.model.settings import Settings, setting
 from rearrangement_planner.model.state import State
-from rearrangement_planner.physics.step import Physics, PhysicsOptions
+from rearrangement_planner.physics.options import PhysicsOptions
+from rearrangement_planner.physics.step import Physics
 from rearrangement_planner.planning.interface import (
     Outcome,
     PlannerOptions,
     PlanResult,
     ProgressCallback,
 )
-from rearrangement_planner.planning.registry import make_planner
+from rearrangement_planner.planning.registry import PlannerSpec
+
+
+@dataclass(frozen=True)
+class RaceOptions(Settings):
+    """How many trees a plan request races (`plan_race`)."""
+
+    trees: int = setting(2, low=1, high=64)
+    """Independent trees grown at once on separate processes, the plan found in the fewest
+    iterations winning (OR-parallel RRT); 1 = one tree in the calling process. The default is
+    one per core of the 2-core machines the benchmark runs on."""
+
 
 NO_PLAN = 2 ** 62
 """The race key before any tree has found a plan."""
@@ -129,7 +143,7 @@ def _serve(conn, best, cancel) -> None:
             scene, physics = built[key]
             budget = max(deadline - time.monotonic(), 1e-3)
             options = dataclasses.replace(options, time_limit=budget)
-            result = make_planner(planner, scene, options, physics).plan(
+            result = planner.make(scene, options, physics).plan(
                 start=start, seed=tree_seed(seed, tree), cancel=cancel,
                 iteration_gate=_gate(best, tree, trees))
             _claim(best, result, tree, trees)
@@ -221,15 +235,14 @@ def shutdown() -> None:
 
 # -- the race --------------------------------------------------------------------------------------
 
-def plan_race(planner: str, scene: Scene, options: PlannerOptions, seed: int = 0,
-              start: State | None = None, cancel: threading.Event | None = None,
-              progress: ProgressCallback | None = None,
+def plan_race(planner: PlannerSpec, scene: Scene, options: PlannerOptions, trees: int,
+              seed: int = 0, start: State | None = None,
+              cancel: threading.Event | None = None, progress: ProgressCallback | None = None,
               physics: Physics | None = None) -> PlanResult:
-    """Plan with `options.trees` independent trees (module doc). Tree 0 runs here and reports
+    """Plan with `trees` independent trees (module doc). Tree 0 runs here and reports
     progress; the result is the winning tree's, with `plan_time` the race's wall time and the
     winner named in `message`. Raises RuntimeError if a worker fails."""
     t0 = time.monotonic()
-    trees = options.trees
     physics = physics or Physics(scene)
     pool = _pool()
     with pool.lock:
@@ -250,7 +263,7 @@ def plan_race(planner: str, scene: Scene, options: PlannerOptions, seed: int = 0
             return False
 
         try:
-            own = make_planner(planner, scene, options, physics).plan(
+            own = planner.make(scene, options, physics).plan(
                 start=start, seed=seed, cancel=_Flag(stop_all), progress=progress,
                 iteration_gate=_gate(pool.best, 0, trees))
         except BaseException:

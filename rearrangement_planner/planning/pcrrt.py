@@ -1,4 +1,4 @@
-"""PC-RRT: the physics-constrained kinodynamic RRT of King et al. (Algorithm 1, §III of 000).
+"""PC-RRT: the physics-constrained kinodynamic RRT of King et al. 2015 (Algorithm 1, §III).
 
 The tree grows over full states x = (q, o^1 ... o^M). Each iteration samples x_rand
 (SampleConfiguration, §III-B), finds the nearest node by the weighted metric (§III-D), samples
@@ -16,8 +16,7 @@ Goal bias (`goal_bias`): with this probability the goal object is sampled inside
 region. The metric weighs the goal object higher (`goal_weight`), as §III-D suggests.
 
 Beyond the paper, switchable (`push_policy`): a push bias (one of the k actions a closed-loop
-push), a greedy goal push from every new best node (and, with `root_push`, from the start
-before the first iteration) and clearing of blocking objects.
+push), a greedy goal push from every new best node and clearing of blocking objects.
 `push_bias=0, greedy_goal=False` is the paper's planner.
 
 Reproducible: all randomness comes from one numpy Generator seeded by the request.
@@ -32,6 +31,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from rearrangement_planner.model.scene import Scene
+from rearrangement_planner.model.settings import setting
 from rearrangement_planner.model.state import State
 from rearrangement_planner.physics.step import Physics
 from rearrangement_planner.planning.approach import approach_path
@@ -43,7 +43,6 @@ from rearrangement_planner.planning.interface import (
     PlanResult,
     ProgressCallback,
     StopReason,
-    planning_physics,
 )
 from rearrangement_planner.planning.propagation import (
     Action,
@@ -53,7 +52,6 @@ from rearrangement_planner.planning.propagation import (
 )
 from rearrangement_planner.planning.push_policy import PushPolicy
 from rearrangement_planner.planning.search import Search
-from rearrangement_planner.planning.settings import setting
 from rearrangement_planner.planning.tree import Tree
 
 
@@ -92,11 +90,6 @@ class PCRRTOptions(PlannerOptions):
     greedy_goal: bool = setting(True)
     """On every new best goal distance, push the goal object from that node straight for the
     goal (a greedy extension, like the Connect step of RRT-Connect)."""
-    root_push: bool = setting(False)
-    """Before the first iteration, push the goal object from the root straight for the goal
-    (the greedy extension from the start), so that where nothing blocks the line the plan
-    can be one straight push. Measured off: no more plans reached the goal in MuJoCo and
-    fewer were found (docs/benchmark.md "Session 17")."""
     clear_blockers: bool = setting(True)
     """When a push of the goal object runs into another object, push that object out of the
     way and push on, within the same action."""
@@ -117,7 +110,7 @@ class PCRRT:
                  physics: Physics | None = None):
         self.scene = scene
         self.options = PCRRTOptions.adopt(options)
-        self.physics = planning_physics(scene, self.options, physics)
+        self.physics = physics or Physics(scene)
         self.robot = self.physics.robot
         weights = np.full(len(scene.objects), self.options.object_weight)
         weights[scene.goal_index] = self.options.goal_weight
@@ -138,10 +131,6 @@ class PCRRT:
         early = run.begin(start)
         if early is not None:
             return early
-        if self.options.root_push:
-            found = self._root_push(run)
-            if found is not None:
-                return found
         while True:
             ended = run.check()
             if ended is not None:
@@ -177,12 +166,6 @@ class PCRRT:
             if result.stopped in (StopReason.CANCEL, StopReason.TIMEOUT):
                 break
         return None if chosen is None else self._extend(run, near, chosen)
-
-    def _root_push(self, run: _Run) -> PlanResult | None:
-        """The greedy goal push from the root (`root_push`), added like any extension."""
-        chosen = run.policy.goal_push(run.tree.state(0), run.rng, run.stop)
-        run.steps += len(chosen.states)
-        return self._extend(run, 0, chosen) if chosen.states else None
 
     def _extend(self, run: _Run, parent: int, chosen: Propagation) -> PlanResult | None:
         """Add the chosen edge; from a new best goal distance, push the goal object on for the

@@ -1,6 +1,7 @@
-"""The planners by name (STYLE 12): each entry says which class plans, which options it takes,
-the physics it plans in and whether its paths may be shortcut. The CLI, the node, the
-benchmark, the race and the pipeline look planners up here; nothing branches on a name.
+"""The planners by name (like OMPL's planner registry): each entry says which class plans, which
+options it takes, the physics it plans in, whether it reads the pushing model's settings and
+whether its paths may be shortcut. The CLI, the node, the benchmark, the race and the pipeline
+look planners up here; nothing branches on a name.
 
     spec = PLANNERS["darrt"]
     planner = spec.make(scene, spec.options(time_limit=10))
@@ -14,11 +15,12 @@ from dataclasses import dataclass
 from typing import Any
 
 from rearrangement_planner.model.scene import Scene
+from rearrangement_planner.model.settings import Settings, SettingSpec
+from rearrangement_planner.physics.options import PhysicsOptions
 from rearrangement_planner.physics.step import Physics
 from rearrangement_planner.planning.darrt import DARRT, DARRTOptions
 from rearrangement_planner.planning.interface import Planner, PlannerOptions
 from rearrangement_planner.planning.pcrrt import PCRRT, PCRRTOptions
-from rearrangement_planner.planning.settings import SettingSpec
 from rearrangement_planner.planning.static_rrt import StaticRRT, static_physics
 
 
@@ -37,20 +39,37 @@ class PlannerSpec:
     physics: Callable[[Scene, Physics | None], Physics] = _own_physics
     """The world the planner plans in, from the scene's physics: also the one its paths are
     shortcut in (a Static RRT path must not push the objects it treats as obstacles)."""
+    steps_physics: bool = True
+    """Whether the planner steps the quasistatic pushing model, and so reads `PhysicsOptions`
+    (DARRT carries objects rigidly and never does: a request refuses physics settings for
+    it)."""
     shortcut: bool = True
     """Whether its paths may be shortcut: shortcutting re-simulates the pushes in the
     quasistatic physics, which DARRT's rigid carrying does not follow."""
     summary: str = ""
 
     def options(self, base: PlannerOptions | None = None, **values: Any) -> PlannerOptions:
-        """This planner's options: the shared fields of `base` (any `PlannerOptions`), then
-        `values`; the rest at their defaults. ValueError names a setting out of range."""
+        """This planner's options: `base` (any `PlannerOptions`: its shared fields; a field
+        this planner does not have must be at its default), then `values`; the rest at their
+        defaults. ValueError names a setting out of range or one this planner does not read."""
         fields = {f.name for f in dataclasses.fields(self.options_type)}
         unknown = sorted(set(values) - fields)
         if unknown:
             raise ValueError(f"{self.name} has no setting {', '.join(unknown)}; its settings "
                              f"are {', '.join(sorted(fields))}")
+        if base is not None and not isinstance(base, self.options_type):
+            ignored = [f.name for f in dataclasses.fields(base) if f.name not in fields
+                       and getattr(base, f.name) != f.default]
+            if ignored:
+                raise ValueError(f"{self.name} does not read {', '.join(ignored)} (set in "
+                                 f"{type(base).__name__})")
         return dataclasses.replace(self.options_type.adopt(base), **values)
+
+    def settings(self) -> tuple[SettingSpec, ...]:
+        """The settings this planner reads: its options', then the pushing model's when it
+        steps the physics."""
+        own = self.options_type.describe()
+        return own + (PhysicsOptions.describe() if self.steps_physics else ())
 
     def make(self, scene: Scene, options: PlannerOptions | None = None,
              physics: Physics | None = None) -> Planner:
@@ -60,18 +79,14 @@ class PlannerSpec:
 
 PLANNERS: dict[str, PlannerSpec] = {
     "pc-rrt": PlannerSpec("pc-rrt", PCRRT, PCRRTOptions,
-                          summary="physics-constrained kinodynamic RRT (King et al. Alg. 1)"),
+                          summary="physics-constrained kinodynamic RRT (King et al. 2015, "
+                                  "Alg. 1)"),
     "static-rrt": PlannerSpec("static-rrt", StaticRRT, PCRRTOptions, static_physics,
                               summary="PC-RRT with every non-goal object a static obstacle"),
-    "darrt": PlannerSpec("darrt", DARRT, DARRTOptions, shortcut=False,
+    "darrt": PlannerSpec("darrt", DARRT, DARRTOptions, steps_physics=False, shortcut=False,
                          summary="DARRT primitives: transit, RRT transit, rigid straight push"),
 }
 PLANNER_NAMES = tuple(PLANNERS)
-
-PRODUCT_DEFAULTS: dict[str, Any] = {"trees": 2}
-"""Where the CLI and the node differ from the library's defaults: they race 2 trees, one per
-core of the 2-core machines this is measured on (`planning.parallel`); `PlannerOptions()`
-keeps the paper's single tree for a researcher calling a planner directly."""
 
 
 def planner_spec(name: str) -> PlannerSpec:
@@ -89,23 +104,13 @@ def make_planner(name: str, scene: Scene, options: PlannerOptions | None = None,
     return planner_spec(name).make(scene, options, physics)
 
 
-def all_settings() -> tuple[SettingSpec, ...]:
+def planner_settings() -> tuple[SettingSpec, ...]:
     """Every planner setting once (a name shared by several planners has one meaning and one
-    default), the shared ones first, with the product defaults applied."""
+    default), the shared ones first, then each planner's own, then the pushing model's."""
     seen: dict[str, SettingSpec] = {}
-    types: list[type[PlannerOptions]] = [PlannerOptions]
-    types += [p.options_type for p in PLANNERS.values()]
+    types: list[type[Settings]] = [PlannerOptions]
+    types += [p.options_type for p in PLANNERS.values()] + [PhysicsOptions]
     for options_type in types:
         for setting in options_type.describe():
-            if setting.name not in seen:
-                default = PRODUCT_DEFAULTS.get(setting.name, setting.default)
-                seen[setting.name] = dataclasses.replace(setting, default=default)
+            seen.setdefault(setting.name, setting)
     return tuple(seen.values())
-
-
-def options_from(name: str, values: dict[str, Any]) -> PlannerOptions:
-    """The options of planner `name` from a flat mapping holding (at least) its settings,
-    such as the node's parameters; other keys are ignored."""
-    spec = planner_spec(name)
-    fields = {f.name for f in dataclasses.fields(spec.options_type)}
-    return spec.options(**{k: v for k, v in values.items() if k in fields})

@@ -1,4 +1,4 @@
-"""Path shortcutting (King et al. §IV, Fig. 3).
+"""Path shortcutting (King et al. 2015, §IV, Fig. 3).
 
 A randomized planner's path wanders. We pick two states i < j of the path at random and try to
 connect only their *arm configurations* with a new on-plane motion (there is no two-point
@@ -22,6 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from rearrangement_planner.model.settings import Settings, setting
 from rearrangement_planner.model.state import State, wrap_angle
 from rearrangement_planner.physics.step import Physics
 from rearrangement_planner.planning.manifold import on_manifold, project_step, tool_planar_pose
@@ -31,6 +32,21 @@ LANDING_STEP = 0.05     # rad, largest joint step allowed to land exactly on q_j
 STEP_LENGTH = 0.01      # m, tool travel per connection step
 YAW_STEP = 0.05         # rad, tool yaw change per connection step
 JOINT_STEP = 0.05       # rad, largest joint change per connection step (estimate)
+
+
+@dataclass(frozen=True)
+class ShortcutOptions(Settings):
+    """How long a found path is shortcut (a plan request's; `pipeline.plan_scene`)."""
+
+    shortcut_time: float = setting(10.0, low=0.0, high=600.0)
+    """Longest path shortcutting after a plan is found, s; 0 = none."""
+    shortcut_attempts: int = setting(40, low=0, high=100000)
+    """Most shortcut attempts (about 50 ms each); when this bound ends shortcutting before
+    shortcut_time, the shortened path is reproducible. 0 = until shortcut_time."""
+
+
+NO_SHORTCUT = ShortcutOptions(shortcut_time=0.0)
+"""A request whose plan is returned as the planner found it."""
 
 
 @dataclass(frozen=True)

@@ -41,6 +41,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from rearrangement_planner.model.robot import RobotModel
+from rearrangement_planner.model.settings import Settings, internal, setting
 
 # Consecutive waypoints closer than this (max over joints, rad) are duplicates: exact repeats,
 # or repeats up to rounding, whose segment would take ~0 s and break strictly increasing times.
@@ -109,26 +110,33 @@ class Trajectory:
 
 
 @dataclass(frozen=True)
-class TimingOptions:
+class TimingOptions(Settings):
     """Limits of the time parameterization."""
 
-    velocity_scale: float = 0.5
-    """Fraction (0, 1] of each joint's velocity limit (URDF) the trajectory may use."""
-    max_tool_speed: float = 0.1
+    velocity_scale: float = setting(0.5, low=0.01, high=1.0)
+    """Fraction of each joint's velocity limit (URDF) the trajectory may use."""
+    max_tool_speed: float = setting(0.1, low=0.001, high=10.0)
     """Largest tool (end-effector) speed, m/s: keeps pushing slow enough to be quasistatic."""
-    max_joint_acceleration: float | tuple[float, ...] | None = None
-    """Joint acceleration limit, rad/s² (one value for all joints or one per joint); None: no
-    acceleration limit (the path rate still starts and ends at zero)."""
+    max_joint_acceleration: float = setting(0.0, low=0.0, high=100.0)
+    """Joint acceleration limit, rad/s^2, the same for every joint; 0 = none (the path rate
+    still starts and ends at zero)."""
+    joint_accelerations: tuple[float, ...] = internal(())
+    """One acceleration limit per joint, rad/s^2, in place of `max_joint_acceleration` (for a
+    caller of `time_parameterize`; no node parameter sets it)."""
 
     def __post_init__(self) -> None:
-        if not 0.0 < self.velocity_scale <= 1.0:
-            raise ValueError(f"velocity_scale must be in (0, 1], got {self.velocity_scale}")
-        if not self.max_tool_speed > 0.0:
-            raise ValueError(f"max_tool_speed must be positive (m/s), got {self.max_tool_speed}")
-        if self.max_joint_acceleration is not None and \
-                not np.all(np.asarray(self.max_joint_acceleration, dtype=float) > 0.0):
-            raise ValueError(f"max_joint_acceleration must be positive (rad/s²) or None, got "
-                             f"{self.max_joint_acceleration}")
+        super().__post_init__()
+        if self.joint_accelerations and not all(a > 0.0 for a in self.joint_accelerations):
+            raise ValueError(f"joint_accelerations must be positive (rad/s^2), got "
+                             f"{self.joint_accelerations}")
+
+    def acceleration_limits(self, nq: int) -> np.ndarray | None:
+        """The acceleration limit of each of the `nq` joints, rad/s^2, or None for none."""
+        if self.joint_accelerations:
+            return np.broadcast_to(np.asarray(self.joint_accelerations, dtype=float), (nq,))
+        if self.max_joint_acceleration > 0.0:
+            return np.full(nq, self.max_joint_acceleration)
+        return None
 
 
 def remove_duplicates(path: np.ndarray, tol: float = DUPLICATE_TOLERANCE) -> np.ndarray:
@@ -192,9 +200,9 @@ def _segment_rate_limits(robot: RobotModel, positions: np.ndarray, steps: np.nda
 
 def _segment_acceleration_limit(step: np.ndarray, options: TimingOptions, nq: int) -> float:
     """Largest |s̈| (1/s²) on a segment with Δq = step: min_j a_max_j / |Δq_j| (inf if none)."""
-    if options.max_joint_acceleration is None:
+    amax = options.acceleration_limits(nq)
+    if amax is None:
         return math.inf
-    amax = np.broadcast_to(np.asarray(options.max_joint_acceleration, dtype=float), (nq,))
     with np.errstate(divide="ignore"):
         return float(np.min(amax / np.abs(step)))
 
@@ -215,7 +223,7 @@ def _path_rates(robot: RobotModel, positions: np.ndarray, steps: np.ndarray,
         speed = float(np.linalg.norm(jac[:3] @ tangents[k - 1]))
         if speed > 0.0:
             rates[k] = min(rates[k], options.max_tool_speed / speed)
-    if options.max_joint_acceleration is not None:
+    if options.acceleration_limits(robot.nq) is not None:
         alpha = [_segment_acceleration_limit(step, options, robot.nq) for step in steps]
         for k in range(count - 1):
             rates[k + 1] = min(rates[k + 1], math.sqrt(rates[k] ** 2 + 2.0 * alpha[k]))
@@ -236,7 +244,8 @@ def _limit_corner_accelerations(steps: np.ndarray, rates: np.ndarray, options: T
     violating segment gets f = sqrt(a_max / |a_k|); a neighbour may then need a round of its
     own. After `max_rounds`, all rates are scaled by one common factor, which bounds every
     a_k at once."""
-    amax = np.broadcast_to(np.asarray(options.max_joint_acceleration, dtype=float), (nq,))
+    amax = options.acceleration_limits(nq)
+    assert amax is not None
     tangents = np.zeros((rates.size, nq))
     tangents[1:-1] = 0.5 * (steps[:-1] + steps[1:])
     rates = rates.copy()

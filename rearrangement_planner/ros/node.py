@@ -59,7 +59,6 @@ from msg_adapters import (
 from rearrangement_planner.model.errors import RearrangementError
 from rearrangement_planner.model.resources import NODE_NAME
 from rearrangement_planner.planning.interface import Outcome, Progress
-from rearrangement_planner.planning.status import PlannerStatus
 from rearrangement_planner.planning.warmup import warm_up
 from rearrangement_planner.ros.parameters import PARAMETERS, declare_parameters, read_parameters
 from rearrangement_planner.ros.plan_request import (
@@ -74,6 +73,7 @@ from rearrangement_planner.ros.plan_request import (
     run_plan,
     summary_line,
 )
+from rearrangement_planner.ros.status import PlannerStatus
 
 EXECUTOR_THREADS = 6
 STATUS_RATE = 4.0

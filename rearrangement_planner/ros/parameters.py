@@ -1,7 +1,8 @@
-"""The node's parameters, declared once (DESIGN §4, STYLE 12): the node's own (scene, inputs,
-outputs) are listed here; the planner and pipeline settings are read from the option
-dataclasses (`planning.registry.all_settings`, `PipelineOptions`), so their default, range and
-description are written once, in the core. `config/planner.yaml` holds the same defaults
+"""The node's parameters, declared once: the node's own (scene, inputs, outputs) are listed
+here; the settings of a plan request are read from the option dataclasses
+(`planning.request.request_settings`: the planners', the pushing model's and the pipeline
+stages'), so their default, range and description are written once, in the core, and the node
+plans the CLI's default request. `config/planner.yaml` holds the same defaults
 (a test checks it).
 
     ros2 param describe /rearrangement_planner time_limit
@@ -16,9 +17,9 @@ from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescri
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 
-from rearrangement_planner.planning.pipeline import PipelineOptions
-from rearrangement_planner.planning.registry import PLANNER_NAMES, all_settings
-from rearrangement_planner.planning.settings import SettingSpec
+from rearrangement_planner.model.settings import SettingSpec
+from rearrangement_planner.planning.registry import PLANNER_NAMES
+from rearrangement_planner.planning.request import DEFAULT_PLANNER, request_settings
 
 _INT32_MAX = 2**31 - 1
 
@@ -60,7 +61,8 @@ class ParameterSpec:
 
 _NODE_FIRST: tuple[ParameterSpec, ...] = (
     ParameterSpec("scene", "default", "Scene: a shipped scene name (config/scenes) or a scene "
-                  "YAML path (DESIGN §3). Table, obstacles, object shapes and the default goal.",
+                  "YAML path (docs/design.md). Table, obstacles, object shapes and the default "
+                  "goal.",
                   read_only=True),
     ParameterSpec("robot_description", "", "URDF of the robot (XML string); '' = the URDF of "
                   "the robot config the scene names.", read_only=True),
@@ -69,13 +71,14 @@ _NODE_FIRST: tuple[ParameterSpec, ...] = (
     ParameterSpec("goal_object", "", "Object to bring into the goal region; '' = the scene's."),
     ParameterSpec("goal_radius", 0.0, "Goal region radius, m; 0 = the scene's.", 0.0, 10.0),
     ParameterSpec("planning_frame", "world", "Frame of all inputs and outputs, the robot base "
-                  "frame (DESIGN §3); '' = the robot config's base frame name (panda_link0). "
+                  "frame; '' = the robot config's base frame name (panda_link0). "
                   "Inputs in another frame are rejected (no tf here)."),
     ParameterSpec("max_object_tilt", 0.05, "Largest tilt from upright of a received object "
                   "pose, rad; objects must stand on the table.", 0.0, 1.5),
     ParameterSpec("state_timeout", 1.0, "Joint states and object poses older than this (receive "
                   "time, s) are stale (NO_STATE); 0 = never stale.", 0.0, 86400.0),
-    ParameterSpec("planner", "pc-rrt", f"Planning algorithm: {', '.join(PLANNER_NAMES)}."),
+    ParameterSpec("planner", DEFAULT_PLANNER, f"Planning algorithm: {', '.join(PLANNER_NAMES)}. "
+                  "A planner refuses a setting it does not read unless it has its default."),
     ParameterSpec("seed", 0, "Random seed: same scene, inputs, parameters and seed give the "
                   "same plan.", 0, _INT32_MAX),
 )
@@ -90,8 +93,7 @@ _NODE_LAST: tuple[ParameterSpec, ...] = (
 
 PARAMETERS: tuple[ParameterSpec, ...] = (
     _NODE_FIRST
-    + tuple(ParameterSpec.of(s) for s in all_settings())
-    + tuple(ParameterSpec.of(s) for s in PipelineOptions.describe())
+    + tuple(ParameterSpec.of(s) for s in request_settings())
     + _NODE_LAST
 )
 """Every parameter of the node, in the order of config/planner.yaml."""

@@ -22,54 +22,38 @@ from rearrangement_planner.io.recording import RecordingError
 from rearrangement_planner.model.errors import InputError, SceneError
 from rearrangement_planner.model.robot import RobotModel
 from rearrangement_planner.model.scene import Goal, Scene
+from rearrangement_planner.physics.options import PhysicsOptions
 from rearrangement_planner.physics.step import Physics
 from rearrangement_planner.physics.validation import check_scene, load_scene
 from rearrangement_planner.planning.interface import (
     Outcome,
-    PlannerOptions,
     PlanResult,
     Progress,
     ProgressCallback,
 )
-from rearrangement_planner.planning.pipeline import PipelineOptions, PlanOutput, plan_scene
-from rearrangement_planner.planning.registry import options_from, planner_spec
-from rearrangement_planner.planning.status import PlannerStatus
-from rearrangement_planner.planning.trajectory import TimingOptions
+from rearrangement_planner.planning.pipeline import PlanOutput, plan_scene
+from rearrangement_planner.planning.registry import planner_spec
+from rearrangement_planner.planning.request import PlanRequest, request_settings
+from rearrangement_planner.ros.status import PlannerStatus
 
 NO_STATE = "NO_STATE"
 """The node's own outcome (DESIGN §4): no joint state / object poses yet, or stale ones."""
 
 
-@dataclass(frozen=True)
-class PlanSettings:
-    """The planner settings of one plan, checked, from the parameter values."""
-
-    planner: str
-    options: PlannerOptions
-    timing: TimingOptions
-    seed: int
-    shortcut_time: float
-    shortcut_attempts: int | None
-    pipeline: PipelineOptions
-    """Everything after the search (shortcutting, timing, the robustness check)."""
-
-
-def plan_settings(params: dict[str, Any]) -> PlanSettings:
-    """Check and assemble the planner settings; InputError names the parameter at fault
-    (the ranges are already enforced by the parameter descriptors)."""
+def node_request(params: dict[str, Any], scene: Scene) -> PlanRequest:
+    """The plan request of the node's parameters on `scene` (`PlanRequest.from_settings`: the
+    CLI builds its request the same way); InputError names the parameter at fault (the ranges
+    are already enforced by the parameter descriptors)."""
     try:
         planner_spec(params["planner"])
     except ValueError as exc:
         raise InputError("parameter planner", str(exc)) from None
+    values = {s.name: params[s.name] for s in request_settings()}
     try:
-        options = options_from(params["planner"], params)
-        pipeline = PipelineOptions(**{s.name: params[s.name] for s in PipelineOptions.describe()})
+        return PlanRequest.from_settings(scene, params["planner"], values,
+                                         seed=int(params["seed"]))
     except ValueError as exc:
-        raise InputError(f"parameter {str(exc).split()[0]}", str(exc)) from None
-    return PlanSettings(params["planner"], options, pipeline.timing, int(params["seed"]),
-                        pipeline.shortcut_time, pipeline.shortcut_attempts or None, pipeline)
-
-
+        raise InputError(f"parameter {str(exc).split()[0].rstrip(':')}", str(exc)) from None
 
 
 @dataclass(frozen=True)
@@ -150,7 +134,8 @@ def fresh_inputs(latest: dict[str, Input | None], topics: dict[str, str],
 
 
 def planning_scene(configured_scene: Scene, inputs: dict[str, Input | None],
-               params: dict[str, Any]) -> tuple[Scene, Physics]:
+                   params: dict[str, Any], physics_options: PhysicsOptions
+                   ) -> tuple[Scene, Physics]:
     """The configured scene with the received start state and goal, checked, and the one
     physics the plan runs in (the scene is not re-parsed: only the state and goal change)."""
     joints, objects, received = (inputs["joint_states"], inputs["object_poses"],
@@ -163,7 +148,7 @@ def planning_scene(configured_scene: Scene, inputs: dict[str, Input | None],
     scene = dataclasses.replace(configured_scene.with_start(joints.value, objects.value),
                                 goal=goal)
     try:
-        physics = Physics(scene)
+        physics = Physics(scene, physics_options)
         check_scene(scene, physics.world)
     except SceneError as exc:
         raise Rejected(*_classify(exc, received is not None)) from None
@@ -180,15 +165,11 @@ def run_plan(job: Job, params: dict[str, Any], configured: Scene,
     inputs: dict[str, Input | None] = {}
     scene, output = configured, None
     try:
-        settings = plan_settings(params)
+        request = node_request(params, configured)
         inputs = fresh_inputs(latest, topics, params["state_timeout"])
-        scene, physics = planning_scene(configured, inputs, params)
-        output = plan_scene(scene, settings.planner, settings.options, seed=settings.seed,
-                            physics=physics,
-                            cancel=job.cancel, progress=progress,
-                            shortcut_time=settings.shortcut_time, timing=settings.timing,
-                            shortcut_attempts=settings.shortcut_attempts,
-                            robust=settings.pipeline)
+        scene, physics = planning_scene(configured, inputs, params, request.physics)
+        output = plan_scene(dataclasses.replace(request, scene=scene), cancel=job.cancel,
+                            progress=progress, physics=physics)
         return output.result.outcome.value, output.result.message, scene, output, inputs
     except InputError as exc:
         outcome, message = Outcome.INVALID_INPUT.value, str(exc)

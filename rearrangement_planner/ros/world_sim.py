@@ -92,7 +92,8 @@ from rearrangement_planner.execution.open_loop import (
 from rearrangement_planner.model.errors import InputError, RearrangementError
 from rearrangement_planner.model.scene import Scene
 from rearrangement_planner.model.state import State, wrap_angle
-from rearrangement_planner.physics.step import Physics, PhysicsOptions
+from rearrangement_planner.physics.options import simulation_options
+from rearrangement_planner.physics.step import Physics
 from rearrangement_planner.physics.validation import load_scene
 from rearrangement_planner.ros.parameters import (
     ParameterSpec,
@@ -186,7 +187,7 @@ class WorldSim(Node):
             raise InputError("parameter engine", f"is {p['engine']!r}; use 'quasistatic' or "
                                                  f"'mujoco'")
         self._engine = p["engine"]
-        self._physics = Physics(self._world, PhysicsOptions(max_substep=p["max_substep"]))
+        self._physics = Physics(self._world, simulation_options(p["max_substep"]))
         self._frame = p["frame_id"] or robot.config.base_frame
         self._period = 1.0 / p["rate"]
         self._heights = np.array([self._world.table.height + 0.5 * o.height

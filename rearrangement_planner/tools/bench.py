@@ -1,33 +1,33 @@
 """`rearrangement-bench`: benchmarks.
 
     rearrangement-bench [run] [--quick] [--scenes SCENE ...] [--planners P ...] [--seeds N ...]
-                        [--time-limit S] [--shortcut S] [--shortcut-attempts N]
-                        [--workers N] [--out DIR]
+                        [--time-limit S] [--set NAME=VALUE ...] [--workers N] [--out DIR]
     rearrangement-bench generate [--seed S] [--out DIR]
     rearrangement-bench physics [--seconds S] [--json OUT]
     rearrangement-bench scenes [--scenes NAME ...] [--planners P ...] [--seeds N ...]
                                [--time-limit S] [--trees N] [--jsonl OUT]
     rearrangement-bench candidates [--scenes SCENE ...] [--seeds N ...] [--candidates K]
-                                   [--time-limit S] [--rollouts N] [--travel-penalty P]
-                                   [--workers N] [--out DIR]
+                                   [--time-limit S] [--set NAME=VALUE ...] [--workers N]
+                                   [--out DIR]
 
-`run` (the default) is the benchmark of King et al. §V (DESIGN §9, `benchmark.py`): each
-planner on each of the 35 scenes of config/benchmark/scenes with each seed, one worker process
-per core; trials.csv, summary.json and the plots of Figs. 4, 7 and 8 (`bench_plots.py`) in
---out. It resumes: trials already in trials.csv are skipped. Ctrl-C stops it, keeps every
-finished trial and prints the command that resumes (exit code 130). `--quick` is the reduced
-protocol (14 scenes, seed 0, 20 s budget; under 10 minutes on 2 cores). `generate` rewrites
+`run` (the default) is the benchmark of King et al. 2015, §V (`benchmark.py`): each planner on each
+of the 35 scenes of config/benchmark/scenes with each seed, each trial the product's default plan
+request (`planning.request`; `--set NAME=VALUE` changes any of its settings, e.g. `--set
+min_robustness=0 --set trees=1` for the first plan of one tree), one worker process per raced
+tree's worth of cores; trials.csv, summary.json and the plots of Figs. 4, 7 and 8
+(`bench_plots.py`) in --out. It resumes: trials already in trials.csv are skipped. Ctrl-C stops it,
+keeps every finished trial and prints the command that resumes (exit code 130). `--quick` is the
+reduced protocol (14 scenes, seed 0, 20 s budget; under 10 minutes on 2 cores). `generate` rewrites
 the scene set. Exit codes: 0 done, 1 some trials failed with an internal error, 2 bad input
 (one line naming the option), 130 interrupted.
 
-`scenes` runs each planner on the shipped demo scenes, one run at a time with 2 trees raced
-per run (`parallel`; `--trees 1` for one tree), one line of JSON per run. `run` grows one tree
-per trial and spreads the trials over the cores instead.
+`scenes` runs each planner on the shipped demo scenes with the default request, one run at a
+time, one line of JSON per run.
 
 `candidates` measures robust selection (`candidates.py`): per scene and seed it records the
 candidate plans a robust search makes, each executed in MuJoCo, into --out/candidates.jsonl
 (resumable), then replays selection rules over them within the time limit and prints how many
-chosen plans reached the goal (docs/benchmark.md "Session 15").
+chosen plans reached the goal (docs/benchmark.md).
 """
 
 from __future__ import annotations
@@ -45,10 +45,14 @@ from typing import Any
 from rearrangement_planner.model.errors import RearrangementError
 from rearrangement_planner.model.resources import scenes_dir
 from rearrangement_planner.model.scene import Scene
+from rearrangement_planner.model.settings import parse_assignments
+from rearrangement_planner.physics.options import simulation_options
 from rearrangement_planner.physics.step import Physics
 from rearrangement_planner.physics.validation import load_scene, parse_scene
-from rearrangement_planner.planning.pipeline import PipelineOptions
+from rearrangement_planner.planning.parallel import RaceOptions
 from rearrangement_planner.planning.registry import PLANNER_NAMES as PLANNERS
+from rearrangement_planner.planning.request import request_settings
+from rearrangement_planner.planning.robustness import RobustOptions
 from rearrangement_planner.tools import benchmark
 
 COMMANDS = ("run", "generate", "physics", "scenes", "candidates")
@@ -89,7 +93,7 @@ def sweep_scene(placements: list[tuple[float, float]]) -> Scene:
 
 
 def measure_physics(scene: Scene, seconds: float) -> dict:
-    physics = Physics(scene)
+    physics = Physics(scene, simulation_options())
     start_state = scene.initial_state()
     steps = substeps = pushing_steps = invalid = 0
     links: set[str] = set()
@@ -137,15 +141,17 @@ def physics_benchmark(seconds: float) -> dict:
 
 
 def scene_trial(scene_name: str, planner: str, seed: int, time_limit: float,
-                trees: int = 1) -> dict:
-    """One planner run on one shipped scene (`trees` raced trees): outcome, plan time and
-    which objects moved."""
-    from rearrangement_planner.planning.interface import PlannerOptions
+                settings: dict[str, Any] | None = None) -> dict:
+    """One plan request on one shipped scene (the product's default, with `settings`):
+    outcome, plan time and which objects moved."""
     from rearrangement_planner.planning.pipeline import plan_scene
+    from rearrangement_planner.planning.request import PlanRequest
 
     scene = load_scene(scene_name)
-    result = plan_scene(scene, planner, PlannerOptions(time_limit=time_limit, trees=trees),
-                        seed=seed).result
+    request = PlanRequest.from_settings(scene, planner,
+                                        {**(settings or {}), "time_limit": time_limit}, seed)
+    result = plan_scene(request).result
+    trees = request.trees
     moved: list[str] = []
     if result.states:
         first = result.states[0].objects
@@ -160,12 +166,10 @@ def scene_trial(scene_name: str, planner: str, seed: int, time_limit: float,
 QUICK: dict[str, Any] = {"seeds": [0], "time_limit": 20.0}
 """--quick: 2 scenes per object count (14), seed 0, 20 s budget: 42 trials with the three
 planners, at most 42 x (20 s + 5 s shortcut + ~1 s) / 2 workers = 9.1 min on 2 cores."""
-DEFAULTS: dict[str, Any] = {"seeds": [0, 1, 2], "time_limit": 60.0, "shortcut": 5.0,
-                            "shortcut_attempts": 100}
-"""The full protocol: the 35 scenes, the three planners, seeds 0-2, 60 s budget (315 trials;
-at most 315 x 66 s / 2 workers = 2.9 h on 2 cores). Shortcutting: 5 s or 100 attempts,
-whichever ends first (an attempt bound that ends first makes the shortened path
-reproducible)."""
+DEFAULTS: dict[str, Any] = {"seeds": [0, 1, 2], "time_limit": 60.0}
+"""The full protocol: the 35 scenes, the three planners, seeds 0-2, 60 s budget (315 trials),
+each the product's default request (shortcutting, robust selection and raced trees as the CLI
+and the node plan)."""
 
 
 class _Parser(argparse.ArgumentParser):
@@ -201,13 +205,10 @@ def build_parser() -> argparse.ArgumentParser:
                      help="planner seeds (default 0 1 2; --quick: 0)")
     run.add_argument("--time-limit", type=float, metavar="S",
                      help="planning budget per trial, s (default 60; --quick: 20)")
-    run.add_argument("--shortcut", type=float, default=DEFAULTS["shortcut"], metavar="S",
-                     help="seconds of shortcutting per solved path (default 5; 0: none)")
-    run.add_argument("--shortcut-attempts", type=int, default=DEFAULTS["shortcut_attempts"],
-                     metavar="N", help="at most N shortcut attempts per path (default 100)")
+    _add_set_option(run)
     run.add_argument("--workers", type=int, metavar="N",
                      help=f"worker processes, at most the {benchmark.usable_cores()} cores "
-                          f"(default: one per core)")
+                          f"(default: the cores over the request's raced trees)")
     run.add_argument("--out", type=Path, default=Path("out/benchmark"), metavar="DIR",
                      help="output folder (default out/benchmark)")
     gen = sub.add_parser(
@@ -235,25 +236,29 @@ def build_parser() -> argparse.ArgumentParser:
     scenes.add_argument("--seeds", nargs="+", type=int, default=[0, 1, 2])
     scenes.add_argument("--time-limit", type=float, default=60.0, metavar="S",
                         help="planning budget per run, s (default 60)")
-    scenes.add_argument("--trees", type=int, default=2, metavar="N",
-                        help="trees raced per run (OR-parallel, one process each; see "
-                             "rearrangement-plan --help; default 2, for a 2-core machine "
-                             "running one run at a time)")
+    _add_set_option(scenes)
     scenes.add_argument("--jsonl", type=Path, help="also append the lines to this file")
     _add_candidates_parser(sub)
     return parser
 
 
+def _add_set_option(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
+                        help="change a setting of every trial's plan request from the product "
+                             "default (repeatable; `rearrangement-plan --list-settings` shows "
+                             "them), e.g. --set min_robustness=0 --set trees=1")
+
+
 def _add_candidates_parser(sub) -> None:
-    robust = PipelineOptions()
     cands = sub.add_parser(
         "candidates", help="robust selection measured: candidate plans recorded and executed "
                            "in MuJoCo, selection rules replayed over them",
         description="For each scene and seed, record up to --candidates candidate plans as "
-                    "a robust search makes them (PC-RRT, one tree, shortcut, scored by "
-                    "perturbed rollouts), each executed open loop in MuJoCo, into "
-                    "--out/candidates.jsonl (requests already there are skipped); then print "
-                    "per selection rule how many chosen plans reach the goal.")
+                    "a robust search makes them (PC-RRT, one tree each, shortcut, scored by "
+                    "perturbed rollouts, with the default request's settings and --set), each "
+                    "executed open loop in MuJoCo, into --out/candidates.jsonl (requests "
+                    "already there are skipped); then print per selection rule how many chosen "
+                    "plans reach the goal.")
     cands.add_argument("--scenes", nargs="+", metavar="SCENE",
                        help="benchmark scene names or scene .yaml files (default: the 35)")
     cands.add_argument("--seeds", nargs="+", type=int, default=[0, 1, 2], metavar="N",
@@ -262,20 +267,7 @@ def _add_candidates_parser(sub) -> None:
                        help="candidates recorded per request (default 6)")
     cands.add_argument("--time-limit", type=float, default=60.0, metavar="S",
                        help="a request's budget, s (default 60)")
-    cands.add_argument("--shortcut", type=float, default=DEFAULTS["shortcut"], metavar="S",
-                       help="seconds of shortcutting per candidate (default 5)")
-    cands.add_argument("--shortcut-attempts", type=int, default=DEFAULTS["shortcut_attempts"],
-                       metavar="N", help="shortcut attempts per candidate (default 100)")
-    cands.add_argument("--rollouts", type=int, default=robust.rollouts, metavar="N",
-                       help=f"perturbed rollouts per candidate (default {robust.rollouts})")
-    cands.add_argument("--travel-penalty", type=float, default=robust.travel_penalty,
-                       metavar="P", help="the ranking replayed beside the most robust "
-                                         f"(default {robust.travel_penalty:g})")
-    cands.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
-                       help="a PC-RRT setting for every candidate search, e.g. --set "
-                            "top_clearance=0.02 (repeatable; `rearrangement-plan --planner "
-                            "pc-rrt --list-settings` shows them); give each variant its own "
-                            "--out")
+    _add_set_option(cands)
     cands.add_argument("--workers", type=int, metavar="N",
                        help="worker processes (default: one per core)")
     cands.add_argument("--out", type=Path, default=Path("out/candidates"), metavar="DIR",
@@ -324,13 +316,12 @@ def scenes_command(args: argparse.Namespace) -> int:
     if not args.time_limit > 0:
         raise benchmark.BenchmarkError("--time-limit", f"must be positive, got "
                                                        f"{args.time_limit}")
-    if not 1 <= args.trees <= 64:
-        raise benchmark.BenchmarkError("--trees", f"must be between 1 and 64, got {args.trees}")
+    settings = request_overrides(args.set, args.planners)
     for scene_name in args.scenes:
         for planner in args.planners:
             for seed in args.seeds:
                 line = json.dumps(scene_trial(scene_name, planner, seed, args.time_limit,
-                                              args.trees))
+                                              settings))
                 print(line, flush=True)
                 if args.jsonl:
                     with args.jsonl.open("a") as f:
@@ -346,16 +337,12 @@ def candidates_command(args: argparse.Namespace) -> int:
     for option, ok, problem in (
             ("--time-limit", 0 < args.time_limit < math.inf, "a positive number of seconds"),
             ("--candidates", 1 <= args.candidates <= 20, "between 1 and 20"),
-            ("--rollouts", 1 <= args.rollouts <= 1000, "between 1 and 1000"),
-            ("--travel-penalty", 0 <= args.travel_penalty <= 100, "between 0 and 100"),
-            ("--shortcut", 0 <= args.shortcut < math.inf, ">= 0 s"),
-            ("--shortcut-attempts", args.shortcut_attempts >= 1, ">= 1"),
             ("--seeds", all(seed >= 0 for seed in args.seeds), "seeds >= 0"),
             ("--workers", 1 <= workers <= cores, f"between 1 and the {cores} cores")):
         if not ok:
             value = getattr(args, option[2:].replace("-", "_"))
             raise benchmark.BenchmarkError(option, f"must be {problem}, got {value}")
-    settings = _pcrrt_settings(args.set)
+    settings = request_overrides(args.set, ["pc-rrt"])
     scenes = _resolve_scenes(args.scenes or benchmark.set_scene_names())
     out = args.out / "candidates.jsonl"
     requests = [(path, seed) for seed in dict.fromkeys(args.seeds) for path, _ in scenes]
@@ -363,12 +350,12 @@ def candidates_command(args: argparse.Namespace) -> int:
           f"each, {args.time_limit:g} s, {_count(workers, 'worker')} -> {out}",
           file=sys.stderr, flush=True)
     failed = candidates.record_all(requests, out, workers, args.candidates, args.time_limit,
-                                   args.shortcut, args.shortcut_attempts, args.rollouts,
                                    settings)
     wanted = {(path.stem, seed) for path, seed in requests}
     records = [r for r in candidates.read_records(out) if (r["scene"], r["seed"]) in wanted]
-    print(candidates.replay_table(records, candidates.rules(args.candidates,
-                                                            args.travel_penalty),
+    travel_penalty = RobustOptions(**{k: v for k, v in settings.items()
+                                      if k in RobustOptions.__dataclass_fields__}).travel_penalty
+    print(candidates.replay_table(records, candidates.rules(args.candidates, travel_penalty),
                                   args.time_limit))
     if failed:
         print(f"rearrangement-bench: {failed} requests failed with an internal error (not in "
@@ -377,18 +364,21 @@ def candidates_command(args: argparse.Namespace) -> int:
     return 0
 
 
-def _pcrrt_settings(items: list[str]) -> dict[str, Any]:
-    """PC-RRT settings from --set NAME=VALUE items, checked as PCRRTOptions checks them."""
-    from rearrangement_planner.planning.pcrrt import PCRRTOptions
+def request_overrides(items: list[str], planners: list[str]) -> dict[str, Any]:
+    """The settings of --set NAME=VALUE items, checked by building each planner's request with
+    them on a small scene; BenchmarkError names the item at fault."""
+    from rearrangement_planner.planning.request import PlanRequest
 
     try:
-        settings: dict[str, Any] = dict(PCRRTOptions.parse_assignments(items))
+        settings: dict[str, Any] = dict(parse_assignments(request_settings(), items))
     except ValueError as exc:
-        raise benchmark.BenchmarkError("--set", f"{exc} (pc-rrt's settings)") from None
-    try:
-        PCRRTOptions(**settings)
-    except ValueError as exc:
-        raise benchmark.BenchmarkError("--set", f"{' '.join(items)}: {exc}") from None
+        raise benchmark.BenchmarkError("--set", str(exc)) from None
+    scene = load_scene("easy_push")
+    for planner in planners:
+        try:
+            PlanRequest.from_settings(scene, planner, settings)
+        except ValueError as exc:
+            raise benchmark.BenchmarkError("--set", f"{' '.join(items)}: {exc}") from None
     return settings
 
 
@@ -424,11 +414,6 @@ def _check_run_options(args: argparse.Namespace) -> None:
     if not args.time_limit > 0 or not math.isfinite(args.time_limit):
         raise benchmark.BenchmarkError("--time-limit", f"must be a positive number of seconds, "
                                                        f"got {args.time_limit}")
-    if not args.shortcut >= 0 or not math.isfinite(args.shortcut):
-        raise benchmark.BenchmarkError("--shortcut", f"must be >= 0 s, got {args.shortcut}")
-    if args.shortcut_attempts < 1:
-        raise benchmark.BenchmarkError("--shortcut-attempts", f"must be >= 1, got "
-                                                              f"{args.shortcut_attempts}")
     if not 1 <= args.workers <= cores:
         raise benchmark.BenchmarkError("--workers", f"must be between 1 and the {cores} "
                                                     f"cores of this machine, got {args.workers}")
@@ -450,9 +435,11 @@ def resolve_run(args: argparse.Namespace) -> tuple[list[tuple[Path, Scene]],
     args.seeds = list(dict.fromkeys(args.seeds if args.seeds is not None else base["seeds"]))
     if args.time_limit is None:
         args.time_limit = base["time_limit"]
-    if args.workers is None:
-        args.workers = benchmark.usable_cores()
     args.planners = list(dict.fromkeys(args.planners))
+    args.settings = request_overrides(args.set, args.planners)
+    if args.workers is None:
+        trees = RaceOptions(**{k: v for k, v in args.settings.items() if k == "trees"}).trees
+        args.workers = max(1, benchmark.usable_cores() // trees)
     _check_run_options(args)
     scenes = _resolve_scenes(args.scenes or benchmark.set_scene_names(quick=args.quick))
     objects = {path.stem: len(scene.objects) for path, scene in scenes}
@@ -473,8 +460,7 @@ def run_command(args: argparse.Namespace, argv: list[str]) -> int:
           f" x {_count(len(args.seeds), 'seed')} = {_count(len(trials), 'trial')}, "
           f"{args.time_limit:g} s budget, {_count(args.workers, 'worker')} -> {csv_path}",
           file=sys.stderr, flush=True)
-    report = benchmark.run_trials(trials, csv_path, args.workers, args.shortcut,
-                                  args.shortcut_attempts)
+    report = benchmark.run_trials(trials, csv_path, args.workers, args.settings)
     if report.interrupted:
         print(f"interrupted: {csv_path} holds every finished trial ({report.finished} new). "
               f"Resume with: rearrangement-bench {shlex.join(argv)}", file=sys.stderr)
@@ -483,8 +469,7 @@ def run_command(args: argparse.Namespace, argv: list[str]) -> int:
     rows = [r for r in benchmark.read_trials(csv_path) if benchmark.row_key(r) in wanted]
     protocol = {"scenes": [p.stem for p, _ in scenes], "planners": args.planners,
                 "seeds": args.seeds, "time_limit": args.time_limit,
-                "shortcut_time_s": args.shortcut, "shortcut_attempts": args.shortcut_attempts,
-                "quick": args.quick}
+                "request_settings": args.settings, "quick": args.quick}
     summary = benchmark.summarize(rows, protocol,
                                   benchmark.end_effector_links(scenes[0][1].robot))
     (args.out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")

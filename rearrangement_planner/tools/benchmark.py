@@ -1,4 +1,4 @@
-"""The benchmark of King et al. §V (DESIGN §9): a fixed, seeded set of 35 random scenes, each
+"""The benchmark of King et al. 2015, §V: a fixed, seeded set of 35 random scenes, each
 planner run on each scene with several seeds under a time budget, one worker process per core.
 
 The scene set (§V: "35 randomly generated scenes ... between 1 and 7 movable objects in the
@@ -16,11 +16,12 @@ until `scene.parse_scene` accepts them (no overlaps, start configuration collisi
 own generator seeded with (seed, M, i), so the scenes do not depend on each other. The files
 are committed in ``config/benchmark/scenes/`` and a test checks they equal a fresh generation.
 
-A trial is one (scene, planner, seed, time limit): `pipeline.plan_scene`, then shortcutting of
-a solved path (not DARRT's, see `pipeline.plan_scene`), then a replay of the path through the
-physics to find which arm links pushed objects (DESIGN §6). `run` runs the trials in a process
-pool, appends one CSV row per finished trial (complete rows only, flushed at once), skips
-trials already in the CSV (resumable), and `summarize` turns the rows into the JSON summary.
+A trial is one (scene, planner, seed, time limit): the product's default plan request for it
+(`trial_request`: raced trees, shortcutting, robust selection, changed by the command's --set)
+through `pipeline.plan_scene`, then a replay of the path through the physics to find which arm
+links pushed objects, then the plan executed in MuJoCo (ideal and servo arm). `run` runs the trials
+in a process pool, appends one CSV row per finished trial (complete rows only, flushed at once),
+skips trials already in the CSV (resumable), and `summarize` turns the rows into the JSON summary.
 """
 
 from __future__ import annotations
@@ -385,17 +386,26 @@ def _num(value: float | None, digits: int = 6) -> str:
     return "" if value is None else repr(round(float(value), digits))
 
 
-def run_trial(trial: Trial, shortcut_time: float, shortcut_attempts: int | None) -> dict:
-    """Plan one trial and measure it: the CSV row (column -> text) of `CSV_COLUMNS`."""
+def trial_request(trial: Trial, settings: dict[str, Any]):
+    """The plan request of a trial: the product's default request (`planning.request`) with
+    `settings` (the command's --set) and the trial's planner, time limit and seed."""
     from rearrangement_planner.physics.validation import load_scene
-    from rearrangement_planner.planning.interface import PlannerOptions
+    from rearrangement_planner.planning.request import PlanRequest
+
+    return PlanRequest.from_settings(load_scene(trial.path), trial.planner,
+                                     {**settings, "time_limit": trial.time_limit},
+                                     seed=trial.seed)
+
+
+def run_trial(trial: Trial, settings: dict[str, Any]) -> dict:
+    """Plan one trial (`trial_request`) and measure it: the CSV row (column -> text) of
+    `CSV_COLUMNS`."""
     from rearrangement_planner.planning.pipeline import plan_scene
 
     t0 = time.monotonic()
-    scene = load_scene(trial.path)
-    output = plan_scene(scene, trial.planner, PlannerOptions(time_limit=trial.time_limit),
-                        seed=trial.seed, shortcut_time=shortcut_time,
-                        shortcut_attempts=shortcut_attempts)
+    request = trial_request(trial, settings)
+    scene = request.scene
+    output = plan_scene(request)
     result = output.result
     row = {"scene": trial.scene, "objects": str(trial.objects), "planner": trial.planner,
            "seed": str(trial.seed), "time_limit": repr(trial.time_limit),
@@ -441,9 +451,10 @@ def _executed(output) -> dict[str, str]:
 def _replay_physics(scene):
     """The physics the pushing links are replayed in: the scene's own, every object movable
     (Static RRT's paths never touch its static objects, so the replay is the same)."""
+    from rearrangement_planner.physics.options import simulation_options
     from rearrangement_planner.physics.step import Physics
 
-    return Physics(scene)
+    return Physics(scene, simulation_options())
 
 
 # --------------------------------------------------------------------------------------------
@@ -543,10 +554,10 @@ def _worker_init() -> None:
     logging.basicConfig(level=logging.WARNING)
 
 
-def _worker(task: tuple[Trial, float, int | None]) -> tuple[Trial, dict | None, str]:
-    trial, shortcut_time, shortcut_attempts = task
+def _worker(task: tuple[Trial, dict[str, Any]]) -> tuple[Trial, dict | None, str]:
+    trial, settings = task
     try:
-        return trial, run_trial(trial, shortcut_time, shortcut_attempts), ""
+        return trial, run_trial(trial, settings), ""
     except Exception:   # reported by the parent; the trial is not written, a rerun retries it
         return trial, None, traceback.format_exc()
 
@@ -626,9 +637,10 @@ class RunReport:
     interrupted: bool
 
 
-def run_trials(trials: Sequence[Trial], csv_path: Path, workers: int, shortcut_time: float,
-               shortcut_attempts: int | None, stream=None) -> RunReport:
-    """Run the trials not yet in `csv_path` on `workers` processes, appending a row per
+def run_trials(trials: Sequence[Trial], csv_path: Path, workers: int,
+               settings: dict[str, Any], stream=None) -> RunReport:
+    """Run the trials not yet in `csv_path` on `workers` processes (each trial's request:
+    `trial_request` with `settings`), appending a row per
     finished trial. Ctrl-C (KeyboardInterrupt) terminates the workers and returns with
     `interrupted` set; the CSV then holds every trial finished so far."""
     stream = stream or sys.stderr
@@ -653,8 +665,7 @@ def run_trials(trials: Sequence[Trial], csv_path: Path, workers: int, shortcut_t
         writer.close()
         raise
     try:
-        results = pool.imap_unordered(_worker, [(t, shortcut_time, shortcut_attempts)
-                                                for t in todo], chunksize=1)
+        results = pool.imap_unordered(_worker, [(t, settings) for t in todo], chunksize=1)
         bar.redraw()
         while finished + failed < len(todo):
             try:
@@ -754,6 +765,14 @@ def _shortcut_summary(solved: Sequence[dict], budget: float) -> dict:
     return out
 
 
+def _shortcut_time(protocol: dict) -> float:
+    """The shortcutting budget of the run's requests, s (its --set, else the default)."""
+    from rearrangement_planner.planning.shortcut import ShortcutOptions
+
+    settings = protocol.get("request_settings", {})
+    return float(settings.get("shortcut_time", ShortcutOptions().shortcut_time))
+
+
 def _planner_summary(rows: Sequence[dict], planner: str, protocol: dict,
                      end_effector: frozenset[str]) -> dict:
     time_limit = float(protocol["time_limit"])
@@ -796,7 +815,7 @@ def _planner_summary(rows: Sequence[dict], planner: str, protocol: dict,
             "beyond_end_effector": whole_arm,
             "per_link": dict(sorted(link_counts.items())),
         },
-        "shortcut": (_shortcut_summary(solved, float(protocol["shortcut_time_s"]))
+        "shortcut": (_shortcut_summary(solved, _shortcut_time(protocol))
                      if planner in SHORTCUT_PLANNERS
                      else "not shortcut"),
     }
@@ -854,7 +873,7 @@ def summarize(rows: Sequence[dict], protocol: dict, end_effector: Iterable[str] 
                                    "measured": pc["plan_time_s"]["median"]},
             "shortcut_arm_path_reduction": {"target": TARGETS["shortcut_arm_path_reduction"],
                                             "measured": shortcut,
-                                            "shortcut_time_s": protocol["shortcut_time_s"]},
+                                            "shortcut_time_s": _shortcut_time(protocol)},
         }
     summary["paper"] = PAPER
     return summary

@@ -1,20 +1,20 @@
 """`rearrangement-bench candidates`: how well robust selection chooses among candidate plans
-(issue 18; docs/benchmark.md "Session 15").
+(docs/benchmark.md).
 
-Robust selection (`pipeline.PipelineOptions`, `planning.robustness`) plans candidates one after
+Robust selection (`pipeline.robust_search`, `planning.robustness`) plans candidates one after
 the other and answers with the best ranked. Whether a ranking picks plans that work when
 executed is measured here without re-planning for every rule:
 
-- `record_request` makes, for one scene and seed, the candidates a robust search makes (the
-  same seeds, `pipeline.candidate_seed`; each the plan its seed gives alone, shortcut, scored
-  with the same rollouts) and executes every one open loop in MuJoCo (`check_execution`, ideal
-  arm). One record per candidate search: its search, shortcut and rollout seconds, its
-  robustness, how far it pushes and turns the goal object, and the executed outcome.
+- `record_request` makes, for one scene and seed, the candidates a robust search makes (with the
+  pipeline's own `Candidates`: the same seeds, `pipeline.candidate_seed`; each the plan its seed
+  gives alone, shortcut, scored with the same rollouts) and executes every one open loop in MuJoCo
+  (`check_execution`, ideal arm). One record per candidate search: its search, shortcut and rollout
+  seconds, its robustness, how far it pushes and turns the goal object, and the executed outcome.
 - `choose` replays a selection `Rule` over a request's records within a time budget: a
   candidate counts if its search fits in what the budget has left when it starts (a search is
   determined by its seed: one that finished in t s finishes the same under any limit above t),
   up to the rule's number of candidates, stopping at one robust in every rollout, as
-  `pipeline._robust_search` does.
+  `pipeline.robust_search` does.
 """
 
 from __future__ import annotations
@@ -31,22 +31,23 @@ import numpy as np
 
 
 def record_request(scene_path: Path, seed: int, candidates: int, time_limit: float,
-                   shortcut_time: float, shortcut_attempts: int, rollouts: int,
                    settings: dict | None = None) -> list[dict]:
-    """The candidates of a robust PC-RRT search of `scene_path` with `seed` (one tree each,
-    PC-RRT's `settings` over its defaults), executed in MuJoCo: one record per candidate
+    """The candidates of a robust PC-RRT search of `scene_path` with `seed` (the default
+    request with `settings`, one tree each), executed in MuJoCo: one record per candidate
     search, until `candidates` searches or `time_limit` s of searching, shortcutting and
     rollouts are spent."""
     from rearrangement_planner.execution.mujoco_check import check_execution
+    from rearrangement_planner.physics.step import Physics
     from rearrangement_planner.physics.validation import load_scene
-    from rearrangement_planner.planning.interface import planning_physics
-    from rearrangement_planner.planning.pcrrt import PCRRTOptions
-    from rearrangement_planner.planning.pipeline import candidate_seed, plan_scene
-    from rearrangement_planner.planning.robustness import goal_travel, robustness
+    from rearrangement_planner.planning.pipeline import Candidates, candidate_seed
+    from rearrangement_planner.planning.request import PlanRequest
+    from rearrangement_planner.planning.robustness import goal_travel
+    from rearrangement_planner.planning.trajectory import time_parameterize
 
     scene = load_scene(scene_path)
-    options = PCRRTOptions(**{**(settings or {}), "time_limit": time_limit, "trees": 1})
-    world = planning_physics(scene, options).options
+    request = PlanRequest.from_settings(
+        scene, "pc-rrt", {**(settings or {}), "time_limit": time_limit, "trees": 1}, seed)
+    search = Candidates(request, Physics(scene, request.physics))
     g = scene.goal_index
     records: list[dict] = []
     spent = 0.0
@@ -54,25 +55,27 @@ def record_request(scene_path: Path, seed: int, candidates: int, time_limit: flo
         if spent >= time_limit:
             break
         k_seed = candidate_seed(seed, k)
-        out = plan_scene(scene, "pc-rrt", options, seed=k_seed, shortcut_time=shortcut_time,
-                         shortcut_attempts=shortcut_attempts)
+        found = search.plan(k_seed)
         record: dict = {"scene": Path(scene_path).stem, "seed": seed, "k": k,
-                        "solved": out.solved, "search_s": round(out.result.plan_time, 3)}
-        spent += out.result.plan_time
-        if out.solved:
-            assert out.trajectory is not None
+                        "solved": found.solved, "search_s": round(found.plan_time, 3)}
+        spent += found.plan_time
+        if found.solved:
+            candidate = search.shortcut(found, k_seed)
+            states = candidate.result.states
             t0 = time.monotonic()
-            score = robustness(scene, out.result.states, rollouts, k_seed, physics_options=world)
+            score = search.judge(candidate, k_seed)
             rollout_time = time.monotonic() - t0
-            yaw = np.unwrap([s.objects[g, 2] for s in out.result.states])
-            report = check_execution(scene, out.trajectory, out.trajectory_states)
+            yaw = np.unwrap([s.objects[g, 2] for s in states])
+            trajectory = time_parameterize(scene.robot, candidate.result.arm_path,
+                                           request.timing)
+            report = check_execution(scene, trajectory, None)
             record.update(
-                shortcut_s=round(out.shortcut_time, 3), rollouts_s=round(rollout_time, 3),
-                robustness=score, goal_travel_m=round(goal_travel(scene, out.result.states), 4),
+                shortcut_s=round(candidate.shortcut_time, 3), rollouts_s=round(rollout_time, 3),
+                robustness=score, goal_travel_m=round(goal_travel(scene, states), 4),
                 goal_turn_rad=round(float(np.abs(np.diff(yaw)).sum()), 4),
                 reached=report.reached, goal_distance_m=round(report.goal_distance_m, 4),
                 toppled=len(report.toppled))
-            spent += out.shortcut_time + rollout_time
+            spent += candidate.shortcut_time + rollout_time
         records.append(record)
     return records
 
@@ -164,16 +167,15 @@ def _record_task(task: tuple) -> tuple[list[dict], str]:
 
 
 def record_all(requests: Sequence[tuple[Path, int]], out: Path, workers: int,
-               candidates: int, time_limit: float, shortcut_time: float,
-               shortcut_attempts: int, rollouts: int, settings: dict | None = None) -> int:
+               candidates: int, time_limit: float, settings: dict | None = None) -> int:
     """Record the (scene file, seed) `requests` not yet in `out` (candidates.jsonl), appending
     each request's records as it finishes, on `workers` processes; progress on stderr.
     Returns how many requests failed with an internal error (their tracebacks on stderr)."""
     from rearrangement_planner.tools.benchmark import start_pool
 
     done = {(r["scene"], r["seed"]) for r in read_records(out)}
-    todo = [(path, seed, candidates, time_limit, shortcut_time, shortcut_attempts, rollouts,
-             settings) for path, seed in requests if (path.stem, seed) not in done]
+    todo = [(path, seed, candidates, time_limit, settings) for path, seed in requests
+            if (path.stem, seed) not in done]
     failed = 0
     if not todo:
         return 0

@@ -1,7 +1,9 @@
-"""`rearrangement-plan SCENE.yaml`: plan one scene from the command line (DESIGN §8).
+"""`rearrangement-plan SCENE.yaml`: plan one scene from the command line (docs/design.md, "CLI").
 
 Exit codes: 0 solved, 1 not solved (timeout, start invalid, ...), 2 bad input (one line naming
-the problem). The JSON result holds the fields of DESIGN §8; `--plot` writes a top view.
+the problem). The JSON result holds the fields the design lists; `--plot` writes a top view.
+The plan request is the product's default (`planning.request.PlanRequest`, the node's too),
+changed by the options given.
 """
 
 from __future__ import annotations
@@ -19,13 +21,29 @@ import numpy as np
 
 from rearrangement_planner.model.errors import RearrangementError
 from rearrangement_planner.model.files import quote
+from rearrangement_planner.model.scene import Scene
+from rearrangement_planner.model.settings import parse_assignments
 from rearrangement_planner.physics.validation import load_scene
-from rearrangement_planner.planning.interface import PlannerOptions, Progress
-from rearrangement_planner.planning.pipeline import PipelineOptions, PlanOutput, plan_scene
-from rearrangement_planner.planning.registry import PLANNERS, PRODUCT_DEFAULTS, planner_spec
+from rearrangement_planner.planning.interface import Progress
+from rearrangement_planner.planning.pipeline import PlanOutput, plan_scene
+from rearrangement_planner.planning.registry import PLANNERS, planner_spec
+from rearrangement_planner.planning.request import (
+    DEFAULT_PLANNER,
+    STAGES,
+    PlanRequest,
+    request_settings,
+)
 
-DEFAULT_TREES = PRODUCT_DEFAULTS["trees"]
-"""Trees raced by default (`parallel`): the 2 cores of the reference machine."""
+FLAGS = {"time_limit": "--time-limit", "trees": "--trees", "shortcut_time": "--shortcut",
+         "shortcut_attempts": "--shortcut-attempts", "min_robustness": "--min-robustness",
+         "rollouts": "--rollouts", "candidates": "--candidates",
+         "travel_penalty": "--travel-penalty", "accept_best": "--accept-best"}
+"""The request settings that have an option of their own (the rest: --set NAME=VALUE)."""
+
+
+def _default(name: str) -> Any:
+    """The product default of a request setting (`planning.request`: written once)."""
+    return next(s.default for s in request_settings() if s.name == name)
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -35,32 +53,33 @@ def build_parser() -> argparse.ArgumentParser:
                     "objects (any link, several at once) until the goal object is inside its "
                     "goal region. Exit code 0 = solved, 1 = not solved, 2 = bad input.")
     parser.add_argument("scene", type=Path, nargs="?",
-                        help="scene YAML file (DESIGN §3 format) or a shipped scene's name")
-    parser.add_argument("--planner", choices=list(PLANNERS), default="pc-rrt",
-                        help="planning algorithm (default pc-rrt): " + "; ".join(
+                        help="scene YAML file (docs/design.md format) or a shipped scene's name")
+    parser.add_argument("--planner", choices=list(PLANNERS), default=DEFAULT_PLANNER,
+                        help=f"planning algorithm (default {DEFAULT_PLANNER}): " + "; ".join(
                             f"{name}: {spec.summary}" for name, spec in PLANNERS.items()))
-    parser.add_argument("--time-limit", type=float, default=60.0, metavar="S",
-                        help="planning budget in seconds; running out is a failure (default 60)")
+    parser.add_argument("--time-limit", type=float, metavar="S",
+                        help="planning budget in seconds; running out is a failure (default "
+                             f"{_default('time_limit'):g})")
     parser.add_argument("--seed", type=int, default=0, metavar="N",
                         help="random seed: the same scene, options and seed give the same plan "
                              "(default 0)")
-    parser.add_argument("--trees", type=int, default=DEFAULT_TREES, metavar="N",
+    parser.add_argument("--trees", type=int, metavar="N",
                         help="independent trees grown at once, one process each; the plan "
                              "found in the fewest iterations wins, so the result does not "
                              "depend on the machine's speed (OR-parallel RRT; default "
-                             f"{DEFAULT_TREES}; 1 = a single tree in this process)")
-    parser.add_argument("--shortcut", type=float, default=0.0, metavar="S",
-                        help="seconds of path shortcutting (King et al. §IV) after a plan is "
-                             "found (default 0: none). The JSON then also holds the path "
-                             "lengths before shortcutting")
-    parser.add_argument("--shortcut-attempts", type=int, default=None, metavar="N",
+                             f"{_default('trees')}; 1 = a single tree in this process)")
+    parser.add_argument("--shortcut", type=float, metavar="S",
+                        help="seconds of path shortcutting (King et al. 2015, §IV) after a plan "
+                             f"is found (default {_default('shortcut_time'):g}; 0: none)")
+    parser.add_argument("--shortcut-attempts", type=int, metavar="N",
                         help="stop shortcutting after N attempts even if time is left; a "
                              "bound that ends first makes the shortcut path reproducible "
-                             "(default: time only)")
+                             f"(default {_default('shortcut_attempts')}; 0: time only)")
     parser.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
-                        help="set any setting of the chosen planner, e.g. --set push_bias=0 "
-                             "--set greedy_goal=false (darrt: --set transit_time_limit=5); "
-                             "repeatable; `--list-settings` shows them")
+                        help="set any setting of the request, e.g. --set push_bias=0 "
+                             "--set max_turn=0 (darrt: --set transit_time_limit=5); a setting "
+                             "the planner does not read is refused; repeatable; "
+                             "`--list-settings` shows them")
     parser.add_argument("--list-settings", action="store_true",
                         help="print the chosen planner's settings (name, default, range, "
                              "description) and exit")
@@ -72,28 +91,24 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--plot", type=Path, metavar="OUT.png",
                         help="write a top view PNG: table, objects at start and end, their "
                              "paths, the end-effector path and the goal region")
-    robust = PipelineOptions()
-    parser.add_argument("--min-robustness", type=float, default=robust.min_robustness,
-                        metavar="R",
+    parser.add_argument("--min-robustness", type=float, metavar="R",
                         help="robust selection: a candidate plan that reaches the goal in this "
                              "share (0-1) of perturbed rollouts in the planner's physics ends "
                              "the search; else up to --candidates plans are planned and the "
                              "best ranked answers (--accept-best) or the request fails "
-                             f"(default {robust.min_robustness:g}; 0: off, the first plan)")
-    parser.add_argument("--rollouts", type=int, default=robust.rollouts, metavar="N",
-                        help=f"perturbed rollouts per candidate (default {robust.rollouts})")
-    parser.add_argument("--candidates", type=int, default=robust.candidates, metavar="K",
-                        help=f"most candidate plans (default {robust.candidates})")
-    parser.add_argument("--travel-penalty", type=float, default=robust.travel_penalty,
-                        metavar="P",
+                             f"(default {_default('min_robustness'):g}; 0: off, the first plan)")
+    parser.add_argument("--rollouts", type=int, metavar="N",
+                        help=f"perturbed rollouts per candidate (default {_default('rollouts')})")
+    parser.add_argument("--candidates", type=int, metavar="K",
+                        help=f"most candidate plans (default {_default('candidates')})")
+    parser.add_argument("--travel-penalty", type=float, metavar="P",
                         help="candidates are ranked by robustness less P per metre their goal "
-                             f"object is pushed (default {robust.travel_penalty:g}; 0: the "
+                             f"object is pushed (default {_default('travel_penalty'):g}; 0: the "
                              "most robust)")
     parser.add_argument("--accept-best", action=argparse.BooleanOptionalAction,
-                        default=robust.accept_best,
                         help="when no candidate reaches --min-robustness, answer with the best "
                              "ranked one instead of failing (default: "
-                             f"{'on' if robust.accept_best else 'off'})")
+                             f"{'on' if _default('accept_best') else 'off'})")
     parser.add_argument("--check-execution", action="store_true",
                         help="execute the plan open loop in MuJoCo with the arm's real collision "
                              "meshes (ideal and servo-driven arm) and report whether the goal "
@@ -119,23 +134,27 @@ def _progress_printer(quiet: bool):
     return show
 
 
-def _options(args: argparse.Namespace) -> PlannerOptions:
-    """The planner's options from --time-limit, --trees and every --set NAME=VALUE."""
-    spec = planner_spec(args.planner)
-    values: dict[str, Any] = {"time_limit": args.time_limit, "trees": args.trees}
+def plan_request(args: argparse.Namespace, scene: Scene) -> PlanRequest:
+    """The plan request of the command line: the product's default, changed by the options
+    given and every --set NAME=VALUE. RearrangementError names the option at fault."""
+    values: dict[str, Any] = {name: getattr(args, flag[2:].replace("-", "_"))
+                              for name, flag in FLAGS.items()}
+    values = {name: value for name, value in values.items() if value is not None}
     try:
-        values.update(spec.options_type.parse_assignments(args.set))
+        values.update(parse_assignments(request_settings(), args.set))
     except ValueError as exc:
-        raise RearrangementError(f"--set {exc} ({args.planner}'s settings)") from None
+        raise RearrangementError(f"--set {exc}") from None
     try:
-        return spec.options(**values)
+        return PlanRequest.from_settings(scene, args.planner, values, seed=args.seed)
     except ValueError as exc:
-        raise RearrangementError(f"--set/--time-limit/--trees: {exc}") from None
+        name = str(exc).split()[0].rstrip(":")
+        raise RearrangementError(f"{FLAGS.get(name, '--set')}: {exc}") from None
 
 
 def _settings_table(planner: str) -> str:
     lines = [f"settings of {planner} (--set NAME=VALUE):"]
-    for s in planner_spec(planner).options_type.describe():
+    stages = tuple(spec for stage in STAGES for spec in stage.describe())
+    for s in planner_spec(planner).settings() + stages:
         bounds = f" in [{s.low:g}, {s.high:g}]" if s.low is not None else ""
         bounds += f" one of {', '.join(s.choices)}" if s.choices else ""
         lines.append(f"  {s.name} = {s.default!r}{bounds}: {s.description}")
@@ -152,39 +171,19 @@ def main(argv: list[str] | None = None) -> int:
     try:
         if args.scene is None:
             raise RearrangementError("give a scene: a scene .yaml file or a shipped scene name")
-        if not args.time_limit > 0:
-            raise RearrangementError(f"--time-limit must be positive, got {args.time_limit}")
-        if not 1 <= args.trees <= 64:
-            raise RearrangementError(f"--trees must be between 1 and 64, got {args.trees}")
-        if not args.shortcut >= 0:
-            raise RearrangementError(f"--shortcut must be >= 0 s, got {args.shortcut}")
         if not 0 <= args.trials <= 1000 or (args.trials and not args.check_execution):
             raise RearrangementError(f"--trials must be between 0 and 1000 and goes with "
                                      f"--check-execution, got {args.trials}")
-        if args.shortcut_attempts is not None and args.shortcut_attempts < 1:
-            raise RearrangementError(f"--shortcut-attempts must be >= 1, got "
-                                     f"{args.shortcut_attempts}")
-        options = _options(args)
-        try:
-            robust = PipelineOptions(min_robustness=args.min_robustness, rollouts=args.rollouts,
-                                     candidates=args.candidates,
-                                     travel_penalty=args.travel_penalty,
-                                     accept_best=args.accept_best)
-        except ValueError as exc:
-            raise RearrangementError(f"--min-robustness/--rollouts/--candidates/"
-                                     f"--travel-penalty: {exc}") from None
         for option, path in (("--json", args.json), ("--record", args.record),
                              ("--plot", args.plot)):
             _check_output(option, path)
         scene = load_scene(args.scene)
+        request = plan_request(args, scene)
     except RearrangementError as exc:
         print(f"rearrangement-plan: {exc}", file=sys.stderr)
         return 2
     started = time.monotonic()
-    output = plan_scene(scene, args.planner, options,
-                        seed=args.seed, progress=_progress_printer(args.quiet),
-                        shortcut_time=args.shortcut, shortcut_attempts=args.shortcut_attempts,
-                        robust=robust)
+    output = plan_scene(request, progress=_progress_printer(args.quiet))
     result = output.result
     if not args.quiet:
         print(f"\r{result.outcome.value}: {result.message} "
@@ -209,7 +208,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.plot is not None:
         _plot(output, args.plot, args.seed, executed)
     if args.record is not None:
-        _record(output, args)
+        _record(output, request, args)
     if not args.quiet:
         summary = {k: record[k] for k in ("solved", "plan_time_s", "iterations",
                                           "goal_distance_m")}
@@ -291,17 +290,15 @@ def _plot(output: PlanOutput, path: Path, seed: int,
                   start_states_only=not result.solved, executed_paths=executed)
 
 
-def _record(output: PlanOutput, args: argparse.Namespace) -> None:
+def _record(output: PlanOutput, request: PlanRequest, args: argparse.Namespace) -> None:
     """Write the MCAP (the same recorder as the ROS node). A recording failure is reported on
     stderr and changes nothing else: the exit code still says whether the scene was solved, and
     the JSON and plot are already written."""
     from rearrangement_planner.io.plan_record import record_plan
     from rearrangement_planner.io.recording import RecordingError
 
-    parameters = {"planner": output.planner, "time_limit": args.time_limit, "seed": args.seed,
-                  "trees": args.trees,
-                  "shortcut": args.shortcut, "shortcut_attempts": args.shortcut_attempts,
-                  "scene": str(args.scene)}
+    parameters = {"planner": output.planner, "seed": args.seed, "scene": str(args.scene),
+                  **request.settings()}
     try:
         path = record_plan(args.record, output, plan_id=f"cli-{args.seed}",
                            parameters=parameters,

@@ -19,9 +19,10 @@ from rearrangement_planner.execution.mujoco_check import (
 )
 from rearrangement_planner.execution.open_loop import Command, OpenLoopExecution
 from rearrangement_planner.model.perturbation import Perturbation
-from rearrangement_planner.physics.step import Physics, PhysicsOptions
+from rearrangement_planner.physics.options import PhysicsOptions
+from rearrangement_planner.physics.step import Physics
 from rearrangement_planner.physics.validation import load_scene, parse_scene
-from rearrangement_planner.planning import PCRRTOptions, plan_scene
+from rearrangement_planner.planning import PCRRTOptions, PlanRequest, plan_scene
 from rearrangement_planner.planning.manifold import default_push_configuration, ik_on_manifold
 from rearrangement_planner.planning.trajectory import Trajectory
 
@@ -131,7 +132,8 @@ def test_servo_arm_tracks_the_straight_push_like_the_ideal_arm(straight_push):
 
 def test_a_real_plan_is_compared_with_its_prediction_point_by_point(panda):
     scene = load_scene("easy_push", robot=panda)
-    output = plan_scene(scene, "pc-rrt", PCRRTOptions(time_limit=60), seed=1)
+    output = plan_scene(PlanRequest.first_plan(scene, "pc-rrt", PCRRTOptions(time_limit=60),
+                                               seed=1))
     report = check_execution(scene, output.trajectory, output.trajectory_states)
     (target,) = report.objects
     assert report.executed_paths.shape == (len(output.trajectory), 1, 3)

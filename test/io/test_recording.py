@@ -39,7 +39,7 @@ from rearrangement_planner.io.recording import (
 )
 from rearrangement_planner.model.errors import RearrangementError
 from rearrangement_planner.physics.validation import load_scene, parse_scene
-from rearrangement_planner.planning import PCRRTOptions, plan_scene
+from rearrangement_planner.planning import PCRRTOptions, PlanRequest, plan_scene
 
 START_NS = 1_700_000_000_123_456_789
 FRAME = "world"
@@ -61,7 +61,8 @@ METADATA_KEYS = {"plan_id", "planner", "seed", "outcome", "message", "parameters
 
 @pytest.fixture(scope="module")
 def solved(tmp_path_factory):
-    output = plan_scene(load_scene("easy_push"), "pc-rrt", PCRRTOptions(time_limit=30), seed=0)
+    output = plan_scene(PlanRequest.first_plan(load_scene("easy_push"), "pc-rrt",
+                                                  PCRRTOptions(time_limit=30), seed=0))
     assert output.solved, output.result.message
     path = record_plan(tmp_path_factory.mktemp("rec") / "deep" / "dir" / "solved.mcap", output,
                        plan_id="plan-0001", parameters=PARAMETERS, planning_frame=FRAME,
@@ -71,7 +72,8 @@ def solved(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def failed(tmp_path_factory):
-    output = plan_scene(load_scene("clutter"), "pc-rrt", PCRRTOptions(time_limit=0.3), seed=0)
+    output = plan_scene(PlanRequest.first_plan(load_scene("clutter"), "pc-rrt",
+                                                  PCRRTOptions(time_limit=0.3), seed=0))
     assert not output.solved
     path = record_plan(tmp_path_factory.mktemp("rec") / "failed.mcap", output,
                        plan_id="plan-0002", parameters={}, planning_frame=FRAME,

@@ -12,11 +12,15 @@ import pytest
 from rearrangement_planner.model.errors import RobotModelError
 from rearrangement_planner.model.robot import RobotConfig, RobotModel
 from rearrangement_planner.model.state import State
+from rearrangement_planner.physics.options import simulation_options
 from rearrangement_planner.physics.step import Invalid, Physics
 from rearrangement_planner.physics.validation import load_scene
 from rearrangement_planner.planning.interface import StopReason
 from rearrangement_planner.planning.manifold import default_push_configuration, project_step
 from rearrangement_planner.planning.propagation import Action, Stops, constrained_prop
+
+SIM = simulation_options()
+"""Plain mechanics: objects slide however pushed (no tipping check, no turn limit)."""
 
 
 def test_tool_pose_and_jacobian_match_pinocchio(panda):
@@ -41,7 +45,7 @@ def test_step_contacts_agree_with_fcl(panda):
     python-fcl's deepest penetration (`CollisionWorld`) except within fcl's own error (GJK
     overestimates capsule-prism distances by up to 2 mm, see test_kernels)."""
     scene = load_scene("easy_push")
-    physics = Physics(scene)
+    physics = Physics(scene, SIM)
     tolerance = physics.options.penetration_tolerance
     rng = np.random.default_rng(3)
     start = scene.initial_state()
@@ -87,7 +91,7 @@ def test_the_compiled_propagation_takes_the_same_steps_as_python():
     whether it runs out (1, 63, 64, 65, 150 steps: batch edges), hits an invalid state or
     reaches the goal."""
     scene = load_scene("easy_push")
-    physics = Physics(scene)
+    physics = Physics(scene, SIM)
     start = scene.initial_state()
     q = default_push_configuration(physics.robot, scene.table.height)
     start = State(q, start.objects)
@@ -118,7 +122,7 @@ def test_a_push_to_the_goal_stops_there_in_the_compiled_propagation():
     """The goal test runs inside the compiled loop: a push of the easy_push box towards its
     goal ends on the first step whose box centre is within the radius."""
     scene = load_scene("easy_push")
-    physics = Physics(scene)
+    physics = Physics(scene, SIM)
     start = scene.initial_state()
     g, goal = scene.goal_index, np.asarray(scene.goal.position)
     distance = float(np.hypot(*(start.objects[g, :2] - goal)))
@@ -130,7 +134,7 @@ def test_a_push_to_the_goal_stops_there_in_the_compiled_propagation():
 
 def test_timeout_and_cancel_end_the_compiled_propagation():
     scene = load_scene("easy_push")
-    physics = Physics(scene)
+    physics = Physics(scene, SIM)
     start = scene.initial_state()
     action = Action(np.array([0.0, 0.0, 0.1]), 10.0, np.zeros(physics.robot.nq))
     late = Stops(scene.goal_index, (9.0, 9.0), 0.0, -math.inf, lambda: False)
@@ -159,7 +163,7 @@ def test_a_sphere_shape_is_a_capsule_of_length_zero_and_a_box_shape_is_refused(p
     results = []
     for shape in (sphere, capsule):
         robot = RobotModel(RobotConfig(**{**panda.config.__dict__, "contact_shapes": (shape,)}))
-        physics = Physics(scene, robot=robot)
+        physics = Physics(scene, SIM, robot=robot)
         state = State(default_push_configuration(robot, scene.table.height),
                       scene.initial_state().objects)
         action = Action(np.array([0.0, 0.1, 0.0]), 2.0, np.zeros(robot.nq))   # into the box
@@ -178,7 +182,7 @@ def test_the_compiled_replay_equals_physics_steps_and_stops_at_the_goal():
     from rearrangement_planner.planning.push_policy import push_policy_prop
 
     scene = load_scene("easy_push")
-    physics = Physics(scene)
+    physics = Physics(scene, SIM)
     start = State(default_push_configuration(scene.robot, scene.table.height),
                   scene.initial_state().objects)
     g, goal = scene.goal_index, np.asarray(scene.goal.position)

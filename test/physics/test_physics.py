@@ -9,9 +9,13 @@ import yaml
 
 from rearrangement_planner.model.robot import RobotConfig, RobotModel
 from rearrangement_planner.model.state import State
-from rearrangement_planner.physics.step import Invalid, Physics, PhysicsOptions
+from rearrangement_planner.physics.options import PhysicsOptions, simulation_options
+from rearrangement_planner.physics.step import OBJ_C, Invalid, Physics
 from rearrangement_planner.physics.validation import load_scene, parse_scene
 from rearrangement_planner.planning.manifold import default_push_configuration
+
+SIM = simulation_options()
+"""Plain mechanics: objects slide however pushed (no tipping check, no turn limit)."""
 
 TABLE = {"center": [0.55, 0.0], "size": [0.8, 1.2], "height": 0.0}
 # Arm folded low: the forearm (panda_link5) slopes down to 0.07 m and the wrist sits at object
@@ -92,7 +96,7 @@ def whole_arm_scene(panda):
 
 
 def test_whole_arm_sweep_moves_two_objects_at_once_with_forearm_and_wrist(whole_arm_scene):
-    physics = Physics(whole_arm_scene)
+    physics = Physics(whole_arm_scene, SIM)
     state, results = sweep(physics, whole_arm_scene.initial_state(), 0, 0.005, 150)
     assert all(r.valid for r in results), results[-1].detail
     simultaneous = [r for r in results if len(r.moved_objects) == 2]
@@ -106,7 +110,7 @@ def test_whole_arm_sweep_moves_two_objects_at_once_with_forearm_and_wrist(whole_
 
 def test_after_every_valid_step_no_penetration_and_no_overlap(whole_arm_scene):
     """Property over random sweeps: the invariants of DESIGN §5 hold after each valid step."""
-    physics = Physics(whole_arm_scene)
+    physics = Physics(whole_arm_scene, SIM)
     rng = np.random.default_rng(7)
     world, tol = physics.world, physics.options.penetration_tolerance
     checked = 0
@@ -131,7 +135,7 @@ def test_the_hand_pushing_the_target_moves_it_along(panda, push_q):
     """Tool on the pushing plane at (0.5, 0); a box ahead in +y; sweeping joint 1 pushes it +y."""
     tool = panda.tool_pose(push_q)[:3, 3]
     scene = make_scene([box("target", [tool[0] - 0.03, tool[1] + 0.16, 0.0])], push_q, robot=panda)
-    physics = Physics(scene)
+    physics = Physics(scene, SIM)
     state, results = sweep(physics, scene.initial_state(), 0, 0.004, 100)
     assert all(r.valid for r in results), results[-1].detail
     delta = state.objects[0] - scene.object_poses[0]
@@ -145,7 +149,7 @@ def test_chopping_a_motion_gives_the_same_result(whole_arm_scene, calls):
     2 mm and 0.05 rad (cylinders: their yaw is weakly determined) over a 0.6 rad sweep that
     pushes both objects ~20 cm (substeps bound the shape motion, so the chopping hardly
     matters; 1.2 mm measured with 100 calls)."""
-    physics = Physics(whole_arm_scene)
+    physics = Physics(whole_arm_scene, SIM)
     start = whole_arm_scene.initial_state()
     goal_q = start.q.copy()
     goal_q[0] += 0.6
@@ -165,7 +169,7 @@ def test_a_step_in_free_space_is_one_substep(panda):
     q = np.array(LOW_ARM)
     q[0] -= 0.7
     scene = make_scene([cylinder("far", [0.70, 0.48, 0.0])], q, robot=panda)
-    physics = Physics(scene)
+    physics = Physics(scene, SIM)
     start = scene.initial_state()
     result = physics.step(start, q + np.array([0.5, 0, 0, 0, 0, 0, 0]))
     assert result.valid and result.substeps == 1
@@ -178,7 +182,7 @@ def test_a_long_step_through_an_object_is_not_free_space(panda):
     q = np.array(LOW_ARM)
     q[0] -= 0.7
     scene = make_scene([cylinder("a", polar(0.5, 0.45))], q, robot=panda)
-    physics = Physics(scene)
+    physics = Physics(scene, SIM)
     start = scene.initial_state()
     q_next = q + np.array([1.8, 0, 0, 0, 0, 0, 0])
     for end in (q, q_next):
@@ -192,43 +196,18 @@ def test_limit_surface_c_uses_each_objects_footprint(panda):
     scene = make_scene([cylinder("can", [0.5, 0.3, 0.0], radius=0.04),
                         box("block", [0.5, -0.3, 0.0], size=(0.06, 0.08, 0.1))],
                        LOW_ARM, robot=panda)
-    even = Physics(scene, PhysicsOptions(pressure_at_rim=0.0))
-    assert even.c[0] == pytest.approx(2 * 0.04 / 3, rel=1e-12)
+    physics = Physics(scene, SIM)
+    assert physics.c[0] == pytest.approx(2 * 0.04 / 3, rel=1e-12)
     # 6 x 8 cm rectangle: mean distance from the centre, by numerical integration.
     xs = (np.arange(600) + 0.5) / 600 * 0.06 - 0.03
     ys = (np.arange(800) + 0.5) / 800 * 0.08 - 0.04
     rbar = np.hypot(*np.meshgrid(xs, ys)).mean()
-    assert even.c[1] == pytest.approx(rbar, rel=1e-5)
-    assert Physics(scene).c == even.c                    # uniform by default
-    # Half the weight on the rim (the can) and the corners (the block).
-    rim = Physics(scene, PhysicsOptions(pressure_at_rim=0.5))
-    assert rim.c[0] == pytest.approx(0.5 * 2 * 0.04 / 3 + 0.5 * 0.04, rel=1e-12)
-    assert rim.c[1] == pytest.approx(0.5 * rbar + 0.5 * 0.05, rel=1e-5)
-    assert rim.arrays.obj_props[1, 1] == rim.c[1]
-
-
-def test_weight_on_the_rim_turns_a_pushed_box_less(panda):
-    """The same off-centre push turns a box less when more of its weight rests on its
-    corners (a larger c: more moment to turn it per unit of force); the push is otherwise the
-    same."""
-    path = _push_path(panda, 0.56)
-    scene = make_scene([box("b", [0.48, 0.02, 0.0], size=(0.06, 0.08, 0.08))], path[0],
-                       robot=panda)
-    turns = []
-    for rim in (0.0, 0.5, 1.0):
-        physics = Physics(scene, PhysicsOptions(pressure_at_rim=rim))
-        state = scene.initial_state()
-        for q_next in path[1:]:
-            result = physics.step(state, q_next)
-            assert result.valid, result.detail
-            state = result.state
-        assert state.objects[0, 0] > 0.52                    # pushed, not passed by
-        turns.append(abs(state.objects[0, 2]))
-    assert turns[0] > turns[1] > turns[2] > 0.05, turns
+    assert physics.c[1] == pytest.approx(rbar, rel=1e-5)
+    assert physics.arrays.obj_props[1, OBJ_C] == physics.c[1]
 
 
 def test_step_is_deterministic(whole_arm_scene):
-    physics = Physics(whole_arm_scene)
+    physics = Physics(whole_arm_scene, SIM)
     start = whole_arm_scene.initial_state()
     q = start.q.copy()
     q[0] += 0.5
@@ -252,7 +231,7 @@ def test_pusher_displacement_is_the_link_motion(panda):
 
 
 def test_invalid_joint_limit(whole_arm_scene):
-    physics = Physics(whole_arm_scene)
+    physics = Physics(whole_arm_scene, SIM)
     start = whole_arm_scene.initial_state()
     q = start.q.copy()
     q[3] = 0.1
@@ -263,7 +242,7 @@ def test_invalid_joint_limit(whole_arm_scene):
 
 def test_invalid_arm_table_penetration(panda, push_q):
     scene = make_scene([box("far", [0.6, -0.45, 0.0])], push_q, robot=panda)
-    _, results = sweep(Physics(scene), scene.initial_state(), 1, 0.01, 40)  # shoulder down
+    _, results = sweep(Physics(scene, SIM), scene.initial_state(), 1, 0.01, 40)  # shoulder down
     assert results[-1].reason is Invalid.ARM_TABLE and "table" in results[-1].detail
 
 
@@ -272,7 +251,7 @@ def test_invalid_arm_obstacle_penetration(panda, push_q):
     post = {"name": "post", "shape": "box", "size": [0.05, 0.05, 0.3],
             "pose": [tool[0], tool[1] + 0.15, 0.0]}
     scene = make_scene([box("far", [0.6, -0.45, 0.0])], push_q, obstacles=[post], robot=panda)
-    _, results = sweep(Physics(scene), scene.initial_state(), 0, 0.005, 100)
+    _, results = sweep(Physics(scene, SIM), scene.initial_state(), 0, 0.005, 100)
     assert results[-1].reason is Invalid.ARM_OBSTACLE and "'post'" in results[-1].detail
 
 
@@ -285,7 +264,7 @@ def _pushed_into(panda, push_q, second=(), obstacles=(), table=TABLE, gap=0.005)
     scene = make_scene([box("target", target), *second(face)], push_q,
                        obstacles=obstacles(face) if obstacles else (), robot=panda,
                        table=table(face) if callable(table) else table)
-    _, results = sweep(Physics(scene), scene.initial_state(), 0, 0.004, 100)
+    _, results = sweep(Physics(scene, SIM), scene.initial_state(), 0, 0.004, 100)
     return results[-1]
 
 
@@ -320,7 +299,7 @@ def test_invalid_contact_from_above(panda, push_q):
     centre = poses[wrist, :3, 3]
     flat = box("flat", [centre[0], centre[1] + 0.1, 0.0], size=(0.06, 0.06, 0.03))
     scene = make_scene([flat], push_q, robot=panda)
-    _, results = sweep(Physics(scene), scene.initial_state(), 0, 0.004, 100)
+    _, results = sweep(Physics(scene, SIM), scene.initial_state(), 0, 0.004, 100)
     assert results[-1].reason is Invalid.CONTACT_FROM_ABOVE and "from above" in results[-1].detail
 
 
@@ -343,7 +322,7 @@ def test_invalid_jamming_between_two_links(panda):
     q[3], q[5] = -1.5, 1.5
     scene = make_scene([box("squeezed", [0.5, 0.0, 0.0], size=(0.06, 0.058, 0.12))], q,
                        robot=robot)
-    _, results = sweep(Physics(scene), scene.initial_state(), 0, 0.002, 20)
+    _, results = sweep(Physics(scene, SIM), scene.initial_state(), 0, 0.002, 20)
     assert results[-1].reason is Invalid.JAMMING
     assert "'squeezed'" in results[-1].detail and "jammed" in results[-1].detail
 
@@ -352,7 +331,7 @@ def test_invalid_residual_penetration():
     """With a zero tolerance and a receding pusher left inside the object, the penetration
     that no push can undo is reported."""
     scene = load_scene("config/scenes/default.yaml")
-    physics = Physics(scene, PhysicsOptions(penetration_tolerance=0.0))
+    physics = Physics(scene, PhysicsOptions(tipping=False, max_turn=0.0, penetration_tolerance=0.0))
     robot = scene.robot
     q = np.array(default_push_configuration(robot, 0.0))
     tool = robot.tool_pose(q)[:3, 3]
@@ -367,7 +346,7 @@ def test_invalid_residual_penetration():
 
 
 def test_check_state_reports_a_resting_state(whole_arm_scene):
-    physics = Physics(whole_arm_scene)
+    physics = Physics(whole_arm_scene, SIM)
     assert physics.check_state(whole_arm_scene.initial_state()) is None
     bad = whole_arm_scene.initial_state().with_objects(
         np.array([[0.43, 0.2, 0.0], [0.44, 0.2, 0.0]]))
@@ -415,159 +394,6 @@ def test_a_tipping_push_is_invalid_and_the_same_push_slides_without_the_check(pa
     assert reasons[False][0] is None and reasons[False][1] > 0.01
 
 
-def test_a_push_close_to_tipping_is_refused_with_a_tipping_margin(panda):
-    """The 6 x 8 x 12 cm box of the benchmark scenes (support friction 0.4) pushed along its
-    6 cm side by the hand (contact about 7 cm up): 0.4 x 0.07 is just under the 3 cm lever, so
-    it slides; judged with the friction 30 % higher it would tip, and the push is refused."""
-    path = _push_path(panda, 0.50)
-    target = {**box("target", [0.46, 0.0, 0.0], size=(0.06, 0.08, 0.12)),
-              "support_friction": 0.4}
-    scene = make_scene([target], path[0], robot=panda)
-    outcome = {}
-    for margin in (0.0, 0.3):
-        physics = Physics(scene, PhysicsOptions(tipping=True, tipping_margin=margin))
-        result, state = _walk(physics, scene.initial_state(), path[1:])
-        outcome[margin] = (result.reason, state.objects[0, 0] - 0.46)
-    assert outcome[0.0][0] is None and outcome[0.0][1] > 0.01          # slides
-    assert outcome[0.3][0] is Invalid.TIPPING and outcome[0.3][1] == 0.0
-
-
-# --------------------------------------------------------------------------------------------
-# Edge contacts (issue 18 item 2: pushes whose outcome no contact model predicts)
-# --------------------------------------------------------------------------------------------
-
-
-def _push_along_x(panda, obj):
-    """The hand on the pushing plane moving along +x from 0.40 to 0.50 m (`_push_path`) into
-    `obj`: the first invalid reason and detail with and without a 1 cm edge margin, and where
-    the object ends without it."""
-    path = _push_path(panda, 0.50)
-    scene = make_scene([obj], path[0], robot=panda)
-    outcome = {}
-    for margin in (0.0, 0.01):
-        physics = Physics(scene, PhysicsOptions(edge_margin=margin))
-        result, state = _walk(physics, scene.initial_state(), path[1:])
-        outcome[margin] = (result.reason, result.detail, state.objects[0])
-    return outcome
-
-
-@pytest.mark.parametrize("height", [0.12, 0.08])
-def test_a_push_on_the_middle_of_a_face_is_valid_with_the_edge_margin(panda, height):
-    """The finger pads meet the face flat, up to the box's top edge for the 8 cm box: the
-    normal is the face's, so the edge margin leaves the push alone."""
-    outcome = _push_along_x(panda, box("b", [0.46, 0.0, 0.0], size=(0.06, 0.08, height)))
-    for margin in (0.0, 0.01):
-        reason, detail, pose = outcome[margin]
-        assert reason is None, detail
-        assert pose[0] > 0.5 and abs(pose[2]) < 1e-6
-
-
-def test_a_push_at_a_vertical_edge_of_a_box_is_invalid_with_the_edge_margin(panda):
-    """The box stands 6 cm aside: the pads meet its vertical edge, with a normal between the
-    two faces'. Without the margin the model turns the box (by 0.46 rad); with it the step is
-    refused, naming the link and the object."""
-    outcome = _push_along_x(panda, box("b", [0.46, 0.06, 0.0], size=(0.06, 0.08, 0.12)))
-    reason, _, pose = outcome[0.0]
-    assert reason is None and pose[2] > 0.3
-    reason, detail, pose = outcome[0.01]
-    assert reason is Invalid.EDGE_CONTACT
-    assert detail == "panda_hand touches 'b' at an edge"
-    assert pose[0] < 0.47
-
-
-def test_a_push_over_the_top_edge_is_invalid_with_the_edge_margin(panda):
-    """A 6.5 cm box: the hand's lower capsule meets its top edge from above at a slant (not
-    steep enough for contact_from_above)."""
-    outcome = _push_along_x(panda, box("b", [0.46, 0.0, 0.0], size=(0.06, 0.08, 0.065)))
-    assert outcome[0.0][0] is None
-    assert outcome[0.01][0] is Invalid.EDGE_CONTACT
-
-
-# --------------------------------------------------------------------------------------------
-# Top clearance (issue 18 item 2: links passing just over an object tip the real one)
-# --------------------------------------------------------------------------------------------
-
-
-def _raised_path(panda, lift):
-    """The hand moving along +x from 0.30 to 0.52 m with the tool `lift` m above the pushing
-    plane (the tool's manifold over a table that high)."""
-    from rearrangement_planner.planning.manifold import ik_on_manifold
-
-    q = default_push_configuration(panda, lift)
-    path = []
-    for x in np.arange(0.30, 0.52, 0.005):
-        q = ik_on_manifold(panda, float(x), 0.0, 0.0, lift, q)
-        path.append(q)
-    return path
-
-
-def _lowest_point(panda, q):
-    """The lowest point of the hand's and the flange's contact shapes at q, m above the table
-    top (z = 0 here)."""
-    poses = panda.shape_poses(q)
-    low = math.inf
-    for pose, shape in zip(poses, panda.contact_shapes, strict=True):
-        if shape.link not in ("panda_hand", "panda_link7"):
-            continue
-        half = 0.5 * shape.dims[1] if shape.kind == "capsule" else 0.0
-        ends = [pose[:3, 3] + sign * half * pose[:3, 2] for sign in (-1.0, 1.0)]
-        low = min(low, min(e[2] for e in ends) - shape.dims[0])
-    return low
-
-
-@pytest.mark.parametrize("gap, refused", [(0.005, True), (0.015, True), (0.03, False)])
-def test_a_link_passing_just_over_an_object_is_invalid_with_the_top_clearance(panda, gap,
-                                                                              refused):
-    """The hand sweeps over a low box whose top is `gap` below its lowest point: without the
-    clearance nothing touches and the step is valid; with 2 cm the passes closer than that
-    are refused as the hand comes within 2 cm of the box's rim, naming the link, the object
-    and the gap."""
-    path = _raised_path(panda, 0.08)
-    height = _lowest_point(panda, path[0]) - gap
-    obj = box("low", [0.44, 0.0, 0.0], size=(0.06, 0.08, height))
-    scene = make_scene([obj], path[0], robot=panda)
-    result, state = _walk(Physics(scene, PhysicsOptions()), scene.initial_state(), path[1:])
-    assert result.valid and state.objects[0, 0] == 0.44
-    result, _ = _walk(Physics(scene, PhysicsOptions(top_clearance=0.02)),
-                      scene.initial_state(), path[1:])
-    if not refused:
-        assert result.valid, result.detail
-        return
-    assert result.reason is Invalid.OVER_TOP
-    link, rest = result.detail.split(" passes ")
-    assert link.startswith("panda_") and rest.endswith("over the top of 'low' "
-                                                      "(clearance 2.0 cm)")
-    assert gap - 0.001 <= float(rest.split(" cm")[0]) / 100 < 0.02   # refused on approach
-
-
-@pytest.mark.parametrize("height", [0.12, 0.08])
-def test_a_push_on_a_face_is_valid_with_the_top_clearance(panda, height):
-    """The finger pads pressed flat against a box's face (up to its top edge for the 8 cm
-    box) push it as without the clearance: they meet its side, not its top."""
-    path = _push_path(panda, 0.50)
-    scene = make_scene([box("b", [0.46, 0.0, 0.0], size=(0.06, 0.08, height))], path[0],
-                       robot=panda)
-    ends = []
-    for clearance in (0.0, 0.02):
-        result, state = _walk(Physics(scene, PhysicsOptions(top_clearance=clearance)),
-                              scene.initial_state(), path[1:])
-        assert result.valid, result.detail
-        ends.append(state.objects[0])
-    assert ends[0][0] > 0.5
-    np.testing.assert_allclose(ends[1], ends[0])
-
-
-def test_a_push_over_the_top_edge_is_invalid_with_the_top_clearance(panda):
-    """The 6.5 cm box whose top edge the hand's lower capsule meets at a slant (the edge
-    margin's case) is refused by the clearance too."""
-    path = _push_path(panda, 0.50)
-    scene = make_scene([box("b", [0.46, 0.0, 0.0], size=(0.06, 0.08, 0.065))], path[0],
-                       robot=panda)
-    result, _ = _walk(Physics(scene, PhysicsOptions(top_clearance=0.02)),
-                      scene.initial_state(), path[1:])
-    assert result.reason is Invalid.OVER_TOP
-
-
 def test_a_push_that_turns_its_object_fast_is_invalid_with_max_turn(panda):
     """Pushed 2.5 cm off its centre line the box turns about a radian over the push (6 rad
     per metre at first): refused with max_turn 5, named with its rate; the centred push and
@@ -578,8 +404,7 @@ def test_a_push_that_turns_its_object_fast_is_invalid_with_max_turn(panda):
     def push(offset, max_turn):
         scene = make_scene([box("b", [0.46, offset, 0.0], size=(0.06, 0.08, 0.12))], path[0],
                            robot=panda)
-        # Uniform pressure (the default): the turn rates quoted are the uniform model's.
-        physics = Physics(scene, PhysicsOptions(max_turn=max_turn, pressure_at_rim=0.0))
+        physics = Physics(scene, PhysicsOptions(max_turn=max_turn))
         state = scene.initial_state()
         for q_next in path[1:]:
             result = physics.step(state, q_next)
@@ -596,3 +421,35 @@ def test_a_push_that_turns_its_object_fast_is_invalid_with_max_turn(panda):
     for offset in (0.0, 0.015):
         result, state = push(offset, 5.0)
         assert result.valid and abs(state.objects[0, 2]) < 1e-3 and state.objects[0, 0] > 0.55
+
+
+def test_the_packed_options_follow_the_named_columns(panda):
+    """The compiled step reads `World.options` by the OPT_* constants: each column holds the
+    `PhysicsOptions` field `OPTION_FIELDS` names (distinct values, so a swapped column shows),
+    and every setting the kernels read is packed."""
+    from rearrangement_planner.physics import step
+
+    options = PhysicsOptions(max_substep=0.0031, penetration_tolerance=0.0021,
+                             overlap_tolerance=0.00011, vertical_normal_limit=0.61,
+                             tipping=True, max_turn=7.5)
+    packed = step.packed_options(options)
+    columns = {"max_substep": step.OPT_MAX_SUBSTEP, "penetration_tolerance": step.OPT_PENETRATION,
+               "overlap_tolerance": step.OPT_OVERLAP,
+               "vertical_normal_limit": step.OPT_VERTICAL_NORMAL, "tipping": step.OPT_TIPPING,
+               "max_turn": step.OPT_MAX_TURN}
+    assert len(packed) == len(step.OPTION_FIELDS) == len(columns) + 1
+    for name, column in columns.items():
+        assert step.OPTION_FIELDS[column] == name
+        assert packed[column] == float(getattr(options, name)), name
+    assert packed[step.OPT_FREE_SPACE] == step.FREE_SPACE_MARGIN
+    settings = {s.name for s in PhysicsOptions.describe()}
+    assert settings <= set(step.OPTION_FIELDS)        # every setting reaches the kernels
+    scene = make_scene([box("b", [0.5, -0.3, 0.0], size=(0.06, 0.08, 0.1),
+                            )], LOW_ARM, robot=panda)
+    props = Physics(scene, SIM).arrays.obj_props[0]
+    obj = scene.objects[0]
+    assert props[step.OBJ_CENTRE_Z] == pytest.approx(scene.table.height + 0.05)
+    assert props[step.OBJ_PUSHER_MU] == obj.pusher_friction
+    assert props[step.OBJ_SUPPORT_MU] == obj.support_friction
+    assert props[step.OBJ_FOOTPRINT] == obj.footprint_radius
+    assert props[step.OBJ_STATIC] == 0.0

@@ -126,21 +126,6 @@ def test_square_c_known_value_and_linear_scaling():
     assert 0.02 < base_box < 0.05
 
 
-def test_weight_on_the_rim_makes_c_the_mean_of_the_even_and_the_rim_values():
-    """rim = 1: a disk on its rim (c = R), a rectangle on its four corners (c = half the
-    diagonal); between, the weighted mean (an object resists turning more when its weight
-    is further out)."""
-    assert limit_surface_c("disk", 0.03, rim=1.0) == pytest.approx(0.03, rel=1e-15)
-    assert limit_surface_c("box", (0.06, 0.08), rim=1.0) == pytest.approx(0.05, rel=1e-15)
-    even, corners = limit_surface_c("box", (0.06, 0.08)), 0.05
-    assert limit_surface_c("box", (0.06, 0.08, 0.12), rim=0.3) == pytest.approx(
-        0.7 * even + 0.3 * corners, rel=1e-15)
-    assert limit_surface_c("cylinder", [0.03, 0.1], rim=0.5) == pytest.approx(
-        0.5 * 0.02 + 0.5 * 0.03, rel=1e-15)
-    with pytest.raises(PushingError, match=r"rim must be in \[0, 1\], got 1.5"):
-        limit_surface_c("box", (0.06, 0.08), rim=1.5)
-
-
 def test_limit_surface_rejects_bad_input():
     with pytest.raises(PushingError, match="unknown shape 'sphere'"):
         limit_surface_c("sphere", 0.1)

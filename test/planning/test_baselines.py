@@ -8,10 +8,13 @@ import numpy as np
 import pytest
 
 from rearrangement_planner.model.state import State
-from rearrangement_planner.physics.step import Invalid, Physics, PhysicsOptions
+from rearrangement_planner.physics.options import PhysicsOptions
+from rearrangement_planner.physics.step import Invalid, Physics
 from rearrangement_planner.physics.validation import load_scene
 from rearrangement_planner.planning import DARRT, Outcome, PCRRTOptions, StaticRRT
 from rearrangement_planner.planning.propagation import replay
+from rearrangement_planner.planning.request import PlanRequest
+from rearrangement_planner.planning.shortcut import ShortcutOptions
 
 STATIC_SEED = 1   # a seed for which the Static RRT solves the default scene quickly
 
@@ -65,9 +68,10 @@ def test_static_objects_in_the_physics_are_obstacles(default):
             x = result.state
         return result
 
-    free = sweep(Physics(default))
+    free = sweep(Physics(default, PhysicsOptions(tipping=False, max_turn=0.0)))
     assert free.valid and can in free.moved_objects or free.reason is not Invalid.ARM_OBSTACLE
-    blocked = sweep(Physics(default, PhysicsOptions(static_objects=frozenset({"can"}))))
+    blocked = sweep(Physics(default, PhysicsOptions(tipping=False, max_turn=0.0,
+                                                    static_objects=frozenset({"can"}))))
     assert not blocked.valid and blocked.reason is Invalid.ARM_OBSTACLE
     assert "'can'" in blocked.detail and "static" in blocked.detail
 
@@ -100,8 +104,8 @@ def test_static_rrt_shortcuts_never_move_a_non_goal_object(panda):
     from rearrangement_planner.tools.benchmark import scene_set_dir
 
     scene = load_scene(scene_set_dir() / "n4_s1.yaml", robot=panda)
-    output = plan_scene(scene, "static-rrt", PCRRTOptions(time_limit=60.0), seed=0,
-                        shortcut_time=60.0, shortcut_attempts=20)
+    output = plan_scene(PlanRequest.first_plan(scene, "static-rrt", PCRRTOptions(time_limit=60.0),
+                                               seed=0, shortcut=ShortcutOptions(60.0, 20)))
     assert output.result.solved, output.result.message
     assert output.metrics.path_length_rad < output.metrics_before_shortcut.path_length_rad
     states = output.result.states

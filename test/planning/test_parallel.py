@@ -3,16 +3,23 @@ iterations wins, so a race is reproducible and equals the single-process plan of
 tree's seed; it stops honestly (timeout = failure, cancel within 0.2 s) and the worker pool
 survives a cancelled race."""
 
-import dataclasses
 import time
 
 import numpy as np
 import pytest
 
 from rearrangement_planner.physics.validation import load_scene
-from rearrangement_planner.planning import Outcome, PCRRTOptions, make_planner, plan_scene
-from rearrangement_planner.planning.parallel import plan_race, race_key, tree_seed
+from rearrangement_planner.planning import (
+    PLANNERS,
+    Outcome,
+    PCRRTOptions,
+    PlanRequest,
+    make_planner,
+    plan_scene,
+)
+from rearrangement_planner.planning.parallel import RaceOptions, plan_race, race_key, tree_seed
 
+PC_RRT = PLANNERS["pc-rrt"]
 RACE_SEED = 10
 """On easy_push, tree 1 of this seed's race solves in fewer iterations than tree 0 (asserted
 below), so the race's plan comes from the worker process."""
@@ -44,7 +51,7 @@ def test_race_returns_the_fewest_iteration_plan_of_its_trees(easy, planner):
                for t in range(2)]
     assert all(s.solved for s in singles)
     winner = min(range(2), key=lambda t: race_key(singles[t].iterations, t, 2))
-    race = plan_race(planner, easy, dataclasses.replace(options, trees=2), seed=RACE_SEED)
+    race = plan_race(PLANNERS[planner], easy, options, 2, seed=RACE_SEED)
     assert race.solved, race.message
     assert race.seed == RACE_SEED and f"tree {winner} of 2" in race.message
     assert race.iterations == singles[winner].iterations
@@ -52,14 +59,15 @@ def test_race_returns_the_fewest_iteration_plan_of_its_trees(easy, planner):
     assert all(s.q.flags.writeable is False for s in race.states)
     if planner == "pc-rrt":
         assert winner == 1       # the plan crossed the process boundary
-    again = plan_race(planner, easy, dataclasses.replace(options, trees=2), seed=RACE_SEED)
+    again = plan_race(PLANNERS[planner], easy, options, 2, seed=RACE_SEED)
     assert _same_path(race, again)
 
 
 def test_plan_scene_races_when_asked(easy):
-    one = plan_scene(easy, "pc-rrt", PCRRTOptions(time_limit=60.0), seed=RACE_SEED).result
-    two = plan_scene(easy, "pc-rrt", PCRRTOptions(time_limit=60.0, trees=2),
-                     seed=RACE_SEED).result
+    one = plan_scene(PlanRequest.first_plan(easy, "pc-rrt", PCRRTOptions(time_limit=60.0),
+                                            seed=RACE_SEED)).result
+    two = plan_scene(PlanRequest.first_plan(easy, "pc-rrt", PCRRTOptions(time_limit=60.0),
+                                            seed=RACE_SEED, race=RaceOptions(trees=2))).result
     assert one.solved and two.solved
     assert "tree" not in one.message and "tree 1 of 2" in two.message
     assert two.iterations < one.iterations
@@ -67,7 +75,7 @@ def test_plan_scene_races_when_asked(easy):
 
 def test_race_timeout_is_a_failure_without_a_path(panda):
     scene = load_scene("seven_objects", robot=panda)
-    result = plan_race("pc-rrt", scene, PCRRTOptions(time_limit=1.0, trees=2), seed=1)
+    result = plan_race(PC_RRT, scene, PCRRTOptions(time_limit=1.0), 2, seed=1)
     assert result.outcome is Outcome.TIMEOUT and result.states == ()
     assert "2 trees" in result.message
     assert result.plan_time < 2.0
@@ -76,25 +84,25 @@ def test_race_timeout_is_a_failure_without_a_path(panda):
 def test_race_cancel_stops_within_0_2_s_and_the_pool_recovers(panda, easy, cancel_after):
     clutter = load_scene("clutter", robot=panda)            # not solved in 1 s
     result, running, latency = cancel_after(lambda cancel: plan_race(
-        "pc-rrt", clutter, PCRRTOptions(time_limit=60.0, goal_bias=0.0, trees=2), seed=3,
+        PC_RRT, clutter, PCRRTOptions(time_limit=60.0, goal_bias=0.0), 2, seed=3,
         cancel=cancel), 1.5)
     assert running
     assert result.outcome is Outcome.CANCELLED and result.states == ()
     assert latency < 0.2
     # The worker that was cut off is waited for; the next race works as usual.
-    after = plan_race("pc-rrt", easy, PCRRTOptions(time_limit=60.0, trees=2), seed=RACE_SEED)
+    after = plan_race(PC_RRT, easy, PCRRTOptions(time_limit=60.0), 2, seed=RACE_SEED)
     assert after.solved and "tree 1 of 2" in after.message
 
 
 def test_start_invalid_is_reported_once(easy):
     bad = easy.initial_state().with_q(np.array([0.0, 1.7, 0.0, -0.5, 0.0, 0.5, 0.0]))
-    result = plan_race("pc-rrt", easy, PCRRTOptions(time_limit=5.0, trees=2), start=bad)
+    result = plan_race(PC_RRT, easy, PCRRTOptions(time_limit=5.0), 2, start=bad)
     assert result.outcome is Outcome.START_INVALID and "table" in result.message
 
 
 def test_options_reject_a_bad_tree_count():
     with pytest.raises(ValueError, match="trees"):
-        PCRRTOptions(trees=0)
+        RaceOptions(trees=0)
 
 
 def test_a_failing_tree_stops_the_race(panda, easy, monkeypatch):
@@ -112,8 +120,7 @@ def test_a_failing_tree_stops_the_race(panda, easy, monkeypatch):
         patch.setattr(planner_module.PCRRT, "_sample", broken)
         t0 = time.monotonic()
         with pytest.raises(RuntimeError, match="broken sampler"):
-            plan_race("pc-rrt", clutter, PCRRTOptions(time_limit=60.0, goal_bias=0.0,
-                                                         trees=2), seed=3)
-    after = plan_race("pc-rrt", easy, PCRRTOptions(time_limit=60.0, trees=2), seed=RACE_SEED)
+            plan_race(PC_RRT, clutter, PCRRTOptions(time_limit=60.0, goal_bias=0.0), 2, seed=3)
+    after = plan_race(PC_RRT, easy, PCRRTOptions(time_limit=60.0), 2, seed=RACE_SEED)
     assert after.solved and "tree 1 of 2" in after.message
     assert time.monotonic() - t0 < 30.0          # not the 60 s the cut-off worker had left

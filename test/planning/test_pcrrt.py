@@ -175,43 +175,12 @@ def test_greedy_goal_push_runs_only_when_switched_on(easy, monkeypatch, greedy):
         assert calls == []
 
 
-@pytest.mark.parametrize("root_push", [True, False])
-def test_root_push_pushes_the_goal_object_from_the_start_first(easy, monkeypatch, root_push):
-    """With `root_push` the search begins with the greedy goal push from the root, the goal
-    object still where the scene puts it; without it, a greedy push only ever starts from a
-    node where the goal object has already moved closer."""
-    from rearrangement_planner.planning.push_policy import PushPolicy
-
-    starts, iterations_seen = [], []
-    original_push, original_iteration = PushPolicy.goal_push, PCRRT._iteration
-
-    def recording_push(self, x, rng, stop):
-        starts.append(x.objects[easy.goal_index, :2].copy())
-        return original_push(self, x, rng, stop)
-
-    def recording_iteration(self, run):
-        iterations_seen.append(len(starts))
-        return original_iteration(self, run)
-
-    monkeypatch.setattr(PushPolicy, "goal_push", recording_push)
-    monkeypatch.setattr(PCRRT, "_iteration", recording_iteration)
-    PCRRT(easy, PCRRTOptions(time_limit=60.0, max_iterations=40,
-                             root_push=root_push)).plan(seed=0)
-    start_xy = easy.initial_state().objects[easy.goal_index, :2]
-    from_start = [bool(np.allclose(xy, start_xy)) for xy in starts]
-    if root_push:
-        assert from_start[:1] == [True]
-        assert not iterations_seen or iterations_seen[0] >= 1
-    else:
-        assert not any(from_start)
-        assert not iterations_seen or iterations_seen[0] == 0
-
-
 def test_clear_blockers_pushes_the_blocking_object_out_of_the_line(panda):
     """The goal object's push ran into `blocker`: `clear_and_push` pushes the blocker (not the
     bystander) away from the line to the goal, and the whole action replays through the
     physics."""
-    from rearrangement_planner.physics.step import Invalid
+    from rearrangement_planner.physics.options import PhysicsOptions
+    from rearrangement_planner.physics.step import Invalid, Physics
     from rearrangement_planner.physics.validation import parse_scene
     from rearrangement_planner.planning.approach import approach_path
     from rearrangement_planner.planning.propagation import Propagation
@@ -227,7 +196,8 @@ def test_clear_blockers_pushes_the_blocking_object_out_of_the_line(panda):
          "pose": [0.3, -0.3, 0.0]}]
     data["goal"] = {"object": "target", "position": [0.5, -0.2], "radius": 0.06}
     scene = parse_scene(data, robot=panda)
-    planner = PCRRT(scene, PCRRTOptions(max_turn=0.0))   # the blocker, pushed aside, turns
+    # The blocker, pushed aside, turns: no turn limit here.
+    planner = PCRRT(scene, physics=Physics(scene, PhysicsOptions(max_turn=0.0)))
     start = approach_path(planner.physics, scene.initial_state(), np.random.default_rng(0))[0][-1]
     blocked = Propagation((), 0.0, Invalid.OBJECT_OVERLAP, frozenset())
     stop = planner.stop_check(lambda: False, math.inf)
@@ -272,8 +242,9 @@ def test_the_tipping_setting_keeps_plans_from_toppling_the_goal_object(panda):
     """`tipping` (a planner setting, honoured by plan_scene): a 4 cm x 4 cm x 20 cm post on a
     grippy table tips under any push at the hand's height, so with the check on no plan can
     move it; with it off (objects never tip) the same request is solved."""
+    from rearrangement_planner.physics.options import PhysicsOptions
     from rearrangement_planner.physics.validation import parse_scene
-    from rearrangement_planner.planning import plan_scene
+    from rearrangement_planner.planning import PlanRequest, plan_scene
 
     easy = load_scene("easy_push", robot=panda)
     post = {"name": "post", "shape": "box", "size": [0.04, 0.04, 0.2], "mass": 0.3,
@@ -286,64 +257,26 @@ def test_the_tipping_setting_keeps_plans_from_toppling_the_goal_object(panda):
                                                       "position": list(easy.goal.position),
                                                       "radius": easy.goal.radius}}, robot=panda)
     for tipping, solved in ((False, True), (True, False)):
-        options = PCRRTOptions(time_limit=60.0, max_iterations=300, tipping=tipping)
-        output = plan_scene(scene, "pc-rrt", options, seed=1)
+        request = PlanRequest.first_plan(scene, "pc-rrt", PCRRTOptions(time_limit=60.0,
+                                                                       max_iterations=300),
+                                         seed=1, physics=PhysicsOptions(tipping=tipping))
+        output = plan_scene(request)
         assert output.solved is solved, (tipping, output.result.message)
 
 
-def test_the_edge_margin_setting_reaches_the_planners_physics(easy):
-    """`edge_margin` (a planner setting, off by default) becomes the physics option of the
-    world the planner plans in; of a margin given with the physics and the setting, the larger
-    wins; 0 leaves the physics as given (world_sim's execution physics keeps 0)."""
-    from rearrangement_planner.physics.step import Physics, PhysicsOptions
-    from rearrangement_planner.planning.interface import planning_physics
+def test_the_pushing_model_settings_reach_the_planners_physics(easy):
+    """A request's `PhysicsOptions` (tipping, max_turn) are the physics its planner plans in,
+    the Static RRT's with its static objects on top; a plain `Physics(scene)` is the planner's
+    default pushing model (tipping on, the turn limit at 5 rad/m)."""
+    from rearrangement_planner.physics.options import PhysicsOptions
+    from rearrangement_planner.physics.step import Physics
+    from rearrangement_planner.planning.registry import PLANNERS
 
-    assert PCRRT(easy).physics.options.edge_margin == 0.0
-    assert PCRRT(easy, PCRRTOptions(edge_margin=0.02)).physics.options.edge_margin == 0.02
-    given = Physics(easy, PhysicsOptions(edge_margin=0.03))
-    assert planning_physics(easy, PCRRTOptions(), given).options.edge_margin == 0.03
-    plain = Physics(easy)
-    assert planning_physics(easy, PCRRTOptions(edge_margin=0.0, tipping=False, max_turn=0.0),
-                            plain) is plain
-    assert Physics(easy).options.edge_margin == 0.0
-
-
-def test_the_top_clearance_setting_reaches_the_planners_physics(easy):
-    """`top_clearance` (a planner setting) becomes the physics option of the world the
-    planner plans in; of a clearance given with the physics and the setting, the larger
-    wins."""
-    from rearrangement_planner.physics.step import Physics, PhysicsOptions
-    from rearrangement_planner.planning.interface import planning_physics
-
-    assert PCRRT(easy, PCRRTOptions(top_clearance=0.02)).physics.options.top_clearance == 0.02
-    given = Physics(easy, PhysicsOptions(top_clearance=0.03))
-    assert planning_physics(easy, PCRRTOptions(top_clearance=0.01),
-                            given).options.top_clearance == 0.03
-    assert Physics(easy).options.top_clearance == 0.0
-
-
-def test_the_max_turn_setting_reaches_the_planners_physics(easy):
-    """`max_turn` (a planner setting) becomes the physics option; of two limits, the
-    tighter wins (0 is no limit)."""
-    from rearrangement_planner.physics.step import Physics, PhysicsOptions
-    from rearrangement_planner.planning.interface import planning_physics
-
-    assert PCRRT(easy, PCRRTOptions(max_turn=7.0)).physics.options.max_turn == 7.0
-    given = Physics(easy, PhysicsOptions(max_turn=4.0))
-    assert planning_physics(easy, PCRRTOptions(max_turn=7.0), given).options.max_turn == 4.0
-    assert planning_physics(easy, PCRRTOptions(max_turn=0.0), given).options.max_turn == 4.0
-    assert planning_physics(easy, PCRRTOptions(max_turn=3.0), given).options.max_turn == 3.0
-
-
-def test_the_tipping_margin_setting_reaches_the_planners_physics(easy):
-    """`tipping_margin` (a planner setting) becomes the physics option; of two margins, the
-    larger wins; the robustness rollouts judge tipping with their own drawn friction."""
-    from rearrangement_planner.physics.step import Physics, PhysicsOptions
-    from rearrangement_planner.planning.interface import planning_physics
-
-    assert PCRRT(easy, PCRRTOptions(tipping_margin=0.3)).physics.options.tipping_margin == 0.3
-    given = Physics(easy, PhysicsOptions(tipping_margin=0.2))
-    assert planning_physics(easy, PCRRTOptions(tipping_margin=0.1),
-                            given).options.tipping_margin == 0.2
-    assert planning_physics(easy, PCRRTOptions(tipping_margin=0.5),
-                            given).options.tipping_margin == 0.5
+    assert Physics(easy).options == PhysicsOptions(tipping=True, max_turn=5.0)
+    given = Physics(easy, PhysicsOptions(max_turn=2.0, tipping=False))
+    assert PCRRT(easy, physics=given).physics.options.max_turn == 2.0
+    default = load_scene("default", robot=easy.robot)
+    given = Physics(default, PhysicsOptions(max_turn=2.0, tipping=False))
+    static = PLANNERS["static-rrt"].make(default, physics=given).physics.options
+    assert static.max_turn == 2.0 and not static.tipping
+    assert static.static_objects == {"can", "block"}

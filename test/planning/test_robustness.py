@@ -14,16 +14,17 @@ import pytest
 from rearrangement_planner.model.perturbation import Perturbation
 from rearrangement_planner.model.robot import RobotModel
 from rearrangement_planner.model.state import State
-from rearrangement_planner.physics.step import Invalid, Physics, PhysicsOptions
+from rearrangement_planner.physics.options import PhysicsOptions
+from rearrangement_planner.physics.step import Invalid, Physics
 from rearrangement_planner.physics.validation import load_scene
-from rearrangement_planner.planning import PCRRTOptions, StopReason, plan_scene
-from rearrangement_planner.planning.interface import planning_physics
+from rearrangement_planner.planning import PCRRTOptions, PlanRequest, StopReason, plan_scene
 from rearrangement_planner.planning.manifold import default_push_configuration, ik_on_manifold
 from rearrangement_planner.planning.parallel import tree_seed
-from rearrangement_planner.planning.pipeline import CANDIDATE_SEED_OFFSET, PipelineOptions
+from rearrangement_planner.planning.pipeline import CANDIDATE_SEED_OFFSET
 from rearrangement_planner.planning.propagation import Stops
 from rearrangement_planner.planning.push_policy import push_policy_prop
-from rearrangement_planner.planning.robustness import goal_travel, robustness
+from rearrangement_planner.planning.robustness import RobustOptions, goal_travel, robustness
+from rearrangement_planner.planning.shortcut import ShortcutOptions
 
 
 @pytest.fixture(scope="module")
@@ -31,10 +32,14 @@ def easy(panda):
     return load_scene("easy_push", robot=panda)
 
 
+FREE = PhysicsOptions(tipping=False, max_turn=0.0)
+"""Plain mechanics: no tipping check, no turn limit (these tests are about the goal)."""
+
+
 def _push_until(scene, distance: float) -> list[State]:
     """The closed-loop push of the box towards the goal centre from just behind it, stopped as
     soon as its centre is within `distance` (m) of the goal point: the start and every step."""
-    physics = Physics(scene)
+    physics = Physics(scene, FREE)
     g = scene.goal_index
     centre, goal = scene.object_poses[g, :2], np.asarray(scene.goal.position)
     u = (goal - centre) / np.linalg.norm(goal - centre)
@@ -52,48 +57,44 @@ def _push_until(scene, distance: float) -> list[State]:
 def test_a_plan_ending_on_the_goal_edge_is_fragile_and_one_ending_inside_is_robust(easy):
     edge = _push_until(easy, easy.goal.radius - 0.001)
     inside = _push_until(easy, 0.02)
-    fragile = robustness(easy, edge, rollouts=20, seed=0)
-    robust = robustness(easy, inside, rollouts=20, seed=0)
+    fragile = robustness(easy, edge, rollouts=20, seed=0, physics_options=FREE)
+    robust = robustness(easy, inside, rollouts=20, seed=0, physics_options=FREE)
     assert fragile < 0.8 <= robust, (fragile, robust)
-    assert robustness(easy, edge, rollouts=20, seed=0) == fragile          # reproducible
+    assert robustness(easy, edge, rollouts=20, seed=0, physics_options=FREE) == fragile
     nothing = Perturbation(friction=0.0, mass=0.0, pose_noise=0.0, yaw_noise=0.0,
                            contact_offset=0.0)
-    assert robustness(easy, edge, rollouts=3, seed=0, perturbation=nothing) == 1.0
+    assert robustness(easy, edge, rollouts=3, seed=0, perturbation=nothing,
+                      physics_options=FREE) == 1.0
 
 
 def test_rollouts_judge_the_goal_not_the_planners_choice_of_pushes(easy):
-    """The turn limit, the edge margin, the top clearance and the tipping margin restrict
-    which pushes a plan may use; a perturbed world that turns the box faster still counts if
-    the box reaches the goal
-    (judged with the turn limit, none of these 20 rollouts would count; with the tipping
-    margin, the push along the 6 cm box at 7 cm would tip in every one)."""
+    """The turn limit restricts which pushes a plan may use; a perturbed world that turns the
+    box faster still counts if the box reaches the goal (judged with the turn limit, none of
+    these 20 rollouts would count). With the tipping check, each rollout judges tipping with
+    its own drawn friction (some tip)."""
     inside = _push_until(easy, 0.02)
-    plain = robustness(easy, inside, rollouts=20, seed=0)
-    restricted = PhysicsOptions(max_turn=5.0, edge_margin=0.01, top_clearance=0.05)
+    plain = robustness(easy, inside, rollouts=20, seed=0, physics_options=FREE)
+    restricted = PhysicsOptions(tipping=False, max_turn=5.0)
     assert plain == 1.0
     assert robustness(easy, inside, rollouts=20, seed=0, physics_options=restricted) == plain
-    # With the tipping check, each rollout judges tipping with its own drawn friction (some
-    # tip), never with the planner's margin on top.
     tipping = robustness(easy, inside, rollouts=20, seed=0,
                          physics_options=PhysicsOptions(tipping=True))
-    margin = PhysicsOptions(tipping=True, tipping_margin=0.3)
     assert 0.0 < tipping < 1.0
-    assert robustness(easy, inside, rollouts=20, seed=0, physics_options=margin) == tipping
 
 
 def test_the_pipeline_accepts_only_robust_enough_plans(easy):
     options = PCRRTOptions(time_limit=60.0, goal_margin=0.03)
-    lenient = plan_scene(easy, "pc-rrt", options, seed=1,
-                         robust=PipelineOptions(min_robustness=0.5, rollouts=10, candidates=8,
-                                                accept_best=False))
+    lenient = plan_scene(PlanRequest.first_plan(
+        easy, "pc-rrt", options, seed=1,
+        robust=RobustOptions(min_robustness=0.5, rollouts=10, candidates=8, accept_best=False)))
     assert lenient.solved and lenient.robustness is not None and lenient.robustness >= 0.5
     assert lenient.to_dict()["robustness"] == lenient.robustness
-    strict = plan_scene(easy, "pc-rrt", options, seed=1,
-                        robust=PipelineOptions(min_robustness=1.0, rollouts=10, candidates=1,
-                                               accept_best=False))
+    strict = plan_scene(PlanRequest.first_plan(
+        easy, "pc-rrt", options, seed=1,
+        robust=RobustOptions(min_robustness=1.0, rollouts=10, candidates=1, accept_best=False)))
     if strict.robustness is not None and strict.robustness < 1.0:
         assert not strict.solved and "no plan reached min_robustness 1" in strict.result.message
-    unchecked = plan_scene(easy, "pc-rrt", options, seed=1)
+    unchecked = plan_scene(PlanRequest.first_plan(easy, "pc-rrt", options, seed=1))
     assert unchecked.robustness is None and unchecked.to_dict()["robustness"] is None
 
 
@@ -117,11 +118,11 @@ def three_candidates(easy):
     """The three candidates a robust search of easy_push with seed 6 plans (each the plan its
     own seed gives, scored the same way, 10 rollouts): (plan, robustness, goal travel m)."""
     options = PCRRTOptions(time_limit=60.0)
-    world = planning_physics(easy, options).options
+    world = PhysicsOptions()
     seeds = [6] + [tree_seed(6, CANDIDATE_SEED_OFFSET + k) for k in (1, 2)]
     candidates = []
     for seed in seeds:
-        plan = plan_scene(easy, "pc-rrt", options, seed=seed)
+        plan = plan_scene(PlanRequest.first_plan(easy, "pc-rrt", options, seed=seed))
         assert plan.solved
         candidates.append((plan, robustness(easy, plan.result.states, 10, seed,
                                             physics_options=world),
@@ -142,13 +143,15 @@ def test_with_accept_best_the_most_robust_candidate_answers_when_none_is_robust_
     scores = [score for _, score, _ in three_candidates]
     assert 0 < int(np.argmax(scores)) and max(scores) < 1.0, scores    # 0.4, 0.1, 0.8
     expected = three_candidates[int(np.argmax(scores))]
-    best = plan_scene(easy, "pc-rrt", options, seed=6, robust=PipelineOptions(
-        min_robustness=1.0, rollouts=10, candidates=3, travel_penalty=0.0, accept_best=True))
+    best = plan_scene(PlanRequest.first_plan(easy, "pc-rrt", options, seed=6, robust=RobustOptions(
+        min_robustness=1.0, rollouts=10, candidates=3, travel_penalty=0.0, accept_best=True)))
     assert best.solved and best.robustness == expected[1], (best.robustness, scores)
     assert best.result.seed == 6           # the request's seed, which reproduces the choice
     assert _same_path(best, expected[0])
-    refused = plan_scene(easy, "pc-rrt", options, seed=6, robust=PipelineOptions(
-        min_robustness=1.0, rollouts=10, candidates=3, accept_best=False))
+    refused = plan_scene(PlanRequest.first_plan(easy, "pc-rrt", options, seed=6,
+                                                robust=RobustOptions(min_robustness=1.0,
+                                                                     rollouts=10, candidates=3,
+                                                                     accept_best=False)))
     assert not refused.solved and refused.robustness == max(scores)
     assert "the most robust reached the goal in 80% of 10" in refused.result.message
 
@@ -162,8 +165,9 @@ def test_candidates_are_ranked_by_robustness_less_the_travel_penalty(easy, three
     for penalty in (0.0, 0.5, 10.0):
         ranks = [score - penalty * travel for _, score, travel in three_candidates]
         picks[penalty] = int(np.argmax(ranks))
-        chosen = plan_scene(easy, "pc-rrt", options, seed=6, robust=PipelineOptions(
-            min_robustness=1.0, rollouts=10, candidates=3, travel_penalty=penalty))
+        chosen = plan_scene(PlanRequest.first_plan(easy, "pc-rrt", options, seed=6,
+                                                   robust=RobustOptions(
+            min_robustness=1.0, rollouts=10, candidates=3, travel_penalty=penalty)))
         expected = three_candidates[picks[penalty]]
         assert chosen.robustness == expected[1] and _same_path(chosen, expected[0]), penalty
     assert picks == {0.0: 2, 0.5: 2, 10.0: 0}, picks
@@ -211,9 +215,9 @@ def test_the_rollouts_judge_the_shortcut_plan_and_count_in_its_plan_time(easy, m
     from rearrangement_planner.planning import pipeline
 
     options = PCRRTOptions(time_limit=60.0)
-    robust = PipelineOptions(min_robustness=0.1, rollouts=10, candidates=1)
-    output = plan_scene(easy, "pc-rrt", options, seed=5, shortcut_time=60.0,
-                        shortcut_attempts=20, robust=robust)
+    robust = RobustOptions(min_robustness=0.1, rollouts=10, candidates=1)
+    output = plan_scene(PlanRequest.first_plan(easy, "pc-rrt", options, seed=5,
+                                               shortcut=ShortcutOptions(60.0, 20), robust=robust))
     assert output.solved and output.metrics_before_shortcut is not None
     assert output.metrics.path_length_rad < output.metrics_before_shortcut.path_length_rad
     # (seed 5: the path before shortcutting scores 0.7, the shortcut one 0.5)
@@ -226,19 +230,17 @@ def test_the_rollouts_judge_the_shortcut_plan_and_count_in_its_plan_time(easy, m
         return 1.0
 
     monkeypatch.setattr(pipeline, "robustness", slow)
-    timed = plan_scene(easy, "pc-rrt", options, seed=1, robust=robust)
+    timed = plan_scene(PlanRequest.first_plan(easy, "pc-rrt", options, seed=1, robust=robust))
     assert timed.solved and timed.result.plan_time >= 0.3
 
 
 def test_rollouts_leave_out_the_planners_restrictions():
-    """The settings that choose which pushes the planner may use are off in a rollout; the
-    tipping check and the world's own options stay."""
+    """The turn limit, which chooses the pushes the planner may use, is off in a rollout; the
+    tipping check and the world's own options stay, the residual tolerance grows."""
     from rearrangement_planner.planning.robustness import rollout_options
 
-    planner = PhysicsOptions(tipping=True, tipping_margin=0.3, edge_margin=0.01,
-                             top_clearance=0.02, max_turn=5.0, pressure_at_rim=0.5)
+    planner = PhysicsOptions(tipping=True, max_turn=5.0, max_substep=0.003)
     rollout = rollout_options(planner)
-    assert (rollout.edge_margin, rollout.top_clearance, rollout.max_turn,
-            rollout.tipping_margin) == (0.0, 0.0, 0.0, 0.0)
-    assert rollout.tipping and rollout.pressure_at_rim == 0.5
+    assert rollout.max_turn == 0.0
+    assert rollout.tipping and rollout.max_substep == 0.003
     assert rollout.penetration_tolerance > planner.penetration_tolerance

@@ -5,10 +5,15 @@ import pytest
 
 from rearrangement_planner.physics.step import Physics
 from rearrangement_planner.physics.validation import load_scene
-from rearrangement_planner.planning import PCRRT, PathMetrics, PCRRTOptions, plan_scene
+from rearrangement_planner.planning import PCRRT, PathMetrics, PCRRTOptions, PlanRequest, plan_scene
 from rearrangement_planner.planning.manifold import manifold_error
 from rearrangement_planner.planning.propagation import replay
-from rearrangement_planner.planning.shortcut import connect, path_length, shortcut
+from rearrangement_planner.planning.shortcut import (
+    ShortcutOptions,
+    connect,
+    path_length,
+    shortcut,
+)
 
 
 @pytest.fixture(scope="module")
@@ -87,8 +92,8 @@ def test_connect_lands_exactly_and_stays_on_the_plane(easy, physics, plan):
 
 
 def test_pipeline_reports_lengths_before_and_after(easy):
-    out = plan_scene(easy, "pc-rrt", PCRRTOptions(time_limit=60.0), seed=1,
-                     shortcut_time=60.0, shortcut_attempts=30)
+    out = plan_scene(PlanRequest.first_plan(easy, "pc-rrt", PCRRTOptions(time_limit=60.0),
+                                            seed=1, shortcut=ShortcutOptions(60.0, 30)))
     record = out.to_dict()
     assert record["before_shortcut"]["path_length_rad"] >= record["path_length_rad"]
     assert out.metrics == PathMetrics.of(easy, out.result.states)
@@ -100,8 +105,9 @@ def test_shortcutting_keeps_the_goal_margin():
     """A plan made with goal_margin ends within radius - margin, and so does its shortcut (the
     shortcut judges the goal by the planner's radius, not the region's)."""
     scene = load_scene("easy_push")
-    output = plan_scene(scene, "pc-rrt", PCRRTOptions(time_limit=60.0, goal_margin=0.03), seed=0,
-                        shortcut_time=60.0, shortcut_attempts=40)
+    output = plan_scene(PlanRequest.first_plan(
+        scene, "pc-rrt", PCRRTOptions(time_limit=60.0, goal_margin=0.03), seed=0,
+        shortcut=ShortcutOptions(60.0, 40)))
     end = output.result.states[-1].objects[scene.goal_index, :2]
     assert output.solved and output.metrics.path_length_rad \
         <= output.metrics_before_shortcut.path_length_rad

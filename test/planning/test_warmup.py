@@ -61,7 +61,8 @@ def test_no_plan_compiles_anything_after_the_warm_up():
         from numba.core.registry import CPUDispatcher
         from rearrangement_planner.planning.warmup import warm_up
         from rearrangement_planner.physics.validation import load_scene
-        from rearrangement_planner.planning import PCRRTOptions, plan_scene
+        from rearrangement_planner.planning import PCRRTOptions, PlanRequest, plan_scene
+        from rearrangement_planner.planning.shortcut import ShortcutOptions
 
         def signatures():
             return {f"{d.py_func.__module__}.{d.py_func.__name__}": len(d.signatures)
@@ -72,8 +73,9 @@ def test_no_plan_compiles_anything_after_the_warm_up():
         before = signatures()
         for scene, planner in (("easy_push", "pc-rrt"), ("default", "static-rrt"),
                                ("easy_push", "darrt")):
-            plan_scene(load_scene(scene), planner, PCRRTOptions(max_iterations=60, trees=1),
-                       0, shortcut_time=5.0, shortcut_attempts=5)
+            plan_scene(PlanRequest.first_plan(load_scene(scene), planner,
+                                              PCRRTOptions(max_iterations=60),
+                                              shortcut=ShortcutOptions(5.0, 5)))
         after = signatures()
         print(json.dumps({name: [before.get(name, 0), count] for name, count in after.items()
                           if count != before.get(name, 0)}))

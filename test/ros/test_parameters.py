@@ -1,17 +1,22 @@
-"""Each setting written once (issue 17): the node's parameters come from the option
-dataclasses, and config/planner.yaml holds exactly their defaults, in their order."""
+"""Each setting written once: the node's parameters come from the option dataclasses, the node
+and the CLI plan the same default request, and config/planner.yaml holds exactly the defaults,
+in their order."""
 
 import dataclasses
 
 import pytest
 import yaml
 
+from rearrangement_planner.model.errors import InputError
 from rearrangement_planner.model.resources import config_dir
+from rearrangement_planner.model.settings import SettingSpec
+from rearrangement_planner.physics.options import PhysicsOptions
+from rearrangement_planner.physics.validation import load_scene
 from rearrangement_planner.planning import PLANNERS, DARRTOptions, PCRRTOptions, PlannerOptions
-from rearrangement_planner.planning.pipeline import PipelineOptions
-from rearrangement_planner.planning.registry import PRODUCT_DEFAULTS, all_settings
-from rearrangement_planner.planning.settings import SettingSpec
-from rearrangement_planner.ros.parameters import PARAMETERS
+from rearrangement_planner.planning.request import STAGES, PlanRequest, request_settings
+from rearrangement_planner.ros.parameters import DEFAULTS, PARAMETERS
+from rearrangement_planner.ros.plan_request import node_request
+from rearrangement_planner.tools.cli import build_parser, plan_request
 
 
 def test_config_file_lists_every_parameter_at_its_default_in_order():
@@ -25,10 +30,10 @@ def test_config_file_lists_every_parameter_at_its_default_in_order():
 
 def test_every_planner_setting_is_a_parameter_with_its_range_and_description():
     by_name = {p.name: p for p in PARAMETERS}
-    for options in (PlannerOptions, PCRRTOptions, DARRTOptions, PipelineOptions):
+    for options in (PlannerOptions, PCRRTOptions, DARRTOptions, PhysicsOptions, *STAGES):
         for setting in options.describe():
             parameter = by_name[setting.name]
-            assert parameter.default == PRODUCT_DEFAULTS.get(setting.name, setting.default)
+            assert parameter.default == setting.default
             assert (parameter.low, parameter.high) == (setting.low, setting.high)
             assert setting.description and parameter.description.startswith(
                 setting.description)
@@ -36,9 +41,37 @@ def test_every_planner_setting_is_a_parameter_with_its_range_and_description():
 
 def test_a_setting_shared_by_planners_has_one_default():
     for spec in PLANNERS.values():
-        for setting in spec.options_type.describe():
-            shared = next(s for s in all_settings() if s.name == setting.name)
-            assert shared.default == PRODUCT_DEFAULTS.get(setting.name, setting.default)
+        for setting in spec.settings():
+            shared = next(s for s in request_settings() if s.name == setting.name)
+            assert shared.default == setting.default
+    names = [s.name for s in request_settings()]
+    assert len(names) == len(set(names))
+
+
+@pytest.mark.parametrize("planner", list(PLANNERS))
+def test_the_node_and_the_cli_plan_the_same_default_request(planner):
+    """One source of product defaults: the node's parameters at their defaults and the CLI
+    without options build the same plan request (the scene aside, which each loads)."""
+    scene = load_scene("easy_push")
+    node = node_request({**DEFAULTS, "planner": planner}, scene)
+    cli = plan_request(build_parser().parse_args(["easy_push", "--planner", planner]), scene)
+    assert dataclasses.replace(node, scene=None) == dataclasses.replace(cli, scene=None)
+    assert node == PlanRequest(scene, planner)
+    assert (node.options.time_limit, node.trees, node.shortcut.shortcut_time,
+            node.robust.min_robustness) == (60.0, 2, 10.0, 1.0)
+
+
+def test_a_setting_the_planner_ignores_is_refused_by_the_node():
+    """DARRT never steps the physics: a turn limit other than the default is refused, naming
+    the parameter; at its default it is not."""
+    scene = load_scene("easy_push")
+    with pytest.raises(InputError, match="parameter max_turn: max_turn: darrt does not read"):
+        node_request({**DEFAULTS, "planner": "darrt", "max_turn": 2.0}, scene)
+    with pytest.raises(InputError, match="parameter k_actions"):
+        node_request({**DEFAULTS, "planner": "darrt", "k_actions": 5}, scene)
+    assert node_request({**DEFAULTS, "planner": "darrt"}, scene).planner.name == "darrt"
+    with pytest.raises(InputError, match="parameter planner"):
+        node_request({**DEFAULTS, "planner": "rrt-star"}, scene)
 
 
 def test_descriptions_come_from_the_field_docstrings():
@@ -70,10 +103,12 @@ def test_setting_text_is_parsed_to_its_type():
 
 
 def test_base_options_are_adopted_by_every_planner():
-    base = PlannerOptions(time_limit=5.0, max_iterations=7, trees=3)
+    base = PlannerOptions(time_limit=5.0, max_iterations=7)
     for spec in PLANNERS.values():
         options = spec.options(base)
         assert isinstance(options, spec.options_type)
-        assert (options.time_limit, options.max_iterations, options.trees) == (5.0, 7, 3)
+        assert (options.time_limit, options.max_iterations) == (5.0, 7)
     with pytest.raises(ValueError, match="darrt has no setting push_bias"):
         PLANNERS["darrt"].options(push_bias=0.5)
+    with pytest.raises(ValueError, match="darrt does not read push_bias"):
+        PLANNERS["darrt"].options(PCRRTOptions(push_bias=0.5))

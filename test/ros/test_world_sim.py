@@ -40,7 +40,8 @@ from msg_adapters import goal_to_pose_stamped, pose_array_to_objects  # noqa: E4
 from msg_adapters.command import command_from_msg  # noqa: E402
 from rearrangement_planner.execution.open_loop import Command, OpenLoopExecution  # noqa: E402
 from rearrangement_planner.model.errors import InputError, RearrangementError  # noqa: E402
-from rearrangement_planner.physics.step import Physics, PhysicsOptions  # noqa: E402
+from rearrangement_planner.physics.options import PhysicsOptions  # noqa: E402
+from rearrangement_planner.physics.step import Physics  # noqa: E402
 from rearrangement_planner.physics.validation import load_scene  # noqa: E402
 from rearrangement_planner.ros.replay import (  # noqa: E402
     OutcomeListener,

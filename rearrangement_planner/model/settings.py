@@ -1,5 +1,5 @@
 """Settings written once: frozen option dataclasses whose fields carry their range, and whose
-descriptions are the attribute docstrings under each field (STYLE 12, like OMPL's ParamSet).
+descriptions are the attribute docstrings under each field (like OMPL's ParamSet).
 
     @dataclass(frozen=True)
     class MyOptions(Settings):
@@ -63,6 +63,13 @@ def setting(default: Value, *, low: float | None = None, high: float | None = No
                              metadata={"low": low, "high": high, "choices": choices})
 
 
+def internal(default: Any) -> Any:
+    """A dataclass field that is not a setting: code sets it (a tolerance of the model, the
+    objects a baseline treats as obstacles); `describe()` leaves it out, so no node parameter
+    or `--set` reaches it."""
+    return dataclasses.field(default=default, metadata={"internal": True})
+
+
 @dataclass(frozen=True)
 class Settings:
     """Base of the option dataclasses: checks every field against its range on construction."""
@@ -77,6 +84,8 @@ class Settings:
         docs = _attribute_docs(cls)
         specs = []
         for f in dataclasses.fields(cls):
+            if f.metadata.get("internal"):
+                continue
             if not isinstance(f.default, bool | int | float | str):
                 raise TypeError(f"{cls.__name__}.{f.name} needs a default made by setting()")
             specs.append(SettingSpec(f.name, f.default, docs.get(f.name, ""),
@@ -86,20 +95,25 @@ class Settings:
 
     @classmethod
     def parse_assignments(cls, items: Sequence[str]) -> dict[str, Value]:
-        """Values from NAME=VALUE texts (the command lines' --set), each parsed by its
-        setting; ValueError beginning with the offending text."""
-        specs = {spec.name: spec for spec in cls.describe()}
-        values: dict[str, Value] = {}
-        for item in items:
-            name, sep, text = (part.strip() for part in item.partition("="))
-            if not sep or name not in specs:
-                raise ValueError(f"{item}: expected NAME=VALUE with NAME one of "
-                                 f"{', '.join(specs)}")
-            try:
-                values[name] = specs[name].parse(text)
-            except ValueError as exc:
-                raise ValueError(f"{item}: {exc}") from None
-        return values
+        """Values from NAME=VALUE texts (`parse_assignments` over this type's settings)."""
+        return parse_assignments(cls.describe(), items)
+
+
+def parse_assignments(specs: Sequence[SettingSpec], items: Sequence[str]) -> dict[str, Value]:
+    """Values from NAME=VALUE texts (the command lines' --set), each parsed by its setting in
+    `specs`; ValueError beginning with the offending text."""
+    by_name = {spec.name: spec for spec in specs}
+    values: dict[str, Value] = {}
+    for item in items:
+        name, sep, text = (part.strip() for part in item.partition("="))
+        if not sep or name not in by_name:
+            raise ValueError(f"{item}: expected NAME=VALUE with NAME one of "
+                             f"{', '.join(by_name)}")
+        try:
+            values[name] = by_name[name].parse(text)
+        except ValueError as exc:
+            raise ValueError(f"{item}: {exc}") from None
+    return values
 
 
 def check_value(spec: SettingSpec, value: Any) -> None:
