@@ -27,6 +27,7 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import multiprocessing
+import os
 import pickle
 import threading
 import time
@@ -122,10 +123,26 @@ def _build(blob: bytes) -> tuple[Scene, Physics]:
     return scene, Physics(scene, physics_options)
 
 
+PARENT_POLL = 0.5
+"""Seconds between a tree worker's checks that the process that started it is still there."""
+
+
+def _exit_with_parent(parent: int) -> None:
+    """A tree worker's watch: end the worker when the process that started it is gone (killed
+    without the chance to stop it, as a terminated benchmark worker is) instead of planning on
+    to its deadline with nobody to report to."""
+    while os.getppid() == parent:
+        time.sleep(PARENT_POLL)
+    os._exit(0)
+
+
 def _serve(conn, best, cancel) -> None:
     """A worker process: plan one tree per task until the pipe closes. It loads the compiled
     core first (`warm_up`), while the first task is on its way."""
     from rearrangement_planner.planning.warmup import warm_up
+
+    threading.Thread(target=_exit_with_parent, args=(os.getppid(),), daemon=True,
+                     name="parent-watch").start()
 
     warm_up()
     built: dict[str, tuple[Scene, Physics]] = {}

@@ -1,4 +1,4 @@
-"""Robust plans (the future work of King et al. 2015 and Haustein et al. 2019, after Koval,
+"""Robust plans (the future work of King et al. 2015 and Haustein et al. 2018, after Koval,
 King et al., "Robust trajectory selection for rearrangement planning as a multi-armed bandit
 problem", IROS 2015): an open-loop plan is only as good as the share of slightly different worlds in
 which it still works. `robustness` replays a plan's arm path in N perturbed copies of the

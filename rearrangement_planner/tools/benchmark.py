@@ -31,6 +31,7 @@ import io
 import logging
 import math
 import multiprocessing
+import multiprocessing.pool
 import os
 import signal
 import sys
@@ -562,17 +563,35 @@ def _worker(task: tuple[Trial, dict[str, Any]]) -> tuple[Trial, dict | None, str
         return trial, None, traceback.format_exc()
 
 
+class _TrialProcess(multiprocessing.get_context("spawn").Process):  # type: ignore[misc]
+    """A pool worker that may start processes of its own: a trial's plan request races its
+    trees on worker processes (`planning.parallel`), which a daemonic pool worker may not
+    start. The pool still terminates it (`Pool.terminate`)."""
+
+    @property
+    def daemon(self) -> bool:
+        return False
+
+    @daemon.setter
+    def daemon(self, value: bool) -> None:
+        pass
+
+
+class _TrialContext(type(multiprocessing.get_context("spawn"))):  # type: ignore[misc]
+    Process = _TrialProcess
+
+
 def start_pool(workers: int):
     """A pool of `workers` fresh interpreters (spawn: no state copied from the parent, the same
-    on every platform). They start with SIGINT ignored (an ignored signal stays ignored across
-    exec), so that a Ctrl-C while they import does not print their tracebacks; the parent
-    alone handles it."""
-    context = multiprocessing.get_context("spawn")
+    on every platform; non-daemonic, so that a trial may race trees). They start with SIGINT
+    ignored (an ignored signal stays ignored across exec), so that a Ctrl-C while they import
+    does not print their tracebacks; the parent alone handles it."""
+    context = _TrialContext()
     if threading.current_thread() is not threading.main_thread():
-        return context.Pool(workers, initializer=_worker_init)
+        return multiprocessing.pool.Pool(workers, initializer=_worker_init, context=context)
     previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
     try:
-        return context.Pool(workers, initializer=_worker_init)
+        return multiprocessing.pool.Pool(workers, initializer=_worker_init, context=context)
     finally:
         signal.signal(signal.SIGINT, previous)
 

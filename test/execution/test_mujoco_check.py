@@ -19,7 +19,7 @@ from rearrangement_planner.execution.mujoco_check import (
 )
 from rearrangement_planner.execution.open_loop import Command, OpenLoopExecution
 from rearrangement_planner.model.perturbation import Perturbation
-from rearrangement_planner.physics.options import PhysicsOptions
+from rearrangement_planner.physics.options import PhysicsOptions, simulation_options
 from rearrangement_planner.physics.step import Physics
 from rearrangement_planner.physics.validation import load_scene, parse_scene
 from rearrangement_planner.planning import PCRRTOptions, PlanRequest, plan_scene
@@ -56,7 +56,7 @@ def _pushed(panda, push_path, objects, options: PhysicsOptions | None = None):
             "goal": {"object": objects[0]["name"], "position": [0.59, 0.0], "radius": 0.02}}
     scene = parse_scene(data, robot=panda)
     trajectory = Trajectory(panda.joint_names, times, positions, np.zeros_like(positions))
-    options = dataclasses.replace(options or PhysicsOptions(), max_substep=0.001)
+    options = dataclasses.replace(options or simulation_options(), max_substep=0.001)
     execution = OpenLoopExecution(Physics(scene, options),
                                   scene.initial_state(), Command(times, positions), period=0.01)
     execution.run()
@@ -96,29 +96,6 @@ def test_an_off_centre_push_turns_the_box_as_much_as_in_mujoco(panda, push_path,
     for pose in (executed, predicted.objects[0]):
         assert abs(pose[2] - start[2] - turn) < 0.25, (pose, predicted.objects[0])
     assert np.linalg.norm(executed[:2] - predicted.objects[0, :2]) < 0.015
-
-
-def test_weight_on_the_corners_predicts_the_turn_mujoco_makes(panda):
-    """The hand turned 0.6 rad pushes a box 4 cm off its centre line: MuJoCo turns it by about
-    a radian. The model with half the weight on the box's corners (`pressure_at_rim` 0.5)
-    predicts that turn within 0.1 rad and the box's place within 1 cm; with uniform pressure
-    (the default) it turns the box a quarter radian more."""
-    xs = np.arange(0.40, 0.56 + 1e-9, 0.005)
-    q, path = default_push_configuration(panda, 0.0), []
-    for x in xs:
-        q = ik_on_manifold(panda, float(x), 0.0, 0.6, 0.0, q)
-        path.append(q)
-    turned = (np.concatenate([[0.0], 1.0 + np.arange(len(xs)) * 0.1]),
-              np.vstack([path[:1], path]))
-    box = {**BOX, "pose": [0.50, 0.04, 0.0]}
-    scene, trajectory, predicted = _pushed(panda, turned, [box],
-                                           PhysicsOptions(pressure_at_rim=0.5))
-    _, _, uniform = _pushed(panda, turned, [box])
-    executed = np.asarray(check_execution(scene, trajectory).objects[0].pose)
-    assert 0.8 < executed[2] < 1.2, executed
-    assert abs(predicted.objects[0, 2] - executed[2]) < 0.1, (predicted.objects[0], executed)
-    assert np.linalg.norm(predicted.objects[0, :2] - executed[:2]) < 0.01
-    assert uniform.objects[0, 2] - executed[2] > 0.15, (uniform.objects[0], executed)
 
 
 def test_servo_arm_tracks_the_straight_push_like_the_ideal_arm(straight_push):

@@ -8,7 +8,6 @@ calls the services. Isolated from other runs: localhost discovery and a domain i
 from __future__ import annotations
 
 import copy
-import dataclasses
 import json
 import os
 import re
@@ -47,8 +46,8 @@ from rearrangement_planner.model.resources import NODE_NAME, config_dir  # noqa:
 from rearrangement_planner.model.state import State  # noqa: E402
 from rearrangement_planner.physics.step import Physics  # noqa: E402
 from rearrangement_planner.physics.validation import load_scene  # noqa: E402
-from rearrangement_planner.planning import DARRTOptions, PCRRTOptions  # noqa: E402
 from rearrangement_planner.planning.propagation import replay  # noqa: E402
+from rearrangement_planner.planning.request import request_settings  # noqa: E402
 from rearrangement_planner.ros import plan_request as plan_request_module  # noqa: E402
 from rearrangement_planner.ros.node import EXECUTOR_THREADS, PlannerNode  # noqa: E402
 from rearrangement_planner.ros.parameters import DEFAULTS, PARAMETERS  # noqa: E402
@@ -230,12 +229,8 @@ def test_parameters_declared_once_with_descriptions_and_yaml_defaults(ros):
         numeric = isinstance(spec.default, (int, float)) and not isinstance(spec.default, bool)
         assert bool(descriptor.floating_point_range or descriptor.integer_range) == numeric
         assert descriptor.read_only == (spec.name in ("scene", "robot_description"))
-    for field in dataclasses.fields(PCRRTOptions) + dataclasses.fields(DARRTOptions):
-        assert field.name in DEFAULTS, f"{field.name} is no node parameter"
-        if field.name == "trees":       # the node races a tree per core of a 2-core machine
-            assert (DEFAULTS["trees"], field.default) == (2, 1)
-        else:
-            assert DEFAULTS[field.name] == field.default, field.name
+    for setting in request_settings():      # the planners', the pushing model's, the stages'
+        assert DEFAULTS[setting.name] == setting.default, setting.name
     data = yaml.safe_load((config_dir() / "planner.yaml").read_text())
     file_defaults = data[NODE_NAME]["ros__parameters"]
     assert file_defaults == {k: list(v) if isinstance(v, tuple) else v

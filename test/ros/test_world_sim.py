@@ -40,7 +40,7 @@ from msg_adapters import goal_to_pose_stamped, pose_array_to_objects  # noqa: E4
 from msg_adapters.command import command_from_msg  # noqa: E402
 from rearrangement_planner.execution.open_loop import Command, OpenLoopExecution  # noqa: E402
 from rearrangement_planner.model.errors import InputError, RearrangementError  # noqa: E402
-from rearrangement_planner.physics.options import PhysicsOptions  # noqa: E402
+from rearrangement_planner.physics.options import simulation_options  # noqa: E402
 from rearrangement_planner.physics.step import Physics  # noqa: E402
 from rearrangement_planner.physics.validation import load_scene  # noqa: E402
 from rearrangement_planner.ros.replay import (  # noqa: E402
@@ -113,7 +113,7 @@ class Sim:
 
 def replayed_offline(scene, command: Command, period: float = 1.0 / 50.0) -> OpenLoopExecution:
     """What world_sim (default rate and physics substep) should do, computed here."""
-    physics = Physics(scene, PhysicsOptions(max_substep=MAX_SUBSTEP))
+    physics = Physics(scene, simulation_options(MAX_SUBSTEP))
     execution = OpenLoopExecution(physics, scene.initial_state(), command, period)
     execution.run()
     return execution

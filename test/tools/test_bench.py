@@ -39,8 +39,8 @@ def test_physics_and_scenes_reject_non_positive_times(capsys):
     assert "--seconds" in capsys.readouterr().err
     assert main(["scenes", "--time-limit", "-1"]) == 2
     assert "--time-limit" in capsys.readouterr().err
-    assert main(["scenes", "--trees", "0"]) == 2
-    assert "--trees" in capsys.readouterr().err
+    assert main(["scenes", "--set", "trees=0"]) == 2
+    assert "--set: trees=0: trees must be in [1, 64], got 0" in capsys.readouterr().err
 
 
 def test_scenes_benchmark_reports_one_line_per_run(tmp_path, capsys):

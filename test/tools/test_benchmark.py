@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from rearrangement_planner.physics.options import simulation_options
 from rearrangement_planner.physics.step import Physics
 from rearrangement_planner.physics.validation import load_scene
 from rearrangement_planner.tools import bench, benchmark
@@ -153,7 +154,7 @@ def test_pushing_links_replays_the_path_through_the_physics():
     """The physics sweep of `bench physics` pushes with the forearm: the replay of the stepped
     path finds exactly the links the steps reported."""
     scene = bench.sweep_scene(bench.ONE_OBJECT)
-    physics = Physics(scene)
+    physics = Physics(scene, simulation_options())
     states, expected = [scene.initial_state()], set()
     for _ in range(120):
         q = states[-1].q.copy()
@@ -164,8 +165,9 @@ def test_pushing_links_replays_the_path_through_the_physics():
             expected |= result.pushing_links
         states.append(result.state)
     assert expected and "panda_link5" in expected
-    assert benchmark.pushing_links(Physics(scene), states) == expected
-    assert benchmark.pushing_links(Physics(scene), states[:1] * 3) == set()
+    assert benchmark.pushing_links(Physics(scene, simulation_options()), states) == expected
+    assert benchmark.pushing_links(Physics(scene, simulation_options()),
+                                   states[:1] * 3) == set()
     assert benchmark.objects_moved(scene, states) == ["object0"]
     assert benchmark.objects_moved(scene, states, skip=0) == []
 
@@ -196,8 +198,9 @@ def test_summary_success_at_budget_shortcut_means_and_pushing_links():
             _row("darrt", 2, False, 60.0), _row("darrt", 3, False, 60.0),
             _row("darrt", 3, False, 60.0)]
     protocol = {"scenes": ["n1_s0", "n2_s0", "n3_s0"], "planners": ["pc-rrt", "darrt"],
-                "seeds": [0], "time_limit": 60.0, "shortcut_time_s": 5.0,
-                "shortcut_attempts": 100, "quick": False}
+                "seeds": [0], "time_limit": 60.0,
+                "request_settings": {"shortcut_time": 5.0, "shortcut_attempts": 100},
+                "quick": False}
     rows[1]["shortcut_time_s"] = "5.0"   # ran out of time before its attempt bound
     for row, ideal, servo in ((rows[0], "1", "1"), (rows[1], "0", "1"), (rows[3], "0", "0")):
         row.update(executed_ideal=ideal, executed_servo=servo, executed_goal_distance_m="0.2")
@@ -236,8 +239,7 @@ def test_summary_success_at_budget_shortcut_means_and_pushing_links():
 def test_summary_counts_plans_found_after_the_time_limit_as_solved_but_not_within_it():
     rows = [_row("pc-rrt", 1, True, 2.0), _row("pc-rrt", 1, True, 61.2)]
     protocol = {"scenes": ["n1_s0"], "planners": ["pc-rrt"], "seeds": [0, 1],
-                "time_limit": 60.0, "shortcut_time_s": 5.0, "shortcut_attempts": 100,
-                "quick": False}
+                "time_limit": 60.0, "quick": False}
     pc = benchmark.summarize(rows, protocol)["planners"]["pc-rrt"]
     assert (pc["solved_share"], pc["solved_after_time_limit"]) == (1.0, 1)
     assert pc["success_at_budget"]["60"] == 0.5
@@ -248,7 +250,7 @@ def test_summary_does_not_claim_the_60_s_target_from_a_shorter_budget():
     for r in rows:
         r["time_limit"] = "20.0"
     protocol = {"scenes": ["n1_s0"], "planners": ["pc-rrt"], "seeds": [0], "time_limit": 20.0,
-                "shortcut_time_s": 5.0, "shortcut_attempts": 100, "quick": True}
+                "quick": True}
     target = benchmark.summarize(rows, protocol)["targets"]["solved_share_at_60s"]
     assert target["measured"] is None and "20 s < 60 s" in target["note"]
 
@@ -275,7 +277,8 @@ def test_progress_bar_redraws_in_place_on_a_terminal():
 # --------------------------------------------------------------------------------------------
 
 TINY = ["--scenes", "n1_s0", "n1_s1", "--planners", "pc-rrt", "static-rrt", "--seeds", "0",
-        "--time-limit", "4", "--shortcut", "3", "--shortcut-attempts", "3", "--workers", "1"]
+        "--time-limit", "4", "--set", "shortcut_time=3", "--set", "shortcut_attempts=3",
+        "--workers", "1"]
 
 
 def _read_csv(path: Path) -> tuple[list[str], list[dict]]:
@@ -352,7 +355,7 @@ def test_a_trial_that_fails_internally_is_reported_and_not_written(tmp_path):
 
     trial = benchmark.Trial("gone", str(tmp_path / "gone.yaml"), 1, "pc-rrt", 0, 1.0)
     stream = io.StringIO()
-    report = benchmark.run_trials([trial], tmp_path / "trials.csv", 1, 0.0, None, stream)
+    report = benchmark.run_trials([trial], tmp_path / "trials.csv", 1, {}, stream)
     assert (report.finished, report.failed, report.interrupted) == (0, 1, False)
     assert "gone pc-rrt seed 0 failed with an internal error" in stream.getvalue()
     assert "does not exist" in stream.getvalue()
@@ -364,7 +367,8 @@ def test_ctrl_c_keeps_complete_rows_stops_the_workers_and_says_how_to_resume(tmp
     7-object scene that takes the whole budget) runs."""
     out = tmp_path / "bench"
     args = ["run", "--scenes", "n1_s0", "n7_s0", "--planners", "pc-rrt", "--seeds", "0",
-            "--time-limit", "30", "--shortcut", "0", "--workers", "1", "--out", str(out)]
+            "--time-limit", "30", "--set", "shortcut_time=0", "--workers", "1", "--out",
+            str(out)]
     proc = subprocess.Popen(
         [sys.executable, "-m", "rearrangement_planner.tools.bench", *args], stdout=subprocess.PIPE,
         stderr=subprocess.PIPE, text=True, start_new_session=True,
@@ -422,8 +426,11 @@ def test_quick_protocol_is_14_scenes_3_planners_seed_0_at_20_s():
     assert len(trials) == 42
     assert {(t.planner, t.seed, t.time_limit) for t in trials} == {
         (p, 0, 20.0) for p in ("pc-rrt", "static-rrt", "darrt")}
-    # worst case: every trial uses its budget and the shortcut time, two workers
-    assert 42 * (20 + args.shortcut + 1) / 2 < 15 * 60
+    # each trial is the product's default request, which races 2 trees: one worker per 2 cores
+    assert args.settings == {} and args.workers == max(1, benchmark.usable_cores() // 2)
+    args = bench.build_parser().parse_args(["run", "--quick", "--set", "trees=1"])
+    bench.resolve_run(args)
+    assert args.settings == {"trees": 1} and args.workers == benchmark.usable_cores()
 
 
 def test_full_protocol_is_35_scenes_3_seeds_at_60_s_and_options_override_quick():
@@ -448,8 +455,9 @@ def _exit_code(argv: list[str]) -> int:
     (["--time-limit", "0"], "--time-limit"),
     (["--time-limit", "-3"], "--time-limit"),
     (["--time-limit", "nan"], "--time-limit"),
-    (["--shortcut", "-1"], "--shortcut"),
-    (["--shortcut-attempts", "0"], "--shortcut-attempts"),
+    (["--set", "shortcut_time=-1"], "--set"),
+    (["--set", "nope=1"], "--set"),
+    (["--planners", "darrt", "--set", "max_turn=1"], "--set"),
     (["--workers", "0"], "--workers"),
     (["--workers", str(benchmark.usable_cores() + 1)], "--workers"),
     (["--seeds", "-1"], "--seeds"),

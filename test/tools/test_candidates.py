@@ -52,7 +52,8 @@ def test_replay_table_counts_the_chosen_plans():
 def test_candidates_command_records_executes_and_replays(tmp_path, capsys):
     scene = str(scenes_dir() / "easy_push.yaml")
     args = ["candidates", "--scenes", scene, "--seeds", "1", "--candidates", "2",
-            "--time-limit", "20", "--rollouts", "5", "--workers", "1", "--out", str(tmp_path)]
+            "--time-limit", "20", "--set", "rollouts=5", "--workers", "1", "--out",
+            str(tmp_path)]
     assert main(args) == 0
     lines = (tmp_path / "candidates.jsonl").read_text().splitlines()
     records = [json.loads(line) for line in lines]
@@ -69,10 +70,11 @@ def test_candidates_command_records_executes_and_replays(tmp_path, capsys):
     assert (tmp_path / "candidates.jsonl").read_text().splitlines() == lines
 
 
-@pytest.mark.parametrize("option, value", [("--candidates", "0"), ("--rollouts", "0"),
-                                           ("--travel-penalty", "-1"), ("--time-limit", "0"),
-                                           ("--workers", "99"), ("--set", "nope=1"),
-                                           ("--set", "top_clearance=0.5")])
+@pytest.mark.parametrize("option, value", [("--candidates", "0"), ("--set", "rollouts=0"),
+                                           ("--set", "travel_penalty=-1"),
+                                           ("--time-limit", "0"), ("--workers", "99"),
+                                           ("--set", "nope=1"), ("--set", "max_turn=-1"),
+                                           ("--set", "transit_time_limit=3")])
 def test_candidates_command_names_a_bad_option(option, value, capsys, tmp_path):
     assert main(["candidates", option, value, "--out", str(tmp_path)]) == 2
     err = capsys.readouterr().err
@@ -85,5 +87,5 @@ def test_record_request_plans_with_the_given_settings():
     from rearrangement_planner.tools.candidates import record_request
 
     scene = scenes_dir() / "easy_push.yaml"
-    records = record_request(scene, 1, 1, 20.0, 0.0, 1, 1, {"max_iterations": 1})
+    records = record_request(scene, 1, 1, 20.0, {"max_iterations": 1, "rollouts": 1})
     assert [(r["k"], r["solved"]) for r in records] == [(0, False)]

@@ -65,14 +65,15 @@ def test_bad_option_exits_2(capsys):
     assert main([str(scenes_dir() / "easy_push.yaml"), "--time-limit", "-1", "--quiet"]) == 2
     assert "--time-limit" in capsys.readouterr().err
     assert main([str(scenes_dir() / "easy_push.yaml"), "--trees", "0", "--quiet"]) == 2
-    assert "--trees must be between 1 and 64, got 0" in capsys.readouterr().err
+    assert "--trees: trees must be in [1, 64], got 0" in capsys.readouterr().err
 
 
 @pytest.mark.parametrize("item, problem", [
     ("nope=1", "--set nope=1: expected NAME=VALUE with NAME one of"),
-    ("top_clearance", "--set top_clearance: expected NAME=VALUE"),
+    ("max_turn", "--set max_turn: expected NAME=VALUE"),
     ("greedy_goal=maybe", "--set greedy_goal=maybe: "),
-    ("top_clearance=0.5", "top_clearance must be in [0, 0.1], got 0.5")])
+    ("max_turn=-1", "max_turn must be in [0, 1000], got -1"),
+    ("trees=0", "--trees: trees must be in [1, 64], got 0")])
 def test_a_bad_set_exits_2_naming_it(item, problem, capsys):
     assert main([str(scenes_dir() / "easy_push.yaml"), "--set", item, "--quiet"]) == 2
     err = capsys.readouterr().err
@@ -152,7 +153,7 @@ def test_recording_failure_keeps_the_plan(tmp_path, capsys, monkeypatch):
 
 
 @pytest.mark.parametrize("option, value", [("--shortcut", "-1"),
-                                           ("--shortcut-attempts", "0"),
+                                           ("--shortcut-attempts", "-1"),
                                            ("--travel-penalty", "-1"),
                                            ("--planner", "rrt-star")])
 def test_bad_planner_options_exit_2(option, value, capsys):
@@ -215,6 +216,15 @@ def test_accept_best_answers_with_the_most_robust_candidate(tmp_path):
     assert main([*args, "--accept-best", "--json", str(out)]) == 0
     accepted = json.loads(out.read_text())
     assert accepted["solved"] and accepted["robustness"] == refused["robustness"] == 0.4
+
+
+def test_a_setting_the_planner_does_not_read_is_refused(capsys):
+    """DARRT never steps the quasistatic physics: a turn limit for it is refused, not
+    ignored; so is a PC-RRT setting."""
+    for item in ("max_turn=2", "push_bias=0.1"):
+        assert main(["easy_push", "--planner", "darrt", "--set", item, "--quiet"]) == 2
+        name = item.split("=")[0]
+        assert f"{name}: darrt does not read it" in capsys.readouterr().err
 
 
 def test_set_reaches_the_planner(tmp_path):
