@@ -33,6 +33,7 @@ import numpy as np
 from rearrangement_planner.model.scene import Scene
 from rearrangement_planner.model.settings import setting
 from rearrangement_planner.model.state import State
+from rearrangement_planner.physics.collision import CollisionWorld
 from rearrangement_planner.physics.step import Physics
 from rearrangement_planner.planning.approach import approach_path
 from rearrangement_planner.planning.interface import (
@@ -99,6 +100,26 @@ class PCRRTOptions(PlannerOptions):
         if self.min_duration > self.max_duration:
             raise ValueError(f"min_duration ({self.min_duration:g} s) must be at most "
                              f"max_duration ({self.max_duration:g} s)")
+
+
+def sample_arrangement(scene: Scene, rng: np.random.Generator, goal_bias: float,
+                       goal_radius: float, goal_xy: np.ndarray, world: CollisionWorld
+                       ) -> np.ndarray:
+    """Object poses (M, 3) for a sample (King et al. 2015, §III-B): each object uniform on the
+    table, the goal object within `goal_radius` of `goal_xy` with probability `goal_bias`,
+    redrawn while objects overlap (at most 100 draws)."""
+    lo, hi = scene.table.lower, scene.table.upper
+    m = len(scene.objects)
+    for _ in range(100):
+        objects = np.column_stack([rng.uniform(lo[0], hi[0], m), rng.uniform(lo[1], hi[1], m),
+                                   rng.uniform(-math.pi, math.pi, m)])
+        if rng.random() < goal_bias:
+            r = goal_radius * math.sqrt(rng.random())
+            a = rng.uniform(-math.pi, math.pi)
+            objects[scene.goal_index, :2] = goal_xy + r * np.array([math.cos(a), math.sin(a)])
+        if not world.object_overlaps(objects):
+            break
+    return objects
 
 
 class PCRRT:
@@ -210,21 +231,11 @@ class PCRRT:
         return self.robot.frame_pose(q, self._tool_frame)[:2, 3]
 
     def _sample(self, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
-        """SampleConfiguration (§III-B): rejection sampling of object poses without overlap."""
+        """SampleConfiguration (§III-B): object poses (`sample_arrangement`), then the arm."""
         scene, opts = self.scene, self.options
         lo, hi = scene.table.lower, scene.table.upper
-        m = len(scene.objects)
-        world = self.physics.world
-        for _ in range(100):
-            objects = np.column_stack([rng.uniform(lo[0], hi[0], m), rng.uniform(lo[1], hi[1], m),
-                                       rng.uniform(-math.pi, math.pi, m)])
-            if rng.random() < opts.goal_bias:
-                r = opts.goal_radius(scene) * math.sqrt(rng.random())
-                a = rng.uniform(-math.pi, math.pi)
-                objects[scene.goal_index, :2] = self._goal_xy + r * np.array([math.cos(a),
-                                                                              math.sin(a)])
-            if not world.object_overlaps(objects):
-                break
+        objects = sample_arrangement(scene, rng, opts.goal_bias, opts.goal_radius(scene),
+                                     self._goal_xy, self.physics.world)
         if opts.sampler == "uniform":
             arm = rng.uniform(self.robot.lower, self.robot.upper)
         else:

@@ -113,8 +113,8 @@ def constrained_prop(physics: Physics, state: State, action: Action, dt: float,
 
 @dataclass(frozen=True)
 class PushTarget:
-    """A closed-loop push (`push_policy.push_velocity`, compiled here as `_push_velocity`):
-    object `obj` towards `target` (x, y), the tool at most `speed` m/s per component."""
+    """A closed-loop push (the law of `_push_velocity`): object `obj` towards `target` (x, y),
+    the tool at most `speed` m/s per component."""
 
     obj: int
     target: tuple[float, float]
@@ -177,7 +177,7 @@ def _policy_array(physics: Physics, push: PushTarget | None) -> np.ndarray:
 @njit(cache=True)
 def _push_velocity(tool_x: float, tool_y: float, cx: float, cy: float, yaw: float,
                    policy: np.ndarray, dt: float, out: np.ndarray) -> bool:
-    """`push_policy.push_velocity` compiled, the object's shape from `policy`
+    """The closed-loop push law (`push_policy` drives it), the object's shape from `policy`
     (`_policy_array`): writes the tool velocity into out[:2]; False once the object is
     within 1 cm of the target."""
     tx, ty, speed, band = policy[1], policy[2], policy[3], policy[8]

@@ -21,6 +21,7 @@ from rearrangement_planner.physics.step import Physics
 from rearrangement_planner.planning.darrt import DARRT, DARRTOptions
 from rearrangement_planner.planning.interface import Planner, PlannerOptions
 from rearrangement_planner.planning.pcrrt import PCRRT, PCRRTOptions
+from rearrangement_planner.planning.slice_rrt import SliceRRT, SliceRRTOptions
 from rearrangement_planner.planning.static_rrt import StaticRRT, static_physics
 
 
@@ -83,6 +84,9 @@ PLANNERS: dict[str, PlannerSpec] = {
                                   "Alg. 1)"),
     "static-rrt": PlannerSpec("static-rrt", StaticRRT, PCRRTOptions, static_physics,
                               summary="PC-RRT with every non-goal object a static obstacle"),
+    "slice-rrt": PlannerSpec("slice-rrt", SliceRRT, SliceRRTOptions,
+                             summary="slice-based RRT with manipulation states and pushes "
+                                     "from an oracle (Haustein et al. 2018, Alg. 1)"),
     "darrt": PlannerSpec("darrt", DARRT, DARRTOptions, steps_physics=False, shortcut=False,
                          summary="DARRT primitives: transit, RRT transit, rigid straight push"),
 }
