@@ -100,7 +100,7 @@ def test_help_explains_every_option(capsys):
         assert option in text
 
 
-@pytest.mark.parametrize("planner", ["static-rrt", "darrt"])
+@pytest.mark.parametrize("planner", ["static-rrt", "slice-rrt", "darrt"])
 def test_baseline_planners_from_the_cli(tmp_path, planner):
     out = tmp_path / "plan.json"
     code = main([str(scenes_dir() / "easy_push.yaml"), "--planner", planner, "--time-limit",

@@ -1,0 +1,112 @@
+"""The slice-based RRT (Haustein et al. 2018, Algorithm 1) with the hand-made oracle: it solves,
+is reproducible, its path replays through the physics, its transits leave the objects where
+they are, its tree is grouped by object arrangement, and the oracle puts the hand behind the
+object."""
+
+import math
+
+import numpy as np
+import pytest
+
+from rearrangement_planner.model.state import State
+from rearrangement_planner.physics.step import Physics
+from rearrangement_planner.physics.validation import load_scene
+from rearrangement_planner.planning import PLANNERS, Outcome
+from rearrangement_planner.planning.manifold import ik_on_manifold, tool_planar_pose
+from rearrangement_planner.planning.propagation import replay
+from rearrangement_planner.planning.push_policy import support_distance
+from rearrangement_planner.planning.slice_rrt import HandOracle, SliceRRT, SliceRRTOptions
+
+
+@pytest.fixture(scope="module")
+def default(panda):
+    return load_scene("default", robot=panda)
+
+
+@pytest.fixture(scope="module")
+def default_plan(default):
+    return SliceRRT(default, SliceRRTOptions(time_limit=60.0)).plan(seed=0)
+
+
+def test_the_default_scene_is_solved_and_ends_in_the_goal(default, default_plan):
+    assert default_plan.solved, default_plan.message
+    assert default.goal.reached(default_plan.states[-1].objects[default.goal_index, :2])
+    np.testing.assert_array_equal(default_plan.states[0].q, default.start_configuration)
+
+
+def test_same_seed_same_plan(default, default_plan):
+    again = SliceRRT(default, SliceRRTOptions(time_limit=60.0)).plan(seed=0)
+    assert again.iterations == default_plan.iterations
+    assert np.array_equal(again.arm_path, default_plan.arm_path)
+
+
+def test_every_edge_replays_to_the_same_states(default, default_plan):
+    states, problem = replay(Physics(default), default_plan.states[0], default_plan.arm_path)
+    assert problem == ""
+    for planned, replayed in zip(default_plan.states, states, strict=True):
+        np.testing.assert_allclose(replayed.objects, planned.objects, atol=1e-12)
+
+
+def test_the_hand_oracle_puts_the_finger_tips_behind_the_object(default, panda):
+    """The manipulation state: the tool `reach + standoff` behind the object's far side from
+    the target, facing the push; IK reaches it, and there the hand touches nothing."""
+    options = SliceRRTOptions(standoff=0.01)
+    oracle = HandOracle(default, panda.tool_reach, panda.nq, options)
+    objects = default.object_poses
+    t = default.goal_index
+    target = objects[t, :2] + np.array([0.0, -0.2])
+    pose = oracle.manipulation_state(objects, t, target, np.random.default_rng(0))
+    u = np.array([0.0, -1.0])
+    back = support_distance(default.objects[t], float(objects[t, 2]), -u) + panda.tool_reach \
+        + 0.01
+    np.testing.assert_allclose(pose[:2], objects[t, :2] - u * back, atol=1e-12)
+    assert pose[2] == pytest.approx(-math.pi / 2)
+    assert oracle.manipulation_state(objects, t, objects[t, :2], np.random.default_rng(0)) \
+        is None                                      # nothing to push
+    push = oracle.push(pose, objects, t, target)
+    np.testing.assert_allclose(push.velocity, [0.0, -options.max_speed, 0.0], atol=1e-12)
+    assert push.duration == pytest.approx(0.2 / options.max_speed)
+
+
+def test_a_transit_stops_before_it_would_move_an_object(default, panda):
+    """The tool steered straight through the can: the transit ends before the can moves, so
+    it stays in its slice."""
+    planner = SliceRRT(default, SliceRRTOptions())
+    can = default.object_index("can")
+    x, y = default.object_poses[can, :2]
+    q = ik_on_manifold(panda, x - 0.2, y, 0.0, default.table.height, panda.home,
+                       rng=np.random.default_rng(0))
+    start = State(q, default.object_poses)
+    transit = planner._transit(start, np.array([x + 0.2, y, 0.0]), planner.stop_check(
+        lambda: False, math.inf))
+    assert transit.states, "the transit should get some way towards the can"
+    for state in transit.states:
+        np.testing.assert_array_equal(state.objects, start.objects)
+    end = tool_planar_pose(panda, transit.states[-1].q)
+    assert end[0] < x                                 # it did not pass the can
+
+
+def test_the_tree_is_grouped_in_slices_of_one_arrangement(default):
+    planner = SliceRRT(default, SliceRRTOptions(time_limit=60.0, max_iterations=150))
+    captured = {}
+    original = planner._iteration
+
+    def spy(run):
+        captured["run"] = run
+        return original(run)
+
+    planner._iteration = spy
+    result = planner.plan(seed=3)
+    run = captured["run"]
+    assert result.outcome in (Outcome.SUCCEEDED, Outcome.TIMEOUT)
+    assert len(run.members) > 1                      # pushes made new slices
+    assert sum(len(m) for m in run.members) == run.tree.n
+    for index, nodes in enumerate(run.members):
+        for node in nodes:
+            np.testing.assert_array_equal(run.tree.objects[node], run.slice_objects[index])
+
+
+def test_slice_rrt_is_registered_and_reads_the_pushing_model():
+    spec = PLANNERS["slice-rrt"]
+    assert spec.steps_physics and spec.shortcut and spec.options_type is SliceRRTOptions
+    assert {"max_turn", "tipping", "robot_share", "oracle"} <= {s.name for s in spec.settings()}
