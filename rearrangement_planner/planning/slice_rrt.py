@@ -194,6 +194,7 @@ class SliceRRT:
         near = run.nearest_slice(desired, self._weights)
         objects = run.slice_objects[near]
         t: int | None = None
+        pose: np.ndarray | None
         if rng.random() < opts.robot_share:
             lo, hi = scene.table.lower, scene.table.upper
             pose = np.array([rng.uniform(lo[0], hi[0]), rng.uniform(lo[1], hi[1]),
@@ -201,8 +202,8 @@ class SliceRRT:
         else:
             t = int(rng.integers(len(scene.objects)))
             pose = self.oracle.manipulation_state(objects, t, desired[t, :2], rng)
-            if pose is None:
-                return None
+        if pose is None:
+            return None
         node = run.nearest_in_slice(near, pose[:2])
         x_a = run.tree.state(node)
         if rng.random() < opts.random_share:
