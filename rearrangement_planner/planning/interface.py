@@ -92,6 +92,22 @@ class PlannerOptions(Settings):
 
 
 @dataclass(frozen=True)
+class PushingPlannerOptions(PlannerOptions):
+    """The settings of the planners that push through the quasistatic physics (PC-RRT, the
+    Static RRT, the slice-based RRT): the bounds of their actions and the weights of their
+    object metric, one meaning each."""
+
+    max_speed: float = setting(0.10, low=0.001, high=1.0)
+    """Bound on each planar tool velocity component of an action, m/s."""
+    nullspace_speed: float = setting(0.3, low=0.0, high=10.0)
+    """Bound on each component of an action's nullspace joint velocity, rad/s."""
+    object_weight: float = setting(1.0, low=0.0, high=1000.0)
+    """w_i of the metric for the non-goal objects, per m."""
+    goal_weight: float = setting(5.0, low=0.0, high=1000.0)
+    """w_i of the metric for the goal object, per m."""
+
+
+@dataclass(frozen=True)
 class Progress:
     iterations: int
     tree_size: int

@@ -43,6 +43,7 @@ from rearrangement_planner.planning.interface import (
     PlannerOptions,
     PlanResult,
     ProgressCallback,
+    PushingPlannerOptions,
     StopReason,
 )
 from rearrangement_planner.planning.propagation import (
@@ -57,30 +58,22 @@ from rearrangement_planner.planning.tree import Tree
 
 
 @dataclass(frozen=True)
-class PCRRTOptions(PlannerOptions):
+class PCRRTOptions(PushingPlannerOptions):
     """PC-RRT's settings (and the Static RRT's)."""
 
     k_actions: int = setting(3, low=1, high=100)
     """Actions sampled and propagated per iteration (k of Algorithm 1)."""
-    max_speed: float = setting(0.10, low=0.001, high=1.0)
-    """Bound on each planar tool velocity component of an action, m/s."""
     max_yaw_rate: float = setting(0.5, low=0.0, high=10.0)
     """Bound on the tool yaw rate of an action, rad/s."""
     min_duration: float = setting(0.5, low=0.001, high=60.0)
     """Shortest action duration, s (at most max_duration)."""
     max_duration: float = setting(2.0, low=0.001, high=60.0)
     """Longest action duration, s."""
-    nullspace_speed: float = setting(0.3, low=0.0, high=10.0)
-    """Bound on each component of the per-action nullspace joint velocity, rad/s."""
     sampler: str = setting("tool", choices=("tool", "uniform"))
     """State sampler: 'uniform' (the paper's, over joint configurations) or 'tool' (the tool
     position over the table; the metric then compares tool positions)."""
     arm_weight: float = setting(0.5, low=0.0, high=1000.0)
     """w_q of the metric: per rad of joint distance ('uniform') or per m of tool distance."""
-    object_weight: float = setting(1.0, low=0.0, high=1000.0)
-    """w_i of the metric for the non-goal objects, per m."""
-    goal_weight: float = setting(5.0, low=0.0, high=1000.0)
-    """w_i of the metric for the goal object, per m."""
     push_bias: float = setting(0.6, low=0.0, high=1.0)
     """Probability that an iteration replaces one of its k random actions by a closed-loop push
     of one object towards its sampled position (`push_policy`); 0 = the paper's PC-RRT."""

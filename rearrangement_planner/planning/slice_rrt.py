@@ -49,6 +49,7 @@ from rearrangement_planner.planning.interface import (
     PlannerOptions,
     PlanResult,
     ProgressCallback,
+    PushingPlannerOptions,
     StopReason,
 )
 from rearrangement_planner.planning.manifold import tool_planar_pose
@@ -67,7 +68,7 @@ RANDOM_DURATION = (0.5, 2.0)
 
 
 @dataclass(frozen=True)
-class SliceRRTOptions(PlannerOptions):
+class SliceRRTOptions(PushingPlannerOptions):
     """The slice-based RRT's settings."""
 
     oracle: str = setting("hand", choices=("hand",))
@@ -79,20 +80,12 @@ class SliceRRTOptions(PlannerOptions):
     random_share: float = setting(0.1, low=0.0, high=1.0)
     """Probability of a random control from the chosen state instead of a transit and a
     push (p_rand of Algorithm 1)."""
-    max_speed: float = setting(0.10, low=0.001, high=1.0)
-    """Bound on each planar tool velocity component of an action, m/s."""
-    nullspace_speed: float = setting(0.3, low=0.0, high=10.0)
-    """Bound on each component of a random control's nullspace joint velocity, rad/s."""
     max_transit: float = setting(6.0, low=0.1, high=60.0)
     """Longest transit, s: a farther target is approached this far."""
     max_push: float = setting(4.0, low=0.1, high=60.0)
     """Longest push, s."""
     standoff: float = setting(0.01, low=0.0, high=0.1)
     """Gap between the finger tips and the object in a hand-made manipulation state, m."""
-    object_weight: float = setting(1.0, low=0.0, high=1000.0)
-    """w_i of the metric for the non-goal objects, per m."""
-    goal_weight: float = setting(5.0, low=0.0, high=1000.0)
-    """w_i of the metric for the goal object, per m."""
 
 
 class Oracle(Protocol):
