@@ -1,4 +1,4 @@
-"""Symmetric conversions between the node's messages (DESIGN §4) and the core's types.
+"""Symmetric conversions between the node's messages (docs/design.md) and the core's types.
 
 Each `x_to_msg` / `msg_to_x` pair round-trips: `msg_to_x(x_to_msg(x))` gives back `x` (angles
 wrapped to (-pi, pi], times to the nanosecond). The `msg_to_x` direction reads untrusted input
@@ -7,7 +7,7 @@ and rejects anything unusable with one `InputError` whose `field` names the offe
 `problem` says what is wrong and what would be right. The `x_to_msg` direction takes the core's
 own values; a wrongly shaped one is a programming error and raises `ValueError`.
 
-Frames and units: poses are in the planning frame (the robot base frame, DESIGN §3); metres,
+Frames and units: poses are in the planning frame (the robot base frame, docs/design.md); metres,
 radians, seconds. An object's planar pose (x, y, yaw) is the pose of its centre; the yaw is a
 rotation about the frame's z axis.
 """
@@ -88,7 +88,7 @@ def _seconds(d: Duration) -> float:
 
 def joint_state_to_configuration(msg: JointState, joint_names: Sequence[str]) -> np.ndarray:
     """The configuration q (n,) (rad) of the planning joints `joint_names`, taken from `msg` by
-    name; other joints in `msg` are ignored (DESIGN §4)."""
+    name; other joints in `msg` are ignored (docs/design.md "The ROS 2 node")."""
     names = list(msg.name)
     positions = list(msg.position)
     if len(positions) != len(names):
@@ -131,9 +131,9 @@ def configuration_to_joint_state(q: Sequence[float] | np.ndarray, joint_names: S
 def pose_array_to_objects(msg: PoseArray, object_ids: Sequence[str], planning_frame: str,
                           max_tilt: float = 0.05) -> np.ndarray:
     """The planar object poses (M, 3) (x, y, yaw) in the planning frame (m, rad, yaw in
-    (-pi, pi]); the i-th pose of `msg` belongs to `object_ids[i]` (DESIGN §4). The poses' z is
+    (-pi, pi]); the i-th pose of `msg` belongs to `object_ids[i]` (docs/design.md). The poses' z is
     ignored (objects stand on the table); an object tilted more than `max_tilt` (rad) from
-    upright is rejected, because the planner models only upright prisms (DESIGN §3).
+    upright is rejected, because the planner models only upright prisms (docs/design.md).
     """
     _check_frame(msg.header.frame_id, planning_frame, "object_poses.header.frame_id",
                  "object poses")
@@ -191,7 +191,7 @@ def objects_to_pose_array(objects: np.ndarray, planning_frame: str,
 
 def pose_stamped_to_goal(msg: PoseStamped, planning_frame: str) -> np.ndarray:
     """The goal point (2,) (x, y) (m) in the planning frame. The pose's z and orientation are
-    ignored: the goal is a point on the table (DESIGN §3)."""
+    ignored: the goal is a point on the table (docs/design.md "The world model")."""
     _check_frame(msg.header.frame_id, planning_frame, "goal.header.frame_id", "goal poses")
     p = msg.pose.position
     if not _finite(p.x, p.y, p.z):
@@ -213,7 +213,7 @@ def goal_to_pose_stamped(xy: Sequence[float] | np.ndarray, planning_frame: str, 
 
 
 def trajectory_to_msg(trajectory: Trajectory) -> JointTrajectory:
-    """The controller command of DESIGN §4: header.stamp zero ("start now"), empty frame_id,
+    """The controller command of docs/design.md: header.stamp zero ("start now"), empty frame_id,
     positions and velocities on every point, time_from_start rounded to the nanosecond."""
     return from_plain(messages.joint_trajectory(trajectory), JointTrajectory)
 

@@ -1,4 +1,4 @@
-"""The planner status (DESIGN §4, the `~/status` topic) as a diagnostic_msgs/DiagnosticArray.
+"""The planner status (docs/design.md, the `~/status` topic) as a diagnostic_msgs/DiagnosticArray.
 
 One DiagnosticStatus: level OK while idle, planning or after a success, WARN after a cancel,
 ERROR after a failure; message "<state>: <message>"; one KeyValue per `PlannerStatus` field,

@@ -1,4 +1,4 @@
-"""RViz markers of a plan (DESIGN §4, the `~/markers` topic), built by
+"""RViz markers of a plan (docs/design.md "The ROS 2 node", the `~/markers` topic), built by
 `rearrangement_planner.io.messages.plan_markers` (the same markers the recording holds)."""
 
 from __future__ import annotations

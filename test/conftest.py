@@ -26,7 +26,7 @@ def panda() -> RobotModel:
 
 @pytest.fixture(scope="session")
 def default_scene(panda: RobotModel):
-    """config/scenes/default.yaml (DESIGN §3 demo scene), sharing the session's Panda model."""
+    """config/scenes/default.yaml (docs/design.md demo scene), sharing the session's Panda model."""
     from rearrangement_planner.physics.validation import load_scene
 
     return load_scene("default", robot=panda)

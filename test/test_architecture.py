@@ -1,4 +1,4 @@
-"""The folder tree is the architecture (issue 17, DESIGN §2): dependencies point one way,
+"""The folder tree is the architecture (docs/design.md "Layering"): dependencies point one way,
 model -> physics -> planning -> io -> tools, with the ROS layer (`ros/`, `msg_adapters/`) on
 top; nothing outside `ros/` and `msg_adapters/` imports rclpy, ROS message packages or
 msg_adapters; no import cycles (counting imports inside functions and under TYPE_CHECKING);

@@ -60,3 +60,21 @@ def test_the_readme_layout_map_lists_every_module():
     missing = [str(path.relative_to(ROOT)) for path in SOURCES
                if path.name != "__init__.py" and path.name not in layout]
     assert not missing, f"modules missing from the README's layout map: {missing}"
+
+
+LOST_CITATIONS = re.compile(r"DESIGN §|STYLE \d|[Ii]ssue #?\d|[Ss]ession \d|§[IVX]+\S* of 00[02]"
+                            r"|\b00[02]_[0-9a-f]{6}")
+"""Citations a reader of the repository cannot follow: the design file that lived outside it,
+the style guide, the tracker's issue numbers, the lab notebook's sessions, papers by file id."""
+
+
+def test_the_code_cites_what_a_reader_can_follow():
+    """Papers by author, year and section; the design as docs/design.md."""
+    config = sorted((ROOT / "config").rglob("*.yaml"))
+    tests = [p for p in sorted((ROOT / "test").rglob("*.py")) if p.name != "test_docs.py"]
+    found = [f"{path.relative_to(ROOT)}:{n}: {line.strip()}"
+             for path in SOURCES + config + tests
+             for n, line in enumerate(path.read_text().splitlines(), 1)
+             if LOST_CITATIONS.search(line)]
+    assert not found, "\n".join(found)
+    assert LOST_CITATIONS.search("(DESIGN §5, issue 18)") and LOST_CITATIONS.search("§V of 000")

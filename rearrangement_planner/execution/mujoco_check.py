@@ -1,4 +1,4 @@
-"""The execution check in an independent engine (DESIGN §10): a plan's joint trajectory played
+"""The execution check in an independent engine (docs/design.md): a plan's joint trajectory played
 open loop in MuJoCo, with the arm's real collision meshes, the table, the obstacles and the
 objects as free rigid bodies with their masses and frictions, the way a user's joint trajectory
 controller would play it.
@@ -105,7 +105,7 @@ class ObjectOutcome:
 
 @dataclass(frozen=True)
 class ExecutionReport:
-    """One execution (DESIGN §10)."""
+    """One execution (docs/design.md "Execution check")."""
 
     arm: str
     reached: bool

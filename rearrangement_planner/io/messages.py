@@ -118,7 +118,7 @@ def goal_pose(xy: Sequence[float] | np.ndarray, frame: str, z: float = 0.0,
 
 
 def joint_trajectory(trajectory: Trajectory) -> Plain:
-    """The controller command of DESIGN §4 (trajectory_msgs/JointTrajectory): header.stamp zero
+    """The controller command of docs/design.md (trajectory_msgs/JointTrajectory): header.stamp zero
     ("start now"), empty frame_id, positions and velocities on every point, time_from_start
     rounded to the nanosecond (ValueError if two points round to the same time)."""
     points: list[Plain] = [
@@ -168,7 +168,7 @@ def _checked_paths(scene: Scene, object_paths: np.ndarray | None, ee_path: np.nd
 
 def plan_markers(scene: Scene, object_paths: np.ndarray | None, ee_path: np.ndarray | None,
                  frame: str, stamp: Plain | None = None) -> Plain:
-    """visualization_msgs/MarkerArray of `scene` and a plan in it (DESIGN §4 `~/markers`).
+    """visualization_msgs/MarkerArray of `scene` and a plan in it (docs/design.md `~/markers`).
 
     One namespace per kind of thing, so each can be toggled in RViz: "table", "obstacles",
     "objects", "goal", "ee_path" and "object_paths"; the array starts with a DELETEALL marker

@@ -1,4 +1,4 @@
-"""The MCAP recording of one plan (DESIGN §7): its inputs, trajectory, predicted object poses
+"""The MCAP recording of one plan (docs/design.md): its inputs, trajectory, predicted object poses
 and markers as the ROS messages the node exchanges, plus a metadata record.
 
     record_plan("plans/p1.mcap", output, plan_id="p1", parameters={...}, planning_frame="world")
@@ -17,7 +17,7 @@ and when solved
   N/predicted_object_poses     geometry_msgs/msg/PoseArray, one per trajectory point, logged and
                                stamped at start + time_from_start.
 Metadata record "rearrangement_plan": plan_id, planner, seed, outcome, message, parameters
-(JSON), scene (YAML of the scene file format), statistics (JSON result of DESIGN §8 without
+(JSON), scene (YAML of the scene file format), statistics (JSON result of docs/design.md without
 the trajectory).
 """
 

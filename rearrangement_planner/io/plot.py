@@ -1,4 +1,4 @@
-"""The top-view PNG of a plan (DESIGN §8, ``rearrangement-plan --plot OUT.png``).
+"""The top-view PNG of a plan (docs/design.md, ``rearrangement-plan --plot OUT.png``).
 
 Frame and units: the robot base frame seen from above, x to the right and y up, equal aspect,
 metres. The picture shows the table rectangle, the robot base at the origin, the static
@@ -72,7 +72,7 @@ def plot_top_view(scene: Scene, object_paths: np.ndarray, ee_path: np.ndarray,
                   out_path: str | Path, title: str = "",
                   start_states_only: bool = False,
                   executed_paths: np.ndarray | None = None) -> Path:
-    """Draw the top view of a plan in `scene` (DESIGN §8) and write it to `out_path` as a PNG
+    """Draw the top view of a plan in `scene` (docs/design.md) and write it to `out_path` as a PNG
     of 840 x 720 pixels (7 x 6 in at 120 dpi); return the path written.
 
     `object_paths` (T, M, 3) holds the poses (x, y, yaw) (m, rad) of the scene's M objects, in

@@ -1,4 +1,4 @@
-"""MCAP recording in the layout `ros2 bag record` (rosbag2, Jazzy) writes (DESIGN §7).
+"""MCAP recording in the layout `ros2 bag record` (rosbag2, Jazzy) writes (docs/design.md).
 
 A recording is one `.mcap` file with
   * profile ``ros2`` in the header;

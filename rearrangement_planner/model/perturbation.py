@@ -1,5 +1,5 @@
 """Perturbed copies of a scene: the world an open-loop plan meets is never exactly the one it
-was planned in (DESIGN §10, robust plans of §6; Koval, King et al. 2015). Used by the
+was planned in (docs/design.md, robust plans of §6; Koval, King et al. 2015). Used by the
 robustness rollouts in the planner's physics and by the perturbed executions in MuJoCo."""
 
 from __future__ import annotations
@@ -17,7 +17,7 @@ from rearrangement_planner.model.scene import Scene
 class Perturbation:
     """Each object's frictions scaled by U(1 - friction, 1 + friction), its mass by
     U(1 - mass, 1 + mass), its pose offset by N(0, pose_noise) m in x and y and N(0, yaw_noise)
-    rad in yaw (defaults: DESIGN §10, friction x0.7-1.3, mass x0.8-1.2, 5 mm / 2 deg); and
+    rad in yaw (defaults: docs/design.md, friction x0.7-1.3, mass x0.8-1.2, 5 mm / 2 deg); and
     the arm's contact shapes all grown by one U(-contact_offset, contact_offset) m: where the
     real links and finger pads meet an object is known to a few mm only (the shapes are fitted
     to the meshes, the arm tracks its trajectory to a few mm). The offset acts on the planner's

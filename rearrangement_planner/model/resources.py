@@ -11,7 +11,7 @@ from pathlib import Path
 
 PACKAGE = "rearrangement_planner"
 NODE_NAME = PACKAGE
-"""The planner node's name (DESIGN §4): its topics and services are /rearrangement_planner/*;
+"""The planner node's name (docs/design.md): its topics and services are /rearrangement_planner/*;
 its executable is `planner_node`."""
 
 

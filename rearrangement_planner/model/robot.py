@@ -82,7 +82,7 @@ class ContactShape:
 
 @dataclass(frozen=True)
 class PushPosture:
-    """The pushing manifold (DESIGN §6, §V of King et al.): the tool frame held at `height`
+    """The pushing manifold (docs/design.md, King et al. 2015, §V): the tool frame held at `height`
     above the table top with fixed roll and pitch; yaw is free."""
 
     height: float

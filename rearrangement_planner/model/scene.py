@@ -1,7 +1,7 @@
 """The world the planner works in: table, static obstacles, movable objects and the goal
-(DESIGN §3), and the YAML scene format that describes it.
+(docs/design.md "The world model"), and the YAML scene format that describes it.
 
-A scene file is a public contract (DESIGN §3, "Scene file")::
+A scene file is a public contract (docs/design.md "The world model", "Scene file")::
 
     robot: panda                        # a shipped robot config name or a path to one
     start_configuration: [0.0, -0.3, 0.0, -2.2, 0.0, 2.0, 0.785]   # optional; default: home
@@ -84,7 +84,7 @@ def _readonly(values: Any) -> np.ndarray:
 
 @dataclass(frozen=True, eq=False)
 class Table:
-    """The table top (DESIGN §3): an axis-aligned rectangle in the base frame.
+    """The table top (docs/design.md): an axis-aligned rectangle in the base frame.
 
     `center` (2,) and `size` (2,) are the rectangle's centre and full side lengths in x and y
     (m); `height` is the z of its top face (m).
@@ -121,7 +121,7 @@ class Table:
 
 @dataclass(frozen=True, eq=False)
 class Obstacle:
-    """A static box standing on the table top (DESIGN §3).
+    """A static box standing on the table top (docs/design.md "The world model").
 
     `size` (3,) holds the full extents (x, y, z) in the box's own frame, m; `pose` (3,) is the
     planar pose (x, y, yaw) of its centre in the base frame (m, rad).
@@ -156,14 +156,14 @@ class Obstacle:
 
 @dataclass(frozen=True, eq=False)
 class MovableObject:
-    """A movable vertical prism standing on the table top (DESIGN §3).
+    """A movable vertical prism standing on the table top (docs/design.md "The world model").
 
     `shape` is ``'box'`` or ``'cylinder'``. `size` (3,) holds the full extents (x, y, z) in the
     object frame, m; for a cylinder it is (2r, 2r, height), so that `size` always bounds the
     prism and `size[2]` is always its height. `pose` (3,) is the initial planar pose (x, y, yaw)
     of its centre in the base frame (m, rad). `mass` in kg; `support_friction` is the
     object-table coefficient mu_s and `pusher_friction` the arm-object coefficient mu_c
-    (DESIGN §5).
+    (docs/design.md "Quasistatic pushing physics").
     """
 
     name: str
@@ -218,7 +218,7 @@ class MovableObject:
 
 @dataclass(frozen=True, eq=False)
 class Goal:
-    """The goal region (DESIGN §3): object `object`'s centre within `radius` (m) of
+    """The goal region (docs/design.md): object `object`'s centre within `radius` (m) of
     `position` (2,), a point (x, y) on the table in the base frame."""
 
     object: str
@@ -239,7 +239,7 @@ class Goal:
 
 @dataclass(frozen=True, eq=False)
 class Scene:
-    """A complete planning problem (DESIGN §3): robot, start state, table, obstacles, objects
+    """A complete planning problem (docs/design.md): robot, start state, table, obstacles, objects
     and goal. Build it with `load_scene` / `parse_scene`; a scene assembled in code should go
     through `check_scene` before use.
 
@@ -293,11 +293,11 @@ class Scene:
                                    objects=objects)
 
     def initial_state(self) -> State:
-        """x_0 = (q_start, o^1 ... o^M) of King et al. §II-A."""
+        """x_0 = (q_start, o^1 ... o^M) of King et al. 2015, §II-A."""
         return State(self.start_configuration, self.object_poses)
 
     def to_dict(self) -> dict[str, Any]:
-        """The scene in the YAML format of DESIGN §3 (plain lists and floats), such that
+        """The scene in the YAML format of docs/design.md (plain lists and floats), such that
         ``parse_scene(scene.to_dict())`` rebuilds it. A shipped robot is written by name, any
         other by the absolute path of its config."""
         def floats(a: np.ndarray) -> list[float]:
@@ -353,7 +353,7 @@ _GOAL_KEYS = ("object", "position", "radius")
 
 
 def read_scene(path: str | Path, robot: RobotModel | None = None) -> Scene:
-    """Read a scene file (DESIGN §3) and check its structure (`scene_from_dict`).
+    """Read a scene file (docs/design.md) and check its structure (`scene_from_dict`).
 
     `path` is a YAML file, or the name of a shipped scene in ``config/scenes/`` (``'default'``).
     A relative robot config path in the file is resolved against the file's folder. `robot`,
@@ -377,7 +377,7 @@ def read_scene(path: str | Path, robot: RobotModel | None = None) -> Scene:
 
 def scene_from_dict(data: Any, base_dir: Path | None = None, name: str = "<scene>",
                     robot: RobotModel | None = None) -> Scene:
-    """Build a scene from its YAML mapping (DESIGN §3), checking structure, types and units.
+    """Build a scene from its YAML mapping (docs/design.md), checking structure, types and units.
 
     `base_dir` resolves a relative robot config path (default: the working directory); `name`
     becomes `Scene.source`. `robot`, when given, is used instead of loading the robot again

@@ -1,4 +1,4 @@
-"""The planning state x = (q, o^1 ... o^M) of King et al. §II-A: the arm configuration and the
+"""The planning state x = (q, o^1 ... o^M) of King et al. 2015, §II-A: the arm configuration and the
 planar pose (x, y, yaw) of every movable object, in the base frame (m, rad)."""
 
 from __future__ import annotations

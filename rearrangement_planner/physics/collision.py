@@ -1,5 +1,5 @@
 """Collision and contact queries between the arm, the table, the obstacles and the movable
-objects (DESIGN §3 world model, §5 contacts and validity), with python-fcl as narrow phase.
+objects (docs/design.md world model, §5 contacts and validity), with python-fcl as narrow phase.
 
 Geometry, all in the robot base frame (m, rad):
 
@@ -80,7 +80,7 @@ _WITNESS_EPS = 1e-9
 
 @dataclass(frozen=True, eq=False)
 class Contact:
-    """A contact between arm contact shape `shape` and movable object `obj` (DESIGN §5).
+    """A contact between arm contact shape `shape` and movable object `obj` (docs/design.md).
 
     `point` (3,): contact point in the base frame, on the object's surface (m).
     `normal` (3,): unit vector in the base frame pointing FROM the arm shape INTO the object,
@@ -288,7 +288,7 @@ class _ArmBodies:
 
 
 class CollisionWorld:
-    """Collision and contact queries for one scene and one robot (DESIGN §5).
+    """Collision and contact queries for one scene and one robot (docs/design.md).
 
     All arrays are in the robot base frame: `shape_poses` is the (S, 4, 4) output of
     `RobotModel.shape_poses(q)`, `object_poses` an (M, 3) array of (x, y, yaw) in the order of
@@ -433,7 +433,7 @@ class CollisionWorld:
                              tol: float = 0.0) -> tuple[int, str] | None:
         """The first (shape index, ``'table'`` or obstacle name), in shape order, whose
         penetration depth exceeds `tol` (m); None if the arm is clear of the static world
-        (DESIGN §5 validity: no arm-table or arm-obstacle penetration)."""
+        (docs/design.md validity: no arm-table or arm-obstacle penetration)."""
         hit = self._static_hit(np.asarray(shape_poses, dtype=float), tol)
         return None if hit is None else (hit[0], hit[1])
 
@@ -486,7 +486,7 @@ class CollisionWorld:
     def arm_object_contacts(self, shape_poses: np.ndarray, object_poses: np.ndarray,
                             margin: float = 0.0,
                             objects: Iterable[int] | np.ndarray | None = None) -> list[Contact]:
-        """Contacts (DESIGN §5) between the arm's contact shapes and the movable objects:
+        """Contacts (docs/design.md) between the arm's contact shapes and the movable objects:
         every penetrating pair and, with `margin` > 0 (m), every pair whose gap is below
         `margin`. `objects` restricts the query to these object indices. Sorted by shape index
         then object index; one contact per (shape, object) pair."""
@@ -517,7 +517,7 @@ class CollisionWorld:
 
     def arm_object_penetration(self, shape_poses: np.ndarray, object_poses: np.ndarray) -> float:
         """The largest penetration depth (m) over all arm-shape/object pairs; 0 if none
-        (DESIGN §5: residual arm-object penetration must stay below a small tolerance)."""
+        (docs/design.md: residual arm-object penetration must stay below a small tolerance)."""
         contacts = self.arm_object_contacts(shape_poses, object_poses)
         return max((c.depth for c in contacts), default=0.0)
 
@@ -526,7 +526,7 @@ class CollisionWorld:
     def object_overlaps(self, object_poses: np.ndarray,
                         tol: float = 0.0) -> list[tuple[int, int]]:
         """Pairs (i, j), i < j, of movable objects that penetrate deeper than `tol` (m)
-        (DESIGN §5 validity: no object-object overlap). Footprint-circle broad phase, then the
+        (docs/design.md validity: no object-object overlap). Footprint-circle broad phase, then the
         exact `prism_penetration`."""
         poses = self._object_poses(object_poses)
         first, second = self._obj_pairs
@@ -562,7 +562,7 @@ class CollisionWorld:
         return overlaps
 
     def objects_off_table(self, object_poses: np.ndarray) -> list[int]:
-        """Indices of objects whose centre lies outside the table rectangle (DESIGN §5:
+        """Indices of objects whose centre lies outside the table rectangle (docs/design.md:
         objects stay on the table)."""
         poses = self._object_poses(object_poses)
         off = (np.abs(poses[:, :2] - self._table_center) > self._table_half).any(axis=1)
@@ -574,7 +574,7 @@ class CollisionWorld:
                          tol: float = 0.0) -> str | None:
         """Why the arm at configuration q (rad) penetrates the table, an obstacle or a movable
         object deeper than `tol` (m), as one human-readable sentence; None if it is clear.
-        Used to validate start configurations (DESIGN §3)."""
+        Used to validate start configurations (docs/design.md "The world model")."""
         shape_poses = self.robot.shape_poses(np.asarray(q, dtype=float))
         hit = self._static_hit(shape_poses, tol)
         if hit is not None:

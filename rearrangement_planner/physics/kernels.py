@@ -1,4 +1,4 @@
-"""Compiled contact geometry and kinematics (issue 19, the fast core under `Physics.step` and
+"""Compiled contact geometry and kinematics (the fast core under `Physics.step` and
 the Project step): the signed distance, the contact point and the contact normal between a
 capsule (the arm's contact shapes; a sphere is a capsule of length 0) and an upright prism of
 the scene (an object's box or cylinder, an obstacle box, the table slab), the penetration of

@@ -1,6 +1,6 @@
 """Quasistatic planar pushing of ONE object: limit surface, motion cone, multi-contact LCP.
 
-This is the physics of King et al. (PC-RRT), §III-A, as specified in DESIGN §5. Objects move
+This is the physics of King et al. (PC-RRT), §III-A, as specified in docs/design.md Objects move
 only while pushed and stop at once (quasistatic, Coulomb friction; Lynch & Mason 1995 [23]).
 Everything here is a pure function of plain numbers: no robot, no scene, no collision library.
 
@@ -212,7 +212,7 @@ def rectangle_mean_distance(half_x: float, half_y: float) -> float:
 def limit_surface_c(shape: str, size: float | Sequence[float] | np.ndarray) -> float:
     """c = m_max / f_max = rbar of the ellipsoidal limit surface (LS), a length in metres.
 
-    Uniform pressure over the support footprint (Lynch, Maekawa & Tanie 1992; DESIGN §5):
+    Uniform pressure over the support footprint (Lynch, Maekawa & Tanie 1992; docs/design.md):
     - 'disk' / 'cylinder': `size` is the radius R (or a sequence starting with it); c = 2R/3.
     - 'box' / 'rectangle': `size` is the FULL side lengths (x, y) or (x, y, z) as in the scene
       file; c = `rectangle_mean_distance(x/2, y/2)`.

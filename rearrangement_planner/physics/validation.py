@@ -1,4 +1,4 @@
-"""Semantic validation of a scene (DESIGN §3, §5 validity) and the validated loaders.
+"""Semantic validation of a scene (docs/design.md, §5 validity) and the validated loaders.
 
 `model.scene` reads the scene format and checks structure, types and units; what needs the
 geometry lives here, beside the collision checker it uses: objects on the table and apart, the
@@ -43,7 +43,7 @@ def parse_scene(data: Any, base_dir: Path | None = None, name: str = "<scene>",
 
 
 def check_scene(scene: Scene, world: CollisionWorld | None = None) -> None:
-    """Raise `SceneError` if `scene` is not a valid planning problem (DESIGN §3, §5 validity):
+    """Raise `SceneError` if `scene` is not a valid planning problem (docs/design.md, §5 validity):
     objects off the table (centre outside the rectangle), goal object unknown or goal point off
     the table, objects overlapping each other or an obstacle, and a start configuration of the
     wrong length, outside the joint limits or in collision with the table, an obstacle or an

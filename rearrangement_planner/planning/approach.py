@@ -1,4 +1,4 @@
-"""The approach onto the pushing manifold when the start configuration is off it (DESIGN §6).
+"""The approach onto the pushing manifold when the start configuration is off it (docs/design.md).
 
 King et al. plan on the manifold "plane parallel to the table"; a robot usually starts above
 it. We look for an on-plane configuration by IK (`manifold.ik_on_manifold`) at candidate tool

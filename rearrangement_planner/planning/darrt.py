@@ -1,5 +1,5 @@
-"""The DARRT baseline of King et al. §V-A, in the same framework as PC-RRT (same scene, physics,
-validity checks, outcome codes and `Planner` interface).
+"""The DARRT baseline of King et al. 2015, §V-A, in the same framework as PC-RRT (same scene,
+physics, validity checks, outcome codes and `Planner` interface).
 
 **DARRT** (Barry et al., as implemented in §V-A) — an RRT over the same states whose edges are
 primitives instead of sampled controls:
@@ -55,7 +55,7 @@ class DARRTOptions(PlannerOptions):
     """DARRT's settings."""
 
     transit_time_limit: float = setting(15.0, low=0.01, high=3600.0)
-    """Budget of one RRTTransit (RRT-Connect) call, s (15 s in §V-A of King et al.)."""
+    """Budget of one RRTTransit (RRT-Connect) call, s (15 s in King et al. 2015, §V-A)."""
     push_step: float = setting(0.25, low=0.001, high=2.0)
     """Longest straight-line push of one extension, m (as an RRT extends towards a sample)."""
 
@@ -65,7 +65,7 @@ class _Cancelled(Exception):
 
 
 class DARRT:
-    """DARRT with Transit, RRTTransit and straight-line Push primitives (§V-A of King et al.)."""
+    """DARRT with Transit, RRTTransit and straight-line Push primitives (King et al. 2015, §V-A)."""
 
     name = "darrt"
 

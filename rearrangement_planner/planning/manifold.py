@@ -1,4 +1,4 @@
-"""The pushing manifold and the Jacobian projection onto it (DESIGN §6; King et al. §III-C, §V).
+"""The pushing manifold and the Jacobian projection onto it (King et al. 2015, §III-C, §V).
 
 The manifold is the set of arm configurations whose tool frame is held "parallel to the table"
 (the paper's constraint manifold, 8 cm above the table for HERB):
@@ -11,12 +11,12 @@ world up: R(q) u0 = e_z. That is two orientation constraints (a unit vector on S
 constraint, so the manifold has 7 - 3 = 4 dimensions: the planar tool pose (x, y, yaw) plus the
 arm's one-dimensional self-motion.
 
-`project_step` is one step of the paper's Project (§V of King et al.):
+`project_step` is one step of the paper's Project (King et al. 2015, §V):
 
     q_new = q + Δt (J⁺(q) a + h(q)),
 
 extended, as in the constrained extension of Berenson et al. (ICRA 2009, CBiRRT, cited as [7]
-in King et al. §III-C), with correction rows that pull the tool back onto the manifold, and a
+in King et al. 2015, §III-C), with correction rows that pull the tool back onto the manifold, and a
 nullspace term h projected into the nullspace of the task Jacobian.
 
 Frames and units: everything in the robot base frame (metres, radians, seconds). The tool
@@ -192,8 +192,8 @@ def build_task(
         w_z        = action[2]                        yaw rate (rad/s)
     with k = `correction_gain` (1 closes the error in one step to first order), the correction
     clipped to MAX_CORRECTION_SPEED / MAX_CORRECTION_RATE. The first and last rows are the
-    paper's end-effector velocity a (King et al. §V); the middle three are the projection back
-    onto the constraint (King et al. §III-C, Alg. 2 line 5, after Berenson et al. 2009).
+    paper's end-effector velocity a (King et al. 2015, §V); the middle three are the projection back
+    onto the constraint (King et al. 2015, §III-C, Alg. 2 line 5, after Berenson et al. 2009).
     Compiled (`_task`), with the tool's kinematics from `kernels.tool_kinematics`.
     """
     chain = kernels.compiled_chain(robot)
@@ -244,7 +244,7 @@ def _limit_gradient(q: np.ndarray, lower: np.ndarray, upper: np.ndarray,
 
 
 def solve_task(jac: np.ndarray, xdot: np.ndarray, h: np.ndarray) -> np.ndarray:
-    """qdot = J⁺ xdot + (I - J⁺J) h (King et al. §V, the Project equation).
+    """qdot = J⁺ xdot + (I - J⁺J) h (King et al. 2015, §V, the Project equation).
 
     J⁺ is the damped least-squares pseudoinverse from the SVD J = U S Vᵀ:
     J⁺ = V diag(s / (s² + λ²)) Uᵀ, with λ² = (1 - (s_min/ε)²) λ_max² when s_min < ε and 0
@@ -300,7 +300,8 @@ def project_step(
     nullspace_noise: float = 0.1, nullspace_velocity: np.ndarray | None = None,
     correction_gain: float = 1.0, velocity_scale: float = 1.0,
 ) -> np.ndarray:
-    """One step of Project (King et al. §V): q_new = q + dt (J⁺(q) a + h(q)), held on the manifold.
+    """One step of Project (King et al. 2015, §V): q_new = q + dt (J⁺(q) a + h(q)), held on the
+    manifold.
 
     action: (v_x, v_y, yaw_rate) planar tool velocity in the base frame (m/s, m/s, rad/s).
     dt: step duration (s). nullspace_gain: rad/s pull back of a joint at its limit (see

@@ -116,7 +116,7 @@ def sample_arrangement(scene: Scene, rng: np.random.Generator, goal_bias: float,
 
 
 class PCRRT:
-    """PC-RRT on one scene (models + options, STYLE 1)."""
+    """PC-RRT on one scene (models + options)."""
 
     name = "pc-rrt"
 

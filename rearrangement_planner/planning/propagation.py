@@ -1,7 +1,7 @@
 """ConstrainedProp (King et al. Algorithm 2): apply a sampled action step by step, projecting
 every step back onto the pushing manifold and through the quasistatic physics.
 
-An action (§V of King et al.) is a planar end-effector velocity (v_x, v_y, yaw rate) in the
+An action (King et al. 2015, §V) is a planar end-effector velocity (v_x, v_y, yaw rate) in the
 base frame, held for a duration; we add one nullspace joint velocity per action, the paper's
 h(q) "samples the nullspace", drawn once per action so that the arm's self-motion is smooth
 (a fresh sample every step would make it a random walk). Each step:
@@ -13,7 +13,7 @@ h(q) "samples the nullspace", drawn once per action so that the arm's self-motio
 Everything a replay needs is the sequence of arm configurations: the physics is a pure
 function, so stepping it along the stored configurations reproduces the object poses exactly.
 
-Compiled (issue 19): `_propagate_kernel` runs Project (`manifold.project_kernel`), the physics
+Compiled: `_propagate_kernel` runs Project (`manifold.project_kernel`), the physics
 step (`step.step_kernel`) and the goal test for a batch of up to _CHECK_EVERY steps in one
 call, with the tool velocity either held (an action) or fed back (the closed-loop push of
 `push_policy`, `PushTarget`); the clock and the cancel flag are read between batches.

@@ -1,7 +1,7 @@
 """The bookkeeping of one `plan()` call that every planner shares: the seeded generator, the
 wall-clock and iteration budget, cancel, progress reports, the race's iteration gate, the
 counters, and the results it ends with (Algorithm 1 of King et al. stops "on success, time
-limit, iteration limit or cancel, checked every iteration", DESIGN §6)."""
+limit, iteration limit or cancel, checked every iteration", docs/design.md "Planners")."""
 
 from __future__ import annotations
 

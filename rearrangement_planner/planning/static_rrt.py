@@ -1,4 +1,4 @@
-"""The Static RRT baseline of King et al. §V-A: PC-RRT in which only the goal object may move;
+"""The Static RRT baseline of King et al. 2015, §V-A: PC-RRT in which only the goal object may move;
 every other movable object is a static obstacle ("All movable objects are treated as static
 obstacles"). It is PC-RRT with `PhysicsOptions.static_objects` = every non-goal object, so any
 arm contact with one of them ends the propagation as invalid.
@@ -26,7 +26,7 @@ def static_physics(scene: Scene, physics: Physics | None = None) -> Physics:
 
 
 class StaticRRT(PCRRT):
-    """PC-RRT where only the goal object may move (§V-A of King et al.)."""
+    """PC-RRT where only the goal object may move (King et al. 2015, §V-A)."""
 
     name = "static-rrt"
 

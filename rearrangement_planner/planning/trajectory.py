@@ -1,9 +1,9 @@
-"""Time parameterization of a joint path for a joint trajectory controller (DESIGN §4).
+"""Time parameterization of a joint path for a joint trajectory controller (docs/design.md).
 
 The planner produces a dense path of joint configurations (one per propagation step). A
 `joint_trajectory_controller` needs times and velocities on every point: strictly increasing
 times from 0, zero velocity at the end, joint velocities within their limits and a tool speed
-slow enough for the quasistatic pushing assumption (DESIGN §5: objects stop the moment they
+slow enough for the quasistatic pushing assumption (docs/design.md: objects stop the moment they
 are no longer pushed, which needs slow pushing).
 
 Model (a discrete version of time-optimal path parameterization along a piecewise-linear

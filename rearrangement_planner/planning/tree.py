@@ -43,7 +43,7 @@ class Tree:
 
     def nearest(self, arm: np.ndarray, objects: np.ndarray, arm_weight: float,
                 weights: np.ndarray) -> int:
-        """Nearest (§III-D of King et al.): the node closest to (arm, objects) by
+        """Nearest (King et al. 2015, §III-D): the node closest to (arm, objects) by
         Dist = arm_weight |arm_i - arm| + sum_j weights[j] |o_i^j - o^j| (object positions in
         the plane). One compiled pass: a tree of 20,000 nodes is scanned in well under a
         millisecond (NumPy's temporaries took half of a long plan's time)."""

@@ -1,4 +1,4 @@
-"""Compile the fast core before the first plan (issue 19): the Numba kernels of the physics
+"""Compile the fast core before the first plan: the Numba kernels of the physics
 step, the Project step and the propagation are compiled on their first call, about half a
 minute on this machine, and cached on disk (`rearrangement_planner._numba_cache_dir`), so a
 later process only loads them (well under a second). `warm_up` makes that first call on a

@@ -1,4 +1,4 @@
-"""`planner_node` (node `rearrangement_planner`): the ROS 2 node of DESIGN §4, a thin layer
+"""`planner_node` (node `rearrangement_planner`): the ROS 2 node of docs/design.md, a thin layer
 around `pipeline.plan_scene`.
 
 Data flow:
@@ -77,7 +77,7 @@ from rearrangement_planner.ros.status import PlannerStatus
 
 EXECUTOR_THREADS = 6
 STATUS_RATE = 4.0
-"""Hz of the `~/status` progress messages while planning (DESIGN §4 asks for >= 2 Hz)."""
+"""Hz of the `~/status` progress messages while planning (docs/design.md asks for >= 2 Hz)."""
 CANCEL_WAIT = 1.0
 """Seconds `~/cancel` waits for the planner to stop before answering."""
 INPUT_ERROR_REPEAT = 1.0
@@ -98,7 +98,7 @@ def _warm_up(node: Node) -> None:
 
 
 class PlannerNode(Node):
-    """The planner node of DESIGN §4 (`rearrangement_planner`). Raises `RearrangementError`
+    """The planner node of docs/design.md (`rearrangement_planner`). Raises `RearrangementError`
     when the scene or robot (read-only parameters) cannot be loaded."""
 
     def __init__(self, **kwargs: Any):
@@ -407,7 +407,7 @@ def _describe(exc: Exception) -> str:
 
 
 def main(args: list[str] | None = None) -> int:
-    """`planner_node`: init, spin on a MultiThreadedExecutor, clean up (STYLE 11)."""
+    """`planner_node`: init, spin on a MultiThreadedExecutor, clean up."""
     rclpy.init(args=args)
     node = None
     executor = MultiThreadedExecutor(num_threads=EXECUTOR_THREADS)

@@ -1,4 +1,4 @@
-"""One plan request of the node (DESIGN §4), apart from the node's wiring: the settings from
+"""One plan request of the node (docs/design.md), apart from the node's wiring: the settings from
 the parameters, the inputs it plans from, the planning scene, the recording and the markers of
 the result. `ros/node.py` calls these from its worker thread."""
 
@@ -37,7 +37,7 @@ from rearrangement_planner.planning.request import PlanRequest, request_settings
 from rearrangement_planner.ros.status import PlannerStatus
 
 NO_STATE = "NO_STATE"
-"""The node's own outcome (DESIGN §4): no joint state / object poses yet, or stale ones."""
+"""The node's own outcome (docs/design.md): no joint state / object poses yet, or stale ones."""
 
 
 def node_request(params: dict[str, Any], scene: Scene) -> PlanRequest:
@@ -63,7 +63,7 @@ class Input:
     value: np.ndarray
     msg: Any
     received: float
-    """time.monotonic() at reception (the staleness clock, DESIGN §4 `state_timeout`)."""
+    """time.monotonic() at reception (the staleness clock, docs/design.md `state_timeout`)."""
 
 
 class Job:

@@ -1,4 +1,4 @@
-"""What the planner is doing right now (DESIGN §4, the `~/status` topic), as a plain value.
+"""What the planner is doing right now (docs/design.md, the `~/status` topic), as a plain value.
 
 The node fills a `PlannerStatus` from the planner's progress callback and its result; the
 msg_adapters turn it into a `diagnostic_msgs/DiagnosticArray` and back. Nothing here knows ROS.
@@ -16,15 +16,15 @@ STATES = ("idle", "planning", "succeeded", "failed", "cancelled")
 
 @dataclass(frozen=True)
 class PlannerStatus:
-    """A snapshot of the planner, published at >= 2 Hz while planning (DESIGN §4)."""
+    """A snapshot of the planner, published at >= 2 Hz while planning (docs/design.md)."""
 
     state: str
     """One of `STATES`: 'idle' | 'planning' | 'succeeded' | 'failed' | 'cancelled'."""
     message: str = ""
     """One human-readable line, e.g. the planner's result message or why a request was refused."""
     outcome: str = ""
-    """The outcome code of the last plan (SUCCEEDED, TIMEOUT, NO_STATE, ... of DESIGN §4), or ''
-    while none has ended."""
+    """The outcome code of the last plan (SUCCEEDED, TIMEOUT, NO_STATE, ...; docs/design.md),
+    or '' while none has ended."""
     plan_id: str = ""
     """Identifier of the current or last plan ('' before the first)."""
     iterations: int = 0

@@ -1,7 +1,7 @@
 """`world_sim`: a simulated arm and table world that executes joint trajectories open loop.
 
 What a real cell would give the planner, simulated with the planner's own quasistatic physics
-(`physics.Physics`, DESIGN §5):
+(`physics.Physics`, docs/design.md "Quasistatic pushing physics"):
 
 - the arm's `joint_states` (sensor_msgs/JointState, stamped, at `rate` Hz) and the object poses
   (geometry_msgs/PoseArray in the planning frame, at `object_rate` Hz, on the topic
@@ -129,7 +129,7 @@ PARAMETERS: tuple[ParameterSpec, ...] = (
     _Spec("seed", 0, "Seed of the pose offsets.", 0, 2**31 - 1, read_only=True),
     _Spec("engine", "quasistatic", "Physics of the simulated world: 'quasistatic' (the planner's "
           "own model, stepped at max_substep) or 'mujoco' (an independent engine: the arm's "
-          "real collision meshes, objects as free rigid bodies; DESIGN §10).", read_only=True),
+          "real collision meshes, objects as free rigid bodies; docs/design.md).", read_only=True),
     _Spec("max_substep", MAX_SUBSTEP, "Largest motion (m) of any point of the arm's contact "
           "shapes within one physics substep. Finer than the planner's 4 mm so that the "
           "simulated world is converged: its result no longer depends on the step size or on "
@@ -415,7 +415,7 @@ class WorldSim(Node):
 
 
 def main(args: list[str] | None = None) -> int:
-    """`world_sim`: init, spin, clean up (STYLE 11)."""
+    """`world_sim`: init, spin, clean up."""
     rclpy.init(args=args)
     node = None
     executor = SingleThreadedExecutor()

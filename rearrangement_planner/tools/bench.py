@@ -58,7 +58,7 @@ from rearrangement_planner.tools import benchmark
 COMMANDS = ("run", "generate", "physics", "scenes", "candidates")
 
 PHYSICS_DOC = """`rearrangement-bench physics` measures the throughput of the quasistatic physics
-step (DESIGN §5) on the Panda at the default scene's table: the arm, folded low so that forearm and
+step on the Panda at the default scene's table: the arm, folded low so that forearm and
 wrist sweep at object height, rotates about joint 1 through 1 and through 7 objects placed in
 its path, again and again. It prints a JSON record: physics steps per second (one
 `Physics.step` call moving joint 1 by `STEP_RAD`), substeps per second, the share of the time
@@ -186,7 +186,7 @@ def build_parser() -> argparse.ArgumentParser:
         formatter_class=argparse.RawDescriptionHelpFormatter, epilog=__doc__)
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     run = sub.add_parser(
-        "run", help="the benchmark of King et al. §V: planners x scenes x seeds (the default "
+        "run", help="the benchmark of King et al. 2015, §V: planners x scenes x seeds (the default "
                     "command)",
         description="Run each planner on each benchmark scene with each seed under a time "
                     "budget, one worker process per core; write trials.csv (one row per trial, "

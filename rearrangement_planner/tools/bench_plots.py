@@ -1,5 +1,5 @@
-"""The benchmark's figures (matplotlib, Agg backend), after King et al. §V, from trials.csv rows
-(`benchmark.CSV_COLUMNS`) and the summary (`benchmark.summarize`):
+"""The benchmark's figures (matplotlib, Agg backend), after King et al. 2015, §V, from trials.csv
+rows (`benchmark.CSV_COLUMNS`) and the summary (`benchmark.summarize`):
 
 - success_vs_budget.png (Fig. 7): for each time budget t, the share of trials solved with a
   plan time of at most t, per planner;

@@ -1,4 +1,4 @@
-"""The planner's contact shapes against the Panda's real collision geometry (issue 18 item 2):
+"""The planner's contact shapes against the Panda's real collision geometry:
 the capsules of config/robots/panda.yaml were fitted to the collision meshes and finger boxes of
 example-robot-data (the ones the MuJoCo check executes with). These tests keep them fitted:
 every link's mesh inside the shapes (clearance from the table and obstacles is real), the hand

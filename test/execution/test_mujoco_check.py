@@ -1,4 +1,4 @@
-"""The execution check in MuJoCo (DESIGN §10, issue 18): a straight push moves a box as the
+"""The execution check in MuJoCo (docs/design.md): a straight push moves a box as the
 quasistatic model predicts and leaves an untouched object where it was; a real plan is played
 ideal and servo-driven, compared with its prediction point by point; perturbed executions;
 the reasons it refuses to run. Headless, CPU only."""

@@ -1,4 +1,4 @@
-"""The top-view PNG of DESIGN §8 (`--plot OUT.png`): it is written at the documented size, the
+"""The top-view PNG of docs/design.md (`--plot OUT.png`): it is written at the documented size, the
 footprint polygons it draws are exact, and arrays of the wrong shape are rejected naming the
 argument."""
 

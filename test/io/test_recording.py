@@ -1,4 +1,4 @@
-"""MCAP recording (DESIGN §7): read back with independent readers (mcap, mcap-ros2-support) and
+"""MCAP recording (docs/design.md): read back with independent readers (mcap, mcap-ros2-support) and
 with rclpy's own CDR deserializer, so that the file is what `ros2 bag` and Foxglove expect."""
 
 from __future__ import annotations

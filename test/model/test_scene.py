@@ -1,4 +1,4 @@
-"""Scene format and validation (DESIGN §3): every shipped scene loads, and every malformed
+"""Scene format and validation (docs/design.md): every shipped scene loads, and every malformed
 scene is rejected with one SceneError naming the field (dotted path) and the problem."""
 
 from __future__ import annotations
@@ -28,7 +28,7 @@ from rearrangement_planner.model.scene import (
 from rearrangement_planner.model.state import State
 from rearrangement_planner.physics.validation import check_scene, load_scene, parse_scene
 
-# The example of DESIGN §3, verbatim.
+# The example of docs/design.md "The world model", verbatim.
 BASE = yaml.safe_load("""
 robot: panda
 start_configuration: [0.0, -0.3, 0.0, -2.2, 0.0, 2.0, 0.785]

@@ -1,4 +1,4 @@
-"""Hostile scene files and robot configs (issue 20): each is refused with exit 2 and one line
+"""Hostile scene files and robot configs: each is refused with exit 2 and one line
 naming the field or file and the problem; no traceback, no hang, no absurd world accepted, no
 noise on the terminal. Driven through `rearrangement-plan` (in process, fd-level capture), the
 way a user meets them."""

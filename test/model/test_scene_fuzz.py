@@ -1,4 +1,4 @@
-"""Property test (issue 20): the shipped scenes, mutated the way a hostile or careless user
+"""Property test: the shipped scenes, mutated the way a hostile or careless user
 would (wrong types, NaN and inf, huge integers, deep nesting, aliases, raw bytes), either load
 as a valid scene or are refused with one `RearrangementError` line of bounded length; never
 another exception, never more than a couple of seconds. Derandomized: the same examples on

@@ -1,4 +1,4 @@
-"""Collision and contact queries (DESIGN §5): constructed touching / penetrating / separated
+"""Collision and contact queries (docs/design.md): constructed touching / penetrating / separated
 cases with known depths and normals, the broad phase, and the fcl failure the narrow phase
 has to steer around."""
 
@@ -183,7 +183,7 @@ def test_witness_points_coincide_uses_the_face_normal(world: CollisionWorld) -> 
 
 
 def test_pressing_on_top_gives_a_vertical_normal(world: CollisionWorld) -> None:
-    """DESIGN §5 rejects contacts whose normal is mostly vertical; they must come out so."""
+    """docs/design.md rejects contacts whose normal is mostly vertical; they must come out so."""
     top = np.array([BOX.pose[0], BOX.pose[1], TABLE_TOP + 0.12 + R_CAP - 0.002])
     contacts = world.arm_object_contacts(place(CAPSULE, top, rot_z_to([0, 1, 0])),
                                          initial(world))

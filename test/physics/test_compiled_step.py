@@ -1,4 +1,4 @@
-"""The compiled core of issue 19 against its references: the tool's kinematics and Jacobian
+"""The compiled core against its references: the tool's kinematics and Jacobian
 against Pinocchio, the step's contacts against python-fcl, the compiled propagation against
 the same steps taken one by one from Python, and the robot shapes the step takes."""
 

@@ -1,4 +1,4 @@
-"""The compiled contact geometry (`physics.kernels`, issue 19) against python-fcl, the geometry
+"""The compiled contact geometry (`physics.kernels`) against python-fcl, the geometry
 reference, on thousands of random capsule-prism placements: signed distance, contact point
 and normal, apart and penetrating, boxes and cylinders."""
 

@@ -1,4 +1,4 @@
-"""The quasistatic physics step on the Panda (DESIGN §5): whole-arm pushing, invariants after
+"""The quasistatic physics step on the Panda (docs/design.md): whole-arm pushing, invariants after
 every valid step, independence of how a motion is chopped, and every invalid reason."""
 
 import math
@@ -109,7 +109,7 @@ def test_whole_arm_sweep_moves_two_objects_at_once_with_forearm_and_wrist(whole_
 
 
 def test_after_every_valid_step_no_penetration_and_no_overlap(whole_arm_scene):
-    """Property over random sweeps: the invariants of DESIGN §5 hold after each valid step."""
+    """Property over random sweeps: the invariants of docs/design.md hold after each valid step."""
     physics = Physics(whole_arm_scene, SIM)
     rng = np.random.default_rng(7)
     world, tol = physics.world, physics.options.penetration_tolerance
@@ -356,7 +356,7 @@ def test_check_state_reports_a_resting_state(whole_arm_scene):
 
 
 # --------------------------------------------------------------------------------------------
-# Tipping (DESIGN §5, issue 18 item 2)
+# Tipping (docs/design.md "Quasistatic pushing physics")
 # --------------------------------------------------------------------------------------------
 
 

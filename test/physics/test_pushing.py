@@ -1,4 +1,4 @@
-"""Tests for the quasistatic pushing model (rearrangement_planner/pushing.py; DESIGN §5).
+"""Tests for the quasistatic pushing model (rearrangement_planner/pushing.py; docs/design.md).
 
 Property tests draw random contacts from one fixed-seed generator each and check the laws of
 the model against closed forms recomputed here by a different route (wrench -> A -> twist).
@@ -48,7 +48,7 @@ def velocity_at(point: np.ndarray, twist: np.ndarray) -> np.ndarray:
 
 
 def stick_formula(c: float, p: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """DESIGN §5 closed form (Lynch, Maekawa & Tanie 1992), typed in again."""
+    """docs/design.md closed form (Lynch, Maekawa & Tanie 1992), typed in again."""
     x, y = p
     den = c**2 + x**2 + y**2
     vx = ((c**2 + x**2) * v[0] + x * y * v[1]) / den
@@ -170,7 +170,7 @@ def test_single_contact_matches_closed_forms_property():
             f_e, v_e = usable[name]
             expected = twist_of_wrench(c, wrench_at(p, f_e)) * (v @ n) / (v_e @ n)
             np.testing.assert_allclose(res.twist, expected, atol=1e-9)
-            # ... and the DESIGN formula applied to the scaled edge velocity agrees.
+            # ... and the design's formula applied to the scaled edge velocity agrees.
             np.testing.assert_allclose(res.twist, stick_formula(c, p, v_e * (v @ n) / (v_e @ n)),
                                        atol=1e-9)
             # Coulomb + max dissipation: force on the cone edge, friction along the slip.

@@ -1,4 +1,4 @@
-"""The baselines of King et al. §V-A: Static RRT (only the goal object moves) and DARRT
+"""The baselines of King et al. 2015, §V-A: Static RRT (only the goal object moves) and DARRT
 (transit, RRT-Connect transit, straight-line rigid push)."""
 
 import time

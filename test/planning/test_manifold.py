@@ -1,4 +1,4 @@
-"""The pushing manifold: error, IK onto it, and the Project step (King et al. §III-C, §V).
+"""The pushing manifold: error, IK onto it, and the Project step (King et al. 2015, §III-C, §V).
 
 Property tests over seeded random targets and actions: the laws are "IK lands on the manifold
 at the asked pose", "Project keeps the tool on the manifold and moves it by action·dt", "the

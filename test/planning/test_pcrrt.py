@@ -215,7 +215,7 @@ def test_clear_blockers_pushes_the_blocking_object_out_of_the_line(panda):
 
 
 def test_a_state_on_the_goal_boundary_is_refused_by_the_margin(easy):
-    """DESIGN §6 goal margin: with goal_margin the goal object must end well inside its
+    """docs/design.md goal margin: with goal_margin the goal object must end well inside its
     region; a state whose centre is on the region's edge ends no plan."""
     goal = np.asarray(easy.goal.position)
     g = easy.goal_index

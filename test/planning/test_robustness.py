@@ -1,4 +1,4 @@
-"""Robust plans (DESIGN §6, issue 18 item 3): a plan's robustness is the share of perturbed
+"""Robust plans (docs/design.md "Planners"): a plan's robustness is the share of perturbed
 worlds in which its arm path, replayed through the planner's physics, still brings the goal
 object into its region; the pipeline accepts a plan only at min_robustness."""
 

@@ -1,4 +1,4 @@
-"""Path shortcutting (King et al. §IV): never longer, still valid, still at the goal."""
+"""Path shortcutting (King et al. 2015, §IV): never longer, still valid, still at the goal."""
 
 import numpy as np
 import pytest

@@ -1,4 +1,4 @@
-"""Time parameterization for the joint trajectory controller (DESIGN §4): every limit is
+"""Time parameterization for the joint trajectory controller (docs/design.md): every limit is
 checked by recomputing it from the output (FK for the tool speed), on dense paths made by the
 Project step like the planner's."""
 

@@ -1,4 +1,4 @@
-"""Warm-up of the compiled core (issue 19): compiled once per process before the first plan,
+"""Warm-up of the compiled core: compiled once per process before the first plan,
 cached on disk in a folder per version of the compiled sources."""
 
 from __future__ import annotations

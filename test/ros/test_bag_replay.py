@@ -1,4 +1,4 @@
-"""Bag replay (issue 6): every input bag in bags/ is played into a planner node like
+"""Bag replay: every input bag in bags/ is played into a planner node like
 `ros2 bag play` would, planned, checked against the controller's contract, executed open loop
 in world_sim on the bag's ground truth, and its recorded inputs compared with the bag; every
 reference plan in bags/plans/ is replayed through the current physics.
@@ -76,7 +76,7 @@ def session():
 
 def check_controller_contract(msg, robot, start) -> None:
     """What joint_trajectory_controller checks before it accepts a trajectory, and what the
-    planner promises on top (DESIGN §4): the planning joints in order, stamp zero, positions
+    planner promises on top (docs/design.md): the planning joints in order, stamp zero, positions
     and velocities on every point within the joint limits, strictly increasing times from 0,
     zero final velocity, starting at the state it was planned from."""
     assert list(msg.joint_names) == list(robot.joint_names)
@@ -385,10 +385,10 @@ def test_make_bags_cli_writes_a_bag_and_its_reference_plan(tmp_path, monkeypatch
 
 
 def test_world_sim_in_mujoco_executes_a_bags_plan_to_the_goal(session, tmp_path):
-    """world_sim with engine:=mujoco (the independent engine of DESIGN §10): the planner's
+    """world_sim with engine:=mujoco (the independent engine of docs/design.md): the planner's
     plan for the bag, executed open loop with the arm's real collision meshes, reaches the goal
     region of the bag's ground truth. (Not every bag's plan does yet: default_3obj's ends
-    0.26 m from its goal in MuJoCo; closing that gap is issue 18.)"""
+    0.26 m from its goal in MuJoCo; docs/benchmark.md says where we are behind.)"""
     name = "easy_push_1obj"
     bag = read_bag(BAGS_DIR / f"{name}.mcap")
     run = run_bag(bag, session, rate=RATE, namespace=f"/mujoco_{name}", record_dir=tmp_path,

@@ -1,4 +1,4 @@
-"""planner_node over DDS (DESIGN §4): real rclpy nodes, inputs published like a robot would.
+"""planner_node over DDS (docs/design.md): real rclpy nodes, inputs published like a robot would.
 
 One PlannerNode on the `easy_push` scene runs in a MultiThreadedExecutor thread; a separate
 client node publishes the joint state and object poses at 20 Hz, subscribes to the outputs and
@@ -210,7 +210,7 @@ def check_controller_contract(msg: JointTrajectory, joint_names) -> None:
 
 def test_parameters_declared_once_with_descriptions_and_yaml_defaults(ros):
     planner = ros["planner"]
-    # DESIGN §4: the node is `rearrangement_planner` and takes messages in `world` by default
+    # docs/design.md: the node is `rearrangement_planner` and takes messages in `world` by default
     # (every test here publishes in FRAME = "world" without setting planning_frame).
     assert planner.get_name() == "rearrangement_planner" == NODE_NAME
     assert planner.get_parameter("planning_frame").value == "world" == FRAME
@@ -527,7 +527,7 @@ def test_fresh_node_without_state_says_no_state(ros):
 
 
 def test_robustness_is_in_the_answer_the_status_and_the_recording(ros):
-    """With min_robustness the plan's robustness (DESIGN §6) is reported in the ~/plan answer,
+    """With min_robustness the plan's robustness (docs/design.md) is reported in the ~/plan answer,
     the final ~/status message and the MCAP metadata statistics."""
     client = ros["client"]
     client.wait_inputs_flowing()

@@ -1,5 +1,5 @@
 """planner_node refuses a bad scene at start with its one `[FATAL] cannot start: ...` line and a
-non-zero exit, never a traceback (issue 20)."""
+non-zero exit, never a traceback."""
 
 import os
 import subprocess

@@ -1,4 +1,4 @@
-"""The benchmark of King et al. §V (DESIGN §9): the committed 35-scene set, a tiny protocol
+"""The benchmark of King et al. 2015, §V: the committed 35-scene set, a tiny protocol
 through the real runner (process pool, CSV, resume, summary, plots), Ctrl-C, and bad input."""
 
 import csv

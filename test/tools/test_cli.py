@@ -1,4 +1,4 @@
-"""`rearrangement-plan` (DESIGN §8): exit codes 0/1/2, every JSON field, the PNG."""
+"""`rearrangement-plan` (docs/design.md): exit codes 0/1/2, every JSON field, the PNG."""
 
 import json
 from itertools import pairwise
@@ -137,7 +137,7 @@ def test_a_record_path_under_a_file_is_refused_before_planning(tmp_path, capsys)
 
 def test_recording_failure_keeps_the_plan(tmp_path, capsys, monkeypatch):
     """A recording that fails while writing (disk full, ...) is reported; the plan, its JSON
-    and the exit code stand (DESIGN §7)."""
+    and the exit code stand (docs/design.md "Recording")."""
     from rearrangement_planner.io import plan_record
     from rearrangement_planner.io.recording import RecordingError
 
