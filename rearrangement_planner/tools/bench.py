@@ -15,11 +15,11 @@ of the 35 scenes of config/benchmark/scenes with each seed, each trial the produ
 request (`planning.request`; `--set NAME=VALUE` changes any of its settings, e.g. `--set
 min_robustness=0 --set trees=1` for the first plan of one tree), one worker process per raced
 tree's worth of cores; trials.csv, summary.json and the plots of Figs. 4, 7 and 8
-(`bench_plots.py`) in --out. It resumes: trials already in trials.csv are skipped. Ctrl-C stops it,
-keeps every finished trial and prints the command that resumes (exit code 130). `--quick` is the
-reduced protocol (14 scenes, seed 0, 20 s budget; under 10 minutes on 2 cores). `generate` rewrites
-the scene set. Exit codes: 0 done, 1 some trials failed with an internal error, 2 bad input
-(one line naming the option), 130 interrupted.
+(`bench_plots.py`) in --out. It resumes: trials already in trials.csv are skipped. Ctrl-C
+stops it, keeps every finished trial and prints the command that resumes (exit code 130).
+`--quick` is the reduced protocol (14 scenes, seed 0, 20 s budget; about half an hour on 2
+cores). `generate` rewrites the scene set. Exit codes: 0 done, 1 some trials failed with an
+internal error, 2 bad input (one line naming the option), 130 interrupted.
 
 `scenes` runs each planner on the shipped demo scenes with the default request, one run at a
 time, one line of JSON per run.
@@ -164,12 +164,12 @@ def scene_trial(scene_name: str, planner: str, seed: int, time_limit: float,
 
 
 QUICK: dict[str, Any] = {"seeds": [0], "time_limit": 20.0}
-"""--quick: 2 scenes per object count (14), seed 0, 20 s budget: 42 trials with the three
-planners, at most 42 x (20 s + 5 s shortcut + ~1 s) / 2 workers = 9.1 min on 2 cores."""
+"""--quick: 2 scenes per object count (14), seed 0, 20 s budget: 14 trials per planner, each
+the product's default request (at most about 35 s each: the budget, shortcutting, rollouts)."""
 DEFAULTS: dict[str, Any] = {"seeds": [0, 1, 2], "time_limit": 60.0}
-"""The full protocol: the 35 scenes, the three planners, seeds 0-2, 60 s budget (315 trials),
-each the product's default request (shortcutting, robust selection and raced trees as the CLI
-and the node plan)."""
+"""The full protocol: the 35 scenes, every planner, seeds 0-2, 60 s budget (105 trials per
+planner), each the product's default request (shortcutting, robust selection and raced trees
+as the CLI and the node plan)."""
 
 
 class _Parser(argparse.ArgumentParser):
@@ -194,7 +194,7 @@ def build_parser() -> argparse.ArgumentParser:
                     "already in trials.csv are skipped, so an interrupted run resumes.")
     run.add_argument("--quick", action="store_true",
                      help="reduced protocol: 2 scenes per object count (14 scenes), seed 0, "
-                          "20 s budget (42 trials, under 10 min on 2 cores); options given "
+                          "20 s budget (14 trials per planner); options given "
                           "explicitly override it")
     run.add_argument("--scenes", nargs="+", metavar="SCENE",
                      help="benchmark scene names (n3_s2 = 3 objects, third scene) or scene "

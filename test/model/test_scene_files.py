@@ -204,11 +204,11 @@ def test_bad_output_paths_are_refused_before_planning(capfd, option, target, exp
     assert code == 2 and expected in err and time.monotonic() - started < 2.0, err
 
 
-def test_the_readme_bounds_table_is_the_code():
-    """README's 'Scene files' table states BOUNDS as they are."""
+def test_the_design_bounds_table_is_the_code():
+    """docs/design.md's scene-file table states BOUNDS as they are."""
     from rearrangement_planner.model.scene import BOUNDS
 
-    readme = (Path(__file__).resolve().parents[2] / "README.md").read_text()
+    readme = (Path(__file__).resolve().parents[2] / "docs" / "design.md").read_text()
     rows = {
         "table.center": "| `table.center` (each) | {} to {} m from the robot base |",
         "table.size": "| `table.size` (each) | {} to {} m |",

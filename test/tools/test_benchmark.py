@@ -17,6 +17,7 @@ import pytest
 from rearrangement_planner.physics.options import simulation_options
 from rearrangement_planner.physics.step import Physics
 from rearrangement_planner.physics.validation import load_scene
+from rearrangement_planner.planning.registry import PLANNERS
 from rearrangement_planner.tools import bench, benchmark
 from rearrangement_planner.tools.benchmark import CSV_COLUMNS
 
@@ -419,13 +420,13 @@ def _alive_in_group(pgid: int) -> list[int]:
 # --------------------------------------------------------------------------------------------
 
 
-def test_quick_protocol_is_14_scenes_3_planners_seed_0_at_20_s():
+def test_quick_protocol_is_14_scenes_every_planner_seed_0_at_20_s():
     args = bench.build_parser().parse_args(["run", "--quick"])
     scenes, trials = bench.resolve_run(args)
     assert [p.stem for p, _ in scenes] == [f"n{n}_s{i}" for n in range(1, 8) for i in (0, 1)]
-    assert len(trials) == 42
+    assert len(trials) == 14 * len(PLANNERS)
     assert {(t.planner, t.seed, t.time_limit) for t in trials} == {
-        (p, 0, 20.0) for p in ("pc-rrt", "static-rrt", "darrt")}
+        (p, 0, 20.0) for p in PLANNERS}
     # each trial is the product's default request, which races 2 trees: one worker per 2 cores
     assert args.settings == {} and args.workers == max(1, benchmark.usable_cores() // 2)
     args = bench.build_parser().parse_args(["run", "--quick", "--set", "trees=1"])
@@ -435,7 +436,7 @@ def test_quick_protocol_is_14_scenes_3_planners_seed_0_at_20_s():
 
 def test_full_protocol_is_35_scenes_3_seeds_at_60_s_and_options_override_quick():
     _, trials = bench.resolve_run(bench.build_parser().parse_args(["run"]))
-    assert len(trials) == 35 * 3 * 3 and {t.time_limit for t in trials} == {60.0}
+    assert len(trials) == 35 * 3 * len(PLANNERS) and {t.time_limit for t in trials} == {60.0}
     assert {t.objects for t in trials} == set(range(1, 8))
     _, trials = bench.resolve_run(bench.build_parser().parse_args(
         ["run", "--quick", "--time-limit", "7", "--planners", "darrt", "--seeds", "3", "4"]))
