@@ -66,7 +66,7 @@ BOUNDS: dict[str, tuple[float, float, str]] = {
     "pusher_friction": (0.0, 2.0, ""),
     "goal.radius": (0.001, 5.0, "m"),
 }
-"""Physical plausibility (README, "Scene bounds"): values outside are refused at load time,
+"""Physical plausibility (docs/design.md, "Scene file"): values outside are refused at load time,
 not found late. The goal radius is also at most the table's larger side, and obstacles, like
 objects, stand on the table (their centre on its top)."""
 
@@ -483,7 +483,7 @@ def _bounded(value: Any, path: str, bound: str) -> float:
     x = _number(value, path, f" ({unit})" if unit else "")
     if not low <= x <= high:
         _fail(path, f"must be between {low:g} and {high:g}{' ' + unit if unit else ''} "
-                    f"(scene bounds, README), got {x:.6g}")
+                    f"(scene bounds, docs/design.md), got {x:.6g}")
     return x
 
 
@@ -493,7 +493,7 @@ def _bounded_vector(value: Any, path: str, length: int, what: str, bound: str) -
     bad = [float(v) for v in out if not low <= v <= high]
     if bad:
         _fail(path, f"every entry must be between {low:g} and {high:g} {unit} (scene bounds, "
-                    f"README), got {bad[0]:.6g}")
+                    f"docs/design.md), got {bad[0]:.6g}")
     return out
 
 
