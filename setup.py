@@ -42,6 +42,7 @@ setup(
             f"world_sim = {PACKAGE}.ros.world_sim:main",
             f"rearrangement-plan = {PACKAGE}.tools.cli:main",
             f"rearrangement-bench = {PACKAGE}.tools.bench:main",
+            f"rearrangement-train = {PACKAGE}.tools.train:main",
         ],
     },
 )

@@ -52,6 +52,7 @@ from rearrangement_planner.planning.interface import (
     PushingPlannerOptions,
     StopReason,
 )
+from rearrangement_planner.planning.learned_oracle import LearnedOracle, shipped_models
 from rearrangement_planner.planning.manifold import tool_planar_pose
 from rearrangement_planner.planning.pcrrt import sample_arrangement
 from rearrangement_planner.planning.propagation import Action, Propagation, Stops, constrained_prop
@@ -71,9 +72,11 @@ RANDOM_DURATION = (0.5, 2.0)
 class SliceRRTOptions(PushingPlannerOptions):
     """The slice-based RRT's settings."""
 
-    oracle: str = setting("hand", choices=("hand",))
-    """Where manipulation states and pushes come from: 'hand', the hand-made oracle of
-    Haustein et al. 2018 (the hand behind the object, a straight push)."""
+    oracle: str = setting("learned", choices=("learned", "hand"))
+    """Where manipulation states and pushes come from: 'learned', the generator and policy
+    trained for the scene's robot (`config/models/<robot>_oracle.npz`, Haustein et al. 2018
+    §II; results in docs/benchmark.md), or 'hand', their hand-made baseline (the hand behind
+    the object, a straight push)."""
     robot_share: float = setting(0.2, low=0.0, high=1.0)
     """Probability that an iteration grows its slice towards a random arm state (t = r in
     Algorithm 1 of Haustein et al. 2018) instead of moving an object."""
@@ -154,8 +157,10 @@ class SliceRRT:
         self.options = SliceRRTOptions.adopt(options)
         self.physics = physics or Physics(scene)
         self.robot = self.physics.robot
-        self.oracle: Oracle = HandOracle(scene, self.robot.tool_reach, self.robot.nq,
-                                         self.options)
+        self.oracle: Oracle = (
+            HandOracle(scene, self.robot.tool_reach, self.robot.nq, self.options)
+            if self.options.oracle == "hand"
+            else LearnedOracle(scene, shipped_models(self.robot.config.name), self.robot.nq))
         weights = np.full(len(scene.objects), self.options.object_weight)
         weights[scene.goal_index] = self.options.goal_weight
         self._weights = weights

@@ -199,8 +199,10 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--scenes", nargs="+", metavar="SCENE",
                      help="benchmark scene names (n3_s2 = 3 objects, third scene) or scene "
                           ".yaml files (default: the 35 scenes of config/benchmark/scenes)")
-    run.add_argument("--planners", nargs="+", choices=PLANNERS, default=list(PLANNERS),
-                     metavar="PLANNER", help=f"any of {', '.join(PLANNERS)} (default: all)")
+    run.add_argument("--planners", nargs="+", default=list(PLANNERS), metavar="PLANNER",
+                     help=f"any of {', '.join(PLANNERS)} (default: all), each optionally with "
+                          "settings of its own: PLANNER:NAME=VALUE[,NAME=VALUE] "
+                          "(slice-rrt:oracle=hand)")
     run.add_argument("--seeds", nargs="+", type=int, metavar="N",
                      help="planner seeds (default 0 1 2; --quick: 0)")
     run.add_argument("--time-limit", type=float, metavar="S",
@@ -374,11 +376,21 @@ def request_overrides(items: list[str], planners: list[str]) -> dict[str, Any]:
     except ValueError as exc:
         raise benchmark.BenchmarkError("--set", str(exc)) from None
     scene = load_scene("easy_push")
-    for planner in planners:
+    for label in planners:
+        name, _ = benchmark.planner_variant(label)
+        if name not in PLANNERS:
+            raise benchmark.BenchmarkError(
+                "--planners", f"{label!r}: no planner {name!r}; use one of {', '.join(PLANNERS)}")
         try:
-            PlanRequest.from_settings(scene, planner, settings)
+            name, values = benchmark.variant_settings(label, settings)
         except ValueError as exc:
-            raise benchmark.BenchmarkError("--set", f"{' '.join(items)}: {exc}") from None
+            raise benchmark.BenchmarkError("--planners", f"{label}: {exc}") from None
+        try:
+            PlanRequest.from_settings(scene, name, values)
+        except ValueError as exc:
+            option = "--planners" if values != settings else "--set"
+            raise benchmark.BenchmarkError(option, f"{' '.join(items) or label}: {exc}") \
+                from None
     return settings
 
 

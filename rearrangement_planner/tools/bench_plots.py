@@ -24,7 +24,12 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from rearrangement_planner.tools.benchmark import PAPER, SHORTCUT_PLANNERS, success_at  # noqa: E402
+from rearrangement_planner.tools.benchmark import (  # noqa: E402
+    PAPER,
+    SHORTCUT_PLANNERS,
+    planner_variant,
+    success_at,
+)
 
 COLORS = {"pc-rrt": "#2ca02c", "static-rrt": "#9467bd", "darrt": "#ff7f0e"}
 LABELS = {"pc-rrt": "PC-RRT", "static-rrt": "Static RRT", "darrt": "DARRT"}
@@ -124,7 +129,8 @@ def plot_shortcut(rows: Sequence[dict], planners: Sequence[str], path: Path) -> 
     """Fig. 8 of King et al.: (a) manipulator path length, (b) total object displacement,
     before and after shortcutting; bars are means, dots single trials, lines join the two
     values of one trial."""
-    planners = [p for p in planners if p in SHORTCUT_PLANNERS and _solved(_of(rows, p))]
+    planners = [p for p in planners
+                if planner_variant(p)[0] in SHORTCUT_PLANNERS and _solved(_of(rows, p))]
     fig, axes = plt.subplots(1, 2, figsize=(9.0, 4.0))
     panels = (("path_length_rad", "arm path length (rad)", "(a) manipulator path length"),
               ("object_displacement_m", "total object displacement (m)",

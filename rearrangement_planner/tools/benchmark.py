@@ -388,14 +388,33 @@ def _num(value: float | None, digits: int = 6) -> str:
     return "" if value is None else repr(round(float(value), digits))
 
 
+def planner_variant(label: str) -> tuple[str, list[str]]:
+    """A `--planners` entry: PLANNER, or PLANNER:NAME=VALUE[,NAME=VALUE ...], a planner with
+    settings of its own (`slice-rrt:oracle=hand`); the whole label names its trials' rows."""
+    name, _, rest = label.partition(":")
+    return name, [item for item in rest.split(",") if item]
+
+
+def variant_settings(label: str, settings: dict[str, Any]) -> tuple[str, dict[str, Any]]:
+    """The planner of `label` and the settings of its request: `settings` (the command's
+    --set), then the label's own. ValueError names a bad setting."""
+    from rearrangement_planner.model.settings import parse_assignments
+    from rearrangement_planner.planning.request import request_settings
+
+    name, items = planner_variant(label)
+    return name, {**settings, **dict(parse_assignments(request_settings(), items))}
+
+
 def trial_request(trial: Trial, settings: dict[str, Any]):
     """The plan request of a trial: the product's default request (`planning.request`) with
-    `settings` (the command's --set) and the trial's planner, time limit and seed."""
+    `settings` (the command's --set), the planner label's settings, and the trial's planner,
+    time limit and seed."""
     from rearrangement_planner.physics.validation import load_scene
     from rearrangement_planner.planning.request import PlanRequest
 
-    return PlanRequest.from_settings(load_scene(trial.path), trial.planner,
-                                     {**settings, "time_limit": trial.time_limit},
+    name, values = variant_settings(trial.planner, settings)
+    return PlanRequest.from_settings(load_scene(trial.path), name,
+                                     {**values, "time_limit": trial.time_limit},
                                      seed=trial.seed)
 
 
@@ -836,7 +855,7 @@ def _planner_summary(rows: Sequence[dict], planner: str, protocol: dict,
             "per_link": dict(sorted(link_counts.items())),
         },
         "shortcut": (_shortcut_summary(solved, _shortcut_time(protocol))
-                     if planner in SHORTCUT_PLANNERS
+                     if planner_variant(planner)[0] in SHORTCUT_PLANNERS
                      else "not shortcut"),
     }
     return summary

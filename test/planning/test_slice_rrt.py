@@ -1,7 +1,7 @@
-"""The slice-based RRT (Haustein et al. 2018, Algorithm 1) with the hand-made oracle: it solves,
-is reproducible, its path replays through the physics, its transits leave the objects where
-they are, its tree is grouped by object arrangement, and the oracle puts the hand behind the
-object."""
+"""The slice-based RRT (Haustein et al. 2018, Algorithm 1) with the learned and the hand-made
+oracle: it solves, is reproducible, its path replays through the physics, its transits leave the
+objects where they are, its tree is grouped by object arrangement; the hand-made oracle puts the
+hand behind the object, the learned one near the object and pushes within its bounds."""
 
 import math
 
@@ -12,6 +12,7 @@ from rearrangement_planner.model.state import State
 from rearrangement_planner.physics.step import Physics
 from rearrangement_planner.physics.validation import load_scene
 from rearrangement_planner.planning import PLANNERS, Outcome
+from rearrangement_planner.planning.learned_oracle import MIN_DURATION, LearnedOracle
 from rearrangement_planner.planning.manifold import ik_on_manifold, tool_planar_pose
 from rearrangement_planner.planning.propagation import replay
 from rearrangement_planner.planning.push_policy import support_distance
@@ -23,9 +24,14 @@ def default(panda):
     return load_scene("default", robot=panda)
 
 
+@pytest.fixture(scope="module", params=["learned", "hand"])
+def oracle(request):
+    return request.param
+
+
 @pytest.fixture(scope="module")
-def default_plan(default):
-    return SliceRRT(default, SliceRRTOptions(time_limit=60.0)).plan(seed=0)
+def default_plan(default, oracle):
+    return SliceRRT(default, SliceRRTOptions(time_limit=60.0, oracle=oracle)).plan(seed=0)
 
 
 def test_the_default_scene_is_solved_and_ends_in_the_goal(default, default_plan):
@@ -34,8 +40,8 @@ def test_the_default_scene_is_solved_and_ends_in_the_goal(default, default_plan)
     np.testing.assert_array_equal(default_plan.states[0].q, default.start_configuration)
 
 
-def test_same_seed_same_plan(default, default_plan):
-    again = SliceRRT(default, SliceRRTOptions(time_limit=60.0)).plan(seed=0)
+def test_same_seed_same_plan(default, default_plan, oracle):
+    again = SliceRRT(default, SliceRRTOptions(time_limit=60.0, oracle=oracle)).plan(seed=0)
     assert again.iterations == default_plan.iterations
     assert np.array_equal(again.arm_path, default_plan.arm_path)
 
@@ -110,3 +116,32 @@ def test_slice_rrt_is_registered_and_reads_the_pushing_model():
     spec = PLANNERS["slice-rrt"]
     assert spec.steps_physics and spec.shortcut and spec.options_type is SliceRRTOptions
     assert {"max_turn", "tipping", "robot_share", "oracle"} <= {s.name for s in spec.settings()}
+    assert SliceRRTOptions().oracle == "learned"
+
+
+def test_the_learned_oracle_proposes_states_beside_the_object_and_bounded_pushes(default, panda):
+    """Manipulation states from the shipped generator lie outside the object's footprint and
+    within the reach the models were trained on, in the object's frame wherever the object is;
+    the policy's push keeps to max_speed per component, lasts at most the trained duration and
+    does not turn the tool."""
+    planner = SliceRRT(default, SliceRRTOptions(oracle="learned"))
+    oracle = planner.oracle
+    assert isinstance(oracle, LearnedOracle)
+    rng = np.random.default_rng(0)
+    t = default.goal_index
+    obj = default.objects[t]
+    models = oracle.models
+    for yaw in (0.0, 1.0, -2.5):
+        objects = default.object_poses.copy()
+        objects[t, 2] = yaw
+        target = objects[t, :2] + np.array([0.05, -0.25])
+        for _ in range(20):
+            pose = oracle.manipulation_state(objects, t, target, rng)
+            gap = math.hypot(*(pose[:2] - objects[t, :2])) - obj.footprint_radius
+            assert -0.02 <= gap <= models.reach + 0.03, gap
+            push = oracle.push(pose, objects, t, target)
+            assert np.all(np.abs(push.velocity[:2]) <= models.max_speed + 1e-12)
+            assert push.velocity[2] == 0.0
+            assert MIN_DURATION <= push.duration <= models.max_duration
+    assert oracle.manipulation_state(default.object_poses, t, default.object_poses[t, :2],
+                                     rng) is None      # nothing to push

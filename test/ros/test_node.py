@@ -311,6 +311,26 @@ def test_plan_succeeds_publishes_records_and_executes(ros):
     assert client.commands[0].points[-1].positions == msg.points[-1].positions
 
 
+def test_the_node_plans_with_the_slice_based_rrt(ros):
+    """planner:=slice-rrt (learned oracle, the shipped weights) answers with a plan."""
+    client = ros["client"]
+    client.wait_inputs_flowing()
+    client.set(planner="slice-rrt")
+    try:
+        response = client.call("plan", timeout=60.0)
+    finally:
+        client.set(planner="pc-rrt")
+    assert response.success, response.message
+    plan_id, outcome, _, iterations, mcap = parse_summary(response.message)
+    assert outcome == "SUCCEEDED" and iterations > 0
+    from mcap.reader import make_reader
+
+    with open(mcap, "rb") as f:
+        metadata = {m.name: m.metadata for m in make_reader(f).iter_metadata()}
+    parameters = json.loads(metadata["rearrangement_plan"]["parameters"])
+    assert parameters["planner"] == "slice-rrt" and parameters["oracle"] == "learned"
+
+
 def test_another_domain_does_not_see_this_node(ros):
     """Two test runs at once use different domain ids (from the pid): a node on another domain
     finds neither the planner's services nor its topics, while this run's client does."""

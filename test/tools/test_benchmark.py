@@ -279,7 +279,9 @@ def test_progress_bar_redraws_in_place_on_a_terminal():
 
 TINY = ["--scenes", "n1_s0", "n1_s1", "--planners", "pc-rrt", "static-rrt", "--seeds", "0",
         "--time-limit", "4", "--set", "shortcut_time=3", "--set", "shortcut_attempts=3",
-        "--workers", "1"]
+        "--set", "min_robustness=0", "--set", "trees=1", "--workers", "1"]
+"""Two scenes and two planners, first plans from one tree (the shipped request's robust
+selection and raced trees have tests of their own)."""
 
 
 def _read_csv(path: Path) -> tuple[list[str], list[dict]]:
@@ -368,8 +370,8 @@ def test_ctrl_c_keeps_complete_rows_stops_the_workers_and_says_how_to_resume(tmp
     7-object scene that takes the whole budget) runs."""
     out = tmp_path / "bench"
     args = ["run", "--scenes", "n1_s0", "n7_s0", "--planners", "pc-rrt", "--seeds", "0",
-            "--time-limit", "30", "--set", "shortcut_time=0", "--workers", "1", "--out",
-            str(out)]
+            "--time-limit", "30", "--set", "shortcut_time=0", "--set", "trees=1",
+            "--workers", "1", "--out", str(out)]
     proc = subprocess.Popen(
         [sys.executable, "-m", "rearrangement_planner.tools.bench", *args], stdout=subprocess.PIPE,
         stderr=subprocess.PIPE, text=True, start_new_session=True,
@@ -451,6 +453,26 @@ def _exit_code(argv: list[str]) -> int:
         return exc.code
 
 
+def test_a_planner_label_may_carry_its_own_settings(tmp_path):
+    """`slice-rrt:oracle=hand` plans with the hand-made oracle; its rows and summary carry the
+    label, beside the plain planner's."""
+    path = benchmark.scene_set_dir() / "n1_s0.yaml"
+    for label, oracle in (("slice-rrt", "learned"), ("slice-rrt:oracle=hand", "hand")):
+        request = benchmark.trial_request(benchmark.Trial("n1_s0", str(path), 1, label, 0, 4.0),
+                                          {"trees": 1})
+        assert (request.planner.name, request.options.oracle) == ("slice-rrt", oracle)
+        assert request.race.trees == 1 and request.options.time_limit == 4.0
+    out = tmp_path / "bench"
+    assert bench.main(["run", "--scenes", "n1_s0", "--planners", "slice-rrt",
+                       "slice-rrt:oracle=hand", "--seeds", "0", "--time-limit", "4", "--set",
+                       "min_robustness=0", "--set", "trees=1", "--set", "shortcut_time=0",
+                       "--workers", "1", "--out", str(out)]) == 0
+    _, rows = _read_csv(out / "trials.csv")
+    assert sorted(r["planner"] for r in rows) == ["slice-rrt", "slice-rrt:oracle=hand"]
+    summary = json.loads((out / "summary.json").read_text())
+    assert {"slice-rrt", "slice-rrt:oracle=hand"} <= set(summary["planners"])
+
+
 @pytest.mark.parametrize("args, option", [
     (["--planners", "rrt-star"], "--planners"),
     (["--time-limit", "0"], "--time-limit"),
@@ -459,6 +481,9 @@ def _exit_code(argv: list[str]) -> int:
     (["--set", "shortcut_time=-1"], "--set"),
     (["--set", "nope=1"], "--set"),
     (["--planners", "darrt", "--set", "max_turn=1"], "--set"),
+    (["--planners", "slice-rrt:oracle=psychic"], "--planners"),
+    (["--planners", "darrt:max_turn=1"], "--planners"),
+    (["--planners", "rrt-star:oracle=hand"], "--planners"),
     (["--workers", "0"], "--workers"),
     (["--workers", str(benchmark.usable_cores() + 1)], "--workers"),
     (["--seeds", "-1"], "--seeds"),
