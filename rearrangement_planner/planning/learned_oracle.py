@@ -67,8 +67,20 @@ def property_features(props: Any, xp: ModuleType = np) -> Any:
 
 def action_features(action: Any, max_speed: float, max_duration: float,
                     xp: ModuleType = np) -> Any:
-    """u (..., 3) → (..., 3): velocity in units of `max_speed`, duration of `max_duration`."""
-    return xp.concatenate([action[..., :2] / max_speed, action[..., 2:] / max_duration], axis=-1)
+    """u (..., 3) → (..., 5): velocity in units of `max_speed`, duration in units of
+    `max_duration`, and the tool's travel (velocity × duration) in units of POSITION_SCALE."""
+    travel = action[..., :2] * action[..., 2:] / POSITION_SCALE
+    return xp.concatenate([action[..., :2] / max_speed, action[..., 2:] / max_duration, travel],
+                          axis=-1)
+
+
+def forward_inputs(tool: Any, props: Any, action: Any, max_speed: float, max_duration: float,
+                   xp: ModuleType = np) -> Any:
+    """The forward models' input: x_r, ν_o and u encoded, and where the tool ends up relative
+    to the object after u (the pushed object ends near it)."""
+    end = (tool[..., :2] + action[..., :2] * action[..., 2:]) / POSITION_SCALE
+    return xp.concatenate([tool_features(tool, xp), property_features(props, xp),
+                           action_features(action, max_speed, max_duration, xp), end], axis=-1)
 
 
 # -- networks ------------------------------------------------------------------------------------
@@ -97,7 +109,8 @@ def policy_output(raw: Any, max_speed: float, max_duration: float, xp: ModuleTyp
     """The policy network's raw output (..., 3) → u: each velocity component within
     ±max_speed (tanh), the duration in [MIN_DURATION, max_duration] (a logistic)."""
     velocity = max_speed * xp.tanh(raw[..., :2])
-    duration = MIN_DURATION + (max_duration - MIN_DURATION) / (1.0 + xp.exp(-raw[..., 2:]))
+    duration = MIN_DURATION + (max_duration - MIN_DURATION) / (
+        1.0 + xp.exp(-xp.clip(raw[..., 2:], -30.0, 30.0)))
     return xp.concatenate([velocity, duration], axis=-1)
 
 
@@ -135,16 +148,16 @@ class OracleModels:
     def forward(self, tool: np.ndarray, props: np.ndarray, action: np.ndarray
                 ) -> tuple[np.ndarray, np.ndarray]:
         """f_μ and f_σ²: the object's expected successor (x, y, yaw) and its variance."""
-        x = np.concatenate([tool_features(tool), property_features(props),
-                            action_features(action, self.max_speed, self.max_duration)], axis=-1)
+        x = forward_inputs(tool, props, action, self.max_speed, self.max_duration)
         return forward_output(self.networks["f_mu"](x), self.networks["f_var"](x))
 
 
 def forward_output(mu_raw: Any, var_raw: Any, xp: ModuleType = np) -> tuple[Any, Any]:
     """The forward models' raw outputs → successor mean (x, y in m, yaw in rad) and variance
-    (the network predicts the log variance in scaled units)."""
+    (the network predicts the log variance in scaled units, read within [-12, 4] so that an
+    input far from the data cannot overflow it)."""
     scale = xp.asarray([POSITION_SCALE, POSITION_SCALE, 1.0])
-    return mu_raw * scale, xp.exp(var_raw) * scale ** 2
+    return mu_raw * scale, xp.exp(xp.clip(var_raw, -12.0, 4.0)) * scale ** 2
 
 
 def model_path(robot: str) -> Path:
@@ -241,4 +254,7 @@ class LearnedOracle:
         u = self.models.policy(to_local(objects[t], tool), desired, self.props[t])
         c, s = math.cos(objects[t, 2]), math.sin(objects[t, 2])
         velocity = np.array([c * u[0] - s * u[1], s * u[0] + c * u[1], 0.0])
-        return Action(velocity, float(u[2]), np.zeros(self.nq))
+        # The policy bounds each component in the object's frame; the planner bounds them in
+        # the base frame: slow down and push longer, the same travel.
+        over = max(1.0, float(np.abs(velocity[:2]).max()) / self.models.max_speed)
+        return Action(velocity / over, float(u[2]) * over, np.zeros(self.nq))

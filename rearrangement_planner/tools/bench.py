@@ -9,6 +9,7 @@
     rearrangement-bench candidates [--scenes SCENE ...] [--seeds N ...] [--candidates K]
                                    [--time-limit S] [--set NAME=VALUE ...] [--workers N]
                                    [--out DIR]
+    rearrangement-bench states [--weights NPZ] [--out PNG]
 
 `run` (the default) is the benchmark of King et al. 2015, §V (`benchmark.py`): each planner on each
 of the 35 scenes of config/benchmark/scenes with each seed, each trial the product's default plan
@@ -28,6 +29,9 @@ time, one line of JSON per run.
 candidate plans a robust search makes, each executed in MuJoCo, into --out/candidates.jsonl
 (resumable), then replays selection rules over them within the time limit and prints how many
 chosen plans reached the goal (docs/benchmark.md).
+
+`states` draws the learned generator's manipulation states (Fig. 2a of Haustein et al. 2018)
+from the shipped weights of the Panda or --weights.
 """
 
 from __future__ import annotations
@@ -55,7 +59,7 @@ from rearrangement_planner.planning.request import request_settings
 from rearrangement_planner.planning.robustness import RobustOptions
 from rearrangement_planner.tools import benchmark
 
-COMMANDS = ("run", "generate", "physics", "scenes", "candidates")
+COMMANDS = ("run", "generate", "physics", "scenes", "candidates", "states")
 
 PHYSICS_DOC = """`rearrangement-bench physics` measures the throughput of the quasistatic physics
 step on the Panda at the default scene's table: the arm, folded low so that forearm and
@@ -241,6 +245,13 @@ def build_parser() -> argparse.ArgumentParser:
     _add_set_option(scenes)
     scenes.add_argument("--jsonl", type=Path, help="also append the lines to this file")
     _add_candidates_parser(sub)
+    states = sub.add_parser(
+        "states", help="Fig. 2a of Haustein et al. 2018: the learned generator's manipulation "
+                       "states around an object")
+    states.add_argument("--weights", type=Path, default=None,
+                        help="a learned oracle .npz (default: the Panda's shipped one)")
+    states.add_argument("--out", type=Path, default=Path("manipulation_states.png"),
+                        help="the PNG to write (default manipulation_states.png)")
     return parser
 
 
@@ -294,6 +305,8 @@ def main(argv: list[str] | None = None) -> int:
             return scenes_command(args)
         if args.command == "candidates":
             return candidates_command(args)
+        if args.command == "states":
+            return states_command(args)
         return physics_command(args)
     except benchmark.BenchmarkError as exc:
         print(f"rearrangement-bench: {exc}", file=sys.stderr)
@@ -301,6 +314,19 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("\nrearrangement-bench: interrupted", file=sys.stderr)
         return 130
+
+
+def states_command(args: argparse.Namespace) -> int:
+    from rearrangement_planner.planning.learned_oracle import load_models, model_path
+    from rearrangement_planner.tools.bench_plots import plot_manipulation_states
+
+    weights = args.weights or model_path("panda")
+    try:
+        models = load_models(weights)
+    except (OSError, ValueError) as exc:
+        raise benchmark.BenchmarkError("--weights", str(exc)) from None
+    print(f"wrote {plot_manipulation_states(models, args.out)}")
+    return 0
 
 
 def physics_command(args: argparse.Namespace) -> int:

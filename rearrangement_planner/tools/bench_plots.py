@@ -9,7 +9,11 @@ rows (`benchmark.CSV_COLUMNS`) and the summary (`benchmark.summarize`):
 - by_objects.png: share solved per number of movable objects;
 - executed.png: share of trials solved in the planner's model and reached when the plan is
   executed open loop in MuJoCo (ideal and servo-driven arm), per planner, beside the paper's
-  real-robot executions (Table I).
+  real-robot executions (Table I);
+- success_vs_iterations.png (Fig. 2b of Haustein et al. 2018): for each iteration count n, the
+  share of trials solved within n iterations, per planner.
+
+`plot_manipulation_states` draws Fig. 2a of Haustein et al. 2018 from a learned oracle.
 """
 
 from __future__ import annotations
@@ -31,8 +35,11 @@ from rearrangement_planner.tools.benchmark import (  # noqa: E402
     success_at,
 )
 
-COLORS = {"pc-rrt": "#2ca02c", "static-rrt": "#9467bd", "darrt": "#ff7f0e"}
-LABELS = {"pc-rrt": "PC-RRT", "static-rrt": "Static RRT", "darrt": "DARRT"}
+COLORS = {"pc-rrt": "#2ca02c", "static-rrt": "#9467bd", "darrt": "#ff7f0e",
+          "slice-rrt": "#1f77b4", "slice-rrt:oracle=hand": "#17becf"}
+LABELS = {"pc-rrt": "PC-RRT", "static-rrt": "Static RRT", "darrt": "DARRT",
+          "slice-rrt": "slice-RRT", "slice-rrt:oracle=learned": "slice-RRT, learned",
+          "slice-rrt:oracle=hand": "slice-RRT, hand-made"}
 DPI = 110
 
 
@@ -214,8 +221,71 @@ def plot_executed(rows: Sequence[dict], planners: Sequence[str], path: Path) -> 
     return _save(fig, path)
 
 
+def plot_success_vs_iterations(rows: Sequence[dict], planners: Sequence[str],
+                               path: Path) -> Path:
+    """Fig. 2b of Haustein et al. 2018: the share of trials solved within n iterations."""
+    fig, ax = plt.subplots(figsize=(6.4, 4.2))
+    most = max([int(r["iterations"]) for r in rows] + [10])
+    grid = np.unique(np.geomspace(1, most, 400).astype(int))
+    for planner in planners:
+        group = _of(rows, planner)
+        if not group:
+            continue
+        solved = np.array([int(r["iterations"]) for r in _solved(group)])
+        share = [100 * np.sum(solved <= n) / len(group) for n in grid]
+        ax.step(grid, share, where="post", color=_color(planner), lw=2,
+                label=f"{_label(planner)} ({len(group)} trials)")
+    ax.set_xscale("log")
+    ax.set_ylim(-2, 102)
+    ax.set_xlabel("iterations")
+    ax.set_ylabel("trials solved within n iterations (%)")
+    ax.set_title("Success rate vs iterations (cf. Haustein et al. 2018, Fig. 2b)")
+    ax.grid(alpha=0.3)
+    ax.legend(loc="upper left", fontsize=9)
+    return _save(fig, path)
+
+
+def plot_manipulation_states(models, path: Path, samples: int = 300, seed: int = 0) -> Path:
+    """Fig. 2a of Haustein et al. 2018: tool poses the learned generator proposes around an
+    object at the origin for the push drawn as an arrow, coloured by the tool's yaw (an arrow
+    per pose points where the hand faces). `models`: `planning.learned_oracle.OracleModels`."""
+    from matplotlib.patches import Circle, Rectangle
+
+    rng = np.random.default_rng(seed)
+    goal_box = np.array([0.0, 0.06, 0.08, 0.12, 0.4, 0.45, 0.35])
+    cases = [("goal box (6 x 8 cm), push +y", goal_box, (0.0, 0.2)),
+             ("goal box, push +x", goal_box, (0.2, 0.0)),
+             ("cylinder r = 4 cm, push (+x, +y)", np.array([1.0, 0.08, 0.08, 0.12, 0.4, 0.45,
+                                                             0.35]), (0.14, 0.14))]
+    fig, axes = plt.subplots(1, len(cases), figsize=(4.2 * len(cases), 4.4))
+    for ax, (title, props, desired) in zip(axes, cases, strict=True):
+        z = rng.standard_normal((samples, models.networks["generator"].weights[0].shape[0]
+                                 - 2 - len(props)))
+        tools = models.generate(z, np.tile(desired, (samples, 1)), np.tile(props, (samples, 1)))
+        if props[0] > 0.5:
+            ax.add_patch(Circle((0, 0), props[1] / 2, color="0.6"))
+        else:
+            ax.add_patch(Rectangle((-props[1] / 2, -props[2] / 2), props[1], props[2],
+                                   color="0.6"))
+        ax.quiver(tools[:, 0], tools[:, 1], np.cos(tools[:, 2]), np.sin(tools[:, 2]),
+                  (tools[:, 2] + np.pi) / (2 * np.pi), cmap="hsv", clim=(0, 1), scale=30,
+                  width=0.004)
+        ax.annotate("", xy=desired, xytext=(0, 0),
+                    arrowprops={"arrowstyle": "->", "lw": 2, "color": "black"})
+        ax.set_xlim(-0.25, 0.25)
+        ax.set_ylim(-0.25, 0.25)
+        ax.set_aspect("equal")
+        ax.set_title(title, fontsize=10)
+        ax.set_xlabel("x in the object frame (m)")
+        ax.grid(alpha=0.3)
+    axes[0].set_ylabel("y (m)")
+    fig.suptitle("Learned manipulation states (cf. Haustein et al. 2018, Fig. 2a): tool poses "
+                 "from the generator, coloured and pointing by the hand's yaw", fontsize=10)
+    return _save(fig, path)
+
+
 def plot_all(rows: Sequence[dict], summary: dict, out: Path) -> list[Path]:
-    """Write the five figures into `out`; returns their paths."""
+    """Write the six figures into `out`; returns their paths."""
     protocol = summary["protocol"]
     planners = list(protocol["planners"])
     return [
@@ -225,4 +295,5 @@ def plot_all(rows: Sequence[dict], summary: dict, out: Path) -> list[Path]:
         plot_shortcut(rows, planners, out / "shortcut.png"),
         plot_by_objects(rows, planners, out / "by_objects.png"),
         plot_executed(rows, planners, out / "executed.png"),
+        plot_success_vs_iterations(rows, planners, out / "success_vs_iterations.png"),
     ]

@@ -340,6 +340,7 @@ CSV_COLUMNS = (
     "ee_path_length_m_before", "ee_path_length_m_after",
     "object_displacement_m_before", "object_displacement_m_after",
     "shortcut_time_s", "pushing_links", "non_goal_objects_moved",
+    "goal_start_distance_m", "goal_push_path_m", "goal_turn_rad",
     "executed_ideal", "executed_servo", "executed_goal_distance_m", "trial_wall_s",
 )
 """trials.csv: one row per trial. goal_distance_m: the goal object's final distance from the
@@ -351,9 +352,21 @@ executed_ideal / executed_servo: 1 when the solved plan, executed open loop in M
 (`execution.mujoco_check`, ideal / servo-driven arm), reaches the goal region with nothing
 toppled, else 0 (empty when not solved); executed_goal_distance_m: the goal object's final
 distance there (ideal arm).
+goal_start_distance_m: the goal object's start distance from the goal point; goal_push_path_m
+and goal_turn_rad: how far its centre travels and how much it turns (sum of |Δyaw|) along the
+final path (empty when not solved).
 trial_wall_s: the whole trial (planning, shortcutting, timing, replay) on the wall clock."""
 
 MOVED_TOLERANCE = 1e-3   # m, an object counts as moved beyond this distance from its start
+
+
+def goal_push(states, goal_index: int) -> tuple[float, float]:
+    """How far object `goal_index`'s centre travels along `states` (m) and how much it turns
+    (rad, the sum of |Δyaw|)."""
+    poses = np.array([s.objects[goal_index] for s in states])
+    steps = np.diff(poses, axis=0)
+    turns = np.arctan2(np.sin(steps[:, 2]), np.cos(steps[:, 2]))
+    return float(np.hypot(steps[:, 0], steps[:, 1]).sum()), float(np.abs(turns).sum())
 
 
 def pushing_links(physics, states) -> set[str]:
@@ -443,11 +456,15 @@ def run_trial(trial: Trial, settings: dict[str, Any]) -> dict:
         before = output.metrics_before_shortcut or after
         links = pushing_links(_replay_physics(scene), result.states)
         moved = objects_moved(scene, result.states, skip=scene.goal_index)
+        path, turn = goal_push(result.states, scene.goal_index)
+        row["goal_push_path_m"], row["goal_turn_rad"] = _num(path), _num(turn)
     else:
         row["goal_distance_m"] = _num(result.best_goal_distance)
     for field in ("path_length_rad", "ee_path_length_m", "object_displacement_m"):
         row[f"{field}_before"] = _num(getattr(before, field) if before else None)
         row[f"{field}_after"] = _num(getattr(after, field) if after else None)
+    row["goal_start_distance_m"] = _num(scene.goal.distance(
+        scene.object_poses[scene.goal_index, :2]))
     row["shortcut_time_s"] = _num(output.shortcut_time, 3)
     row["pushing_links"] = ";".join(sorted(links))
     row["non_goal_objects_moved"] = str(len(moved)) if result.solved else ""
@@ -862,13 +879,23 @@ def _planner_summary(rows: Sequence[dict], planner: str, protocol: dict,
 
 
 def _executed_summary(solved: Sequence[dict]) -> dict[str, Any]:
-    """Solved plans that also reach the goal executed open loop in MuJoCo (docs/design.md)."""
+    """Solved plans that also reach the goal executed open loop in MuJoCo (docs/design.md),
+    and how the goal object is pushed: the median of its push path over its start distance
+    from the goal point, and of its turn."""
     ideal = [r for r in solved if r["executed_ideal"] != ""]
+    pushed = [r for r in solved if r.get("goal_push_path_m")]
+    ratios = [float(r["goal_push_path_m"]) / max(float(r["goal_start_distance_m"]), 1e-6)
+              for r in pushed]
     return {"checked": len(ideal),
             "reached_ideal": sum(r["executed_ideal"] == "1" for r in ideal),
             "reached_servo": sum(r["executed_servo"] == "1" for r in ideal),
             "reached_ideal_share": _rounded(sum(r["executed_ideal"] == "1" for r in ideal)
-                                            / len(ideal)) if ideal else None}
+                                            / len(ideal)) if ideal else None,
+            "reached_servo_share": _rounded(sum(r["executed_servo"] == "1" for r in ideal)
+                                            / len(ideal)) if ideal else None,
+            "goal_push_path_ratio_median": _rounded(_median(ratios)),
+            "goal_turn_rad_median": _rounded(_median([float(r["goal_turn_rad"])
+                                                      for r in pushed]))}
 
 
 def _beats(a: dict, b: dict) -> dict[str, bool]:

@@ -28,6 +28,7 @@ import dataclasses
 import math
 import multiprocessing
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
@@ -84,11 +85,12 @@ class PushData:
     action: np.ndarray
     successors: np.ndarray
 
-    def save(self, path: str) -> None:
-        np.savez_compressed(path, **dataclasses.asdict(self))
+    def save(self, path: str | Path, stamp: str = "") -> None:
+        """Write the samples (and `stamp`, what made them) as an .npz."""
+        np.savez_compressed(path, stamp=np.array(stamp), **dataclasses.asdict(self))
 
     @classmethod
-    def load(cls, path: str) -> PushData:
+    def load(cls, path: str | Path) -> PushData:
         with np.load(path) as data:
             return cls(*(data[f.name] for f in dataclasses.fields(cls)))
 

@@ -37,7 +37,7 @@ from rearrangement_planner.planning.learned_oracle import (
     NETWORKS,
     NOISE_SIZE,
     POSITION_SCALE,
-    action_features,
+    forward_inputs,
     forward_output,
     generator_output,
     mlp,
@@ -89,13 +89,16 @@ def _jax() -> Any:
     return jax
 
 
-def init_network(key: Any, sizes: list[int]) -> tuple[list, list]:
-    """He-initialised weights and zero biases of a perceptron with layer `sizes`."""
+def init_network(key: Any, sizes: list[int], last_scale: float = 1.0) -> tuple[list, list]:
+    """He-initialised weights and zero biases of a perceptron with layer `sizes`; the output
+    layer's weights scaled by `last_scale` (small: outputs start near 0, where the policy's
+    tanh and logistic are not saturated)."""
     jax = _jax()
     weights, biases = [], []
-    for n_in, n_out in zip(sizes[:-1], sizes[1:], strict=True):
+    for i, (n_in, n_out) in enumerate(zip(sizes[:-1], sizes[1:], strict=True)):
         key, sub = jax.random.split(key)
-        weights.append(jax.random.normal(sub, (n_in, n_out)) * math.sqrt(2.0 / n_in))
+        scale = math.sqrt(2.0 / n_in) * (last_scale if i == len(sizes) - 2 else 1.0)
+        weights.append(jax.random.normal(sub, (n_in, n_out)) * scale)
         biases.append(jax.numpy.zeros(n_out))
     return weights, biases
 
@@ -155,8 +158,8 @@ class Trainer:
                 self.say(f"  {name}: step {step + 1}/{steps}, loss {curve[-1]:.5g}")
         return log
 
-    def _net(self, n_in: int, n_out: int) -> tuple[list, list]:
-        return init_network(self._key(), [n_in, *self.options.hidden, n_out])
+    def _net(self, n_in: int, n_out: int, last_scale: float = 1.0) -> tuple[list, list]:
+        return init_network(self._key(), [n_in, *self.options.hidden, n_out], last_scale)
 
     def _batches(self, arrays: tuple[np.ndarray, ...]) -> Callable[[int], tuple]:
         n = len(arrays[0])
@@ -169,10 +172,20 @@ class Trainer:
 
     # -- stages ----------------------------------------------------------------------------------
 
-    def data(self) -> PushData:
+    def data(self, cache: Path | None = None) -> PushData:
+        """The pushes: read from `cache` when it holds this run's (same seed and options),
+        else simulated (and written there)."""
         start = time.monotonic()
+        stamp = json.dumps([self.seed, self.options.samples, asdict(self.options.data)])
+        if cache is not None and cache.is_file():
+            with np.load(cache) as saved:
+                if str(saved["stamp"]) == stamp:
+                    self.say(f"  read {cache}")
+                    return PushData.load(cache)
         data = generate(self.options.samples, self.seed, self.options.data,
                         workers=self.workers)
+        if cache is not None:
+            data.save(cache, stamp=stamp)
         self.seconds["data"] = time.monotonic() - start
         return data
 
@@ -181,8 +194,7 @@ class Trainer:
         jnp, opts = self.jax.numpy, self.options
         speed, duration = opts.data.max_speed, opts.data.max_duration
         scale = np.array([POSITION_SCALE, POSITION_SCALE, 1.0])
-        inputs = np.concatenate([tool_features(data.tool), property_features(data.properties),
-                                 action_features(data.action, speed, duration)], axis=-1)
+        inputs = forward_inputs(data.tool, data.properties, data.action, speed, duration)
         mean = data.successors.mean(axis=1) / scale
         log_var = np.log(data.successors.var(axis=1) / scale ** 2 + 1e-4)
         arrays = tuple(np.asarray(a, dtype=np.float32) for a in (inputs, mean, log_var))
@@ -210,7 +222,7 @@ class Trainer:
             tf, pf = tool_features(tool, jnp), property_features(props, jnp)
             u = policy_output(mlp(*policy, jnp.concatenate(
                 [tf, desired / POSITION_SCALE, pf], axis=-1), jnp), speed, duration, jnp)
-            x = jnp.concatenate([tf, pf, action_features(u, speed, duration, jnp)], axis=-1)
+            x = forward_inputs(tool, props, u, speed, duration, jnp)
             mu, var = forward_output(mlp(*f_mu, x, jnp), mlp(*f_var, x, jnp), jnp)
             target = jnp.concatenate([desired, jnp.zeros_like(desired[..., :1])], axis=-1)
             return jnp.sum(weights * (var + (mu - target) ** 2), axis=-1)
@@ -240,7 +252,7 @@ class Trainer:
             return jnp.mean(loss_of(params["policy"], *batch))
 
         start = time.monotonic()
-        params = {"policy": self._net(4 + 2 + 7, 3)}
+        params = {"policy": self._net(4 + 2 + 7, 3, last_scale=0.01)}
         params = _fit(loss, params, opts.policy_steps, opts.learning_rate,
                       self._batches(arrays), self._logger("policy", opts.policy_steps))
         self.params.update(params)
@@ -351,11 +363,11 @@ class Trainer:
         self.params["generator"] = g
         self.seconds["gan"] = time.monotonic() - start
 
-    def run(self) -> PushData:
-        """All four stages; the data they were trained on."""
+    def run(self, cache: Path | None = None) -> PushData:
+        """All four stages (the data read from `cache` if it holds them); the data."""
         self.say(f"data: {self.options.samples} pushes ...")
-        data = self.data()
-        self.say(f"  {self.seconds['data']:.0f} s")
+        data = self.data(cache)
+        self.say(f"  {self.seconds.get('data', 0.0):.0f} s")
         self.say("forward models ...")
         self.forward_models(data)
         self.say("policy ...")
@@ -385,6 +397,9 @@ def main(argv: list[str] | None = None) -> int:
                         help=f"weights file (default: the shipped {model_path('panda')})")
     parser.add_argument("--report", type=Path, default=None,
                         help="write the loss curves and stage times as JSON here")
+    parser.add_argument("--data", type=Path, default=None,
+                        help="keep the simulated pushes in this .npz and reuse them when it "
+                             "holds this run's (same seed and options)")
     parser.add_argument("--workers", type=int, default=os.cpu_count() or 1,
                         help="processes simulating the data (default: every core)")
     parser.add_argument("--tiny", action="store_true",
@@ -393,7 +408,7 @@ def main(argv: list[str] | None = None) -> int:
     options = TrainOptions.tiny() if args.tiny else TrainOptions()
     started = time.monotonic()
     trainer = Trainer(options, args.seed, workers=args.workers)
-    trainer.run()
+    trainer.run(args.data)
     out = args.out or model_path("panda")
     trainer.save(out)
     total = time.monotonic() - started

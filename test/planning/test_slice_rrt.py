@@ -122,8 +122,8 @@ def test_slice_rrt_is_registered_and_reads_the_pushing_model():
 def test_the_learned_oracle_proposes_states_beside_the_object_and_bounded_pushes(default, panda):
     """Manipulation states from the shipped generator lie outside the object's footprint and
     within the reach the models were trained on, in the object's frame wherever the object is;
-    the policy's push keeps to max_speed per component, lasts at most the trained duration and
-    does not turn the tool."""
+    the policy's push keeps to max_speed per component in the base frame (pushing longer when it
+    had to slow down), and does not turn the tool."""
     planner = SliceRRT(default, SliceRRTOptions(oracle="learned"))
     oracle = planner.oracle
     assert isinstance(oracle, LearnedOracle)
@@ -142,6 +142,6 @@ def test_the_learned_oracle_proposes_states_beside_the_object_and_bounded_pushes
             push = oracle.push(pose, objects, t, target)
             assert np.all(np.abs(push.velocity[:2]) <= models.max_speed + 1e-12)
             assert push.velocity[2] == 0.0
-            assert MIN_DURATION <= push.duration <= models.max_duration
+            assert MIN_DURATION <= push.duration <= math.sqrt(2) * models.max_duration
     assert oracle.manipulation_state(default.object_poses, t, default.object_poses[t, :2],
                                      rng) is None      # nothing to push

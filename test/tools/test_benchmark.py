@@ -203,15 +203,21 @@ def test_summary_success_at_budget_shortcut_means_and_pushing_links():
                 "request_settings": {"shortcut_time": 5.0, "shortcut_attempts": 100},
                 "quick": False}
     rows[1]["shortcut_time_s"] = "5.0"   # ran out of time before its attempt bound
-    for row, ideal, servo in ((rows[0], "1", "1"), (rows[1], "0", "1"), (rows[3], "0", "0")):
-        row.update(executed_ideal=ideal, executed_servo=servo, executed_goal_distance_m="0.2")
+    for row, ideal, servo, path in ((rows[0], "1", "1", "0.3"), (rows[1], "0", "1", "0.5"),
+                                    (rows[3], "0", "0", "0.9")):
+        row.update(executed_ideal=ideal, executed_servo=servo, executed_goal_distance_m="0.2",
+                   goal_start_distance_m="0.3", goal_push_path_m=path, goal_turn_rad="0.1")
     summary = benchmark.summarize(rows, protocol, {"panda_hand", "panda_link7"})
     json.dumps(summary)   # JSON-safe
     pc, darrt = summary["planners"]["pc-rrt"], summary["planners"]["darrt"]
     assert (pc["trials"], pc["solved"], pc["solved_share"]) == (4, 3, 0.75)
     # executed open loop in MuJoCo: 1 of the 3 solved plans with the ideal arm, 2 with servo
     assert pc["executed"] == {"checked": 3, "reached_ideal": 1, "reached_servo": 2,
-                              "reached_ideal_share": round(1 / 3, 4)}
+                              "reached_ideal_share": round(1 / 3, 4),
+                              "reached_servo_share": round(2 / 3, 4),
+                              # push paths 0.3, 0.5, 0.9 m from 0.3 m away: median 0.5 / 0.3
+                              "goal_push_path_ratio_median": round(0.5 / 0.3, 4),
+                              "goal_turn_rad_median": 0.1}
     assert pc["solved_after_time_limit"] == 0
     assert pc["plan_time_s"]["median"] == 5.0
     # a trial counts at budget t when solved with plan time <= t (Fig. 7)
@@ -290,6 +296,16 @@ def _read_csv(path: Path) -> tuple[list[str], list[dict]]:
         return list(reader.fieldnames), list(reader)
 
 
+def test_goal_push_sums_the_goal_objects_travel_and_turn():
+    from rearrangement_planner.model.state import State
+
+    poses = [[0.0, 0.0, 3.0], [0.1, 0.0, -3.0], [0.1, 0.2, -2.9]]     # a turn across ±pi
+    states = [State(np.zeros(7), np.array([[5.0, 5.0, 0.0], p])) for p in poses]
+    path, turn = benchmark.goal_push(states, 1)
+    assert path == pytest.approx(0.3)
+    assert turn == pytest.approx((2 * np.pi - 6.0) + 0.1)
+
+
 def test_tiny_protocol_writes_csv_json_and_plots_and_resumes(tmp_path, capsys):
     out = tmp_path / "bench"
     assert bench.main(["run", *TINY, "--out", str(out)]) == 0
@@ -310,6 +326,9 @@ def test_tiny_protocol_writes_csv_json_and_plots_and_resumes(tmp_path, capsys):
             assert r["non_goal_objects_moved"] == "0"   # one object: the goal object alone
             assert r["executed_ideal"] in ("0", "1") and r["executed_servo"] in ("0", "1")
             assert float(r["executed_goal_distance_m"]) >= 0.0
+            # the goal object travels at least from its start to the edge of the goal region
+            assert float(r["goal_push_path_m"]) >= float(r["goal_start_distance_m"]) - 0.1
+            assert float(r["goal_turn_rad"]) >= 0.0
         else:
             assert r["executed_ideal"] == r["executed_servo"] == ""
             assert r["pushing_links"] == "" and r["non_goal_objects_moved"] == ""

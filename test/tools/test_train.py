@@ -103,3 +103,14 @@ def test_the_training_command_writes_weights_and_a_report(tmp_path):
     models = lo.load_models(out)
     assert set(models.networks) == set(lo.NETWORKS)
     assert '"curves"' in report.read_text()
+
+
+def test_the_states_figure_is_drawn_from_weights(tiny, tmp_path, capsys):
+    from rearrangement_planner.tools import bench
+
+    _, _, path = tiny
+    out = tmp_path / "states.png"
+    assert bench.main(["states", "--weights", str(path), "--out", str(out)]) == 0
+    assert out.read_bytes().startswith(b"\x89PNG") and out.stat().st_size > 20000
+    assert bench.main(["states", "--weights", str(tmp_path / "none.npz")]) == 2
+    assert "--weights: no learned oracle at" in capsys.readouterr().err
