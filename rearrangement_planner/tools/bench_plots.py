@@ -13,7 +13,8 @@ rows (`benchmark.CSV_COLUMNS`) and the summary (`benchmark.summarize`):
 - success_vs_iterations.png (Fig. 2b of Haustein et al. 2018): for each iteration count n, the
   share of trials solved within n iterations, per planner.
 
-`plot_manipulation_states` draws Fig. 2a of Haustein et al. 2018 from a learned oracle.
+`plot_manipulation_states` draws Fig. 2a of Haustein et al. 2018 from a learned oracle, and
+`plot_training` the loss curves of its training (`rearrangement-train --report`).
 """
 
 from __future__ import annotations
@@ -281,6 +282,33 @@ def plot_manipulation_states(models, path: Path, samples: int = 300, seed: int =
     axes[0].set_ylabel("y (m)")
     fig.suptitle("Learned manipulation states (cf. Haustein et al. 2018, Fig. 2a): tool poses "
                  "from the generator, coloured and pointing by the hand's yaw", fontsize=10)
+    return _save(fig, path)
+
+
+def plot_training(report: dict, path: Path) -> Path:
+    """The loss curves of a `rearrangement-train` report (`Trainer.report`), one panel per
+    stage, against the training step."""
+    curves = report["curves"]
+    panels = [("forward models (MSE of mean + log variance)", ["forward"]),
+              ("policy (L of Eq. 2, m²)", ["policy"]),
+              ("conditional GAN", ["discriminator", "generator"])]
+    fig, axes = plt.subplots(1, len(panels), figsize=(13, 3.6))
+    steps = report["options"]
+    totals = {"forward": steps["forward_steps"], "policy": steps["policy_steps"],
+              "discriminator": steps["gan_steps"], "generator": steps["gan_steps"]}
+    for ax, (title, names) in zip(axes, panels, strict=True):
+        for name in names:
+            values = curves.get(name, [])
+            x = np.linspace(0, totals[name], len(values))
+            ax.plot(x, values, lw=1.5, label=name)
+        ax.set_title(title, fontsize=10)
+        ax.set_xlabel("step")
+        ax.grid(alpha=0.3)
+        if len(names) > 1:
+            ax.legend(fontsize=8)
+    seconds = report.get("seconds", {})
+    fig.suptitle(f"rearrangement-train --seed {report['seed']}: " + ", ".join(
+        f"{k} {v:.0f} s" for k, v in seconds.items()), fontsize=10)
     return _save(fig, path)
 
 

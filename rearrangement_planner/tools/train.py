@@ -396,7 +396,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--out", type=Path, default=None,
                         help=f"weights file (default: the shipped {model_path('panda')})")
     parser.add_argument("--report", type=Path, default=None,
-                        help="write the loss curves and stage times as JSON here")
+                        help="write the loss curves and stage times as JSON here, and their "
+                             "plot beside it (.png)")
     parser.add_argument("--data", type=Path, default=None,
                         help="keep the simulated pushes in this .npz and reuse them when it "
                              "holds this run's (same seed and options)")
@@ -414,8 +415,11 @@ def main(argv: list[str] | None = None) -> int:
     total = time.monotonic() - started
     print(f"wrote {out} ({out.stat().st_size / 1e3:.0f} kB) in {total:.0f} s")
     if args.report is not None:
+        from rearrangement_planner.tools.bench_plots import plot_training
+
         report = trainer.report() | {"total_seconds": total}
         args.report.write_text(json.dumps(report, indent=1))
+        print(f"wrote {args.report} and {plot_training(report, args.report.with_suffix('.png'))}")
     return 0
 
 

@@ -103,6 +103,7 @@ def test_the_training_command_writes_weights_and_a_report(tmp_path):
     models = lo.load_models(out)
     assert set(models.networks) == set(lo.NETWORKS)
     assert '"curves"' in report.read_text()
+    assert report.with_suffix(".png").read_bytes().startswith(b"\x89PNG")
 
 
 def test_the_states_figure_is_drawn_from_weights(tiny, tmp_path, capsys):
