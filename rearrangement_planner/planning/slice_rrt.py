@@ -30,6 +30,7 @@ target), behind the `Oracle` interface the learned generator and policy will sha
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -221,8 +222,11 @@ class SliceRRT:
             return None
         push = Action(push.velocity, max(1, round(push.duration / opts.dt)) * opts.dt,
                       push.nullspace)
+        # The push runs to its end (towards its target inside the goal region), not to the
+        # first step inside the region: a plan that ends at the region's edge misses it when
+        # executed (docs/experiments.md, 2026-11-25).
         return run.extend(run.tree.n - 1, constrained_prop(self.physics, end, push, opts.dt,
-                                                           run.stop))
+                                                           run.push_stop), goal_at_end=True)
 
     def _transit(self, x: State, pose: np.ndarray, stop: Stops) -> Propagation:
         """The tool steered on the pushing plane from x towards `pose` (x, y, yaw) at most
@@ -270,6 +274,8 @@ class _SliceRun(Search):
         super().__init__(planner.options, seed, cancel, progress, iteration_gate)
         self.planner = planner
         self.stop = planner.stop_check(self.cancelled, self.deadline)
+        self.push_stop = dataclasses.replace(self.stop, goal_index=-1)
+        """`stop` without the goal test: a push is judged where it ends."""
         self.approach: list[State] = []
         self.slice_objects = np.empty((0, len(planner.scene.objects), 3))
         self.members: list[list[int]] = []
@@ -315,9 +321,11 @@ class _SliceRun(Search):
         offsets = np.linalg.norm(self.tree.arm[nodes] - tool_xy, axis=1)
         return nodes[int(np.argmin(offsets))]
 
-    def extend(self, parent: int, result: Propagation) -> PlanResult | None:
+    def extend(self, parent: int, result: Propagation, goal_at_end: bool = False
+               ) -> PlanResult | None:
         """Add the end of `result` (its states the edge) as a node; the plan when it is in the
-        goal region."""
+        goal region: stopped there (GOAL), or, with `goal_at_end`, ending there (unless the
+        budget ran out or the plan was cancelled)."""
         self.steps += len(result.states)
         if not result.states:
             return None
@@ -327,7 +335,10 @@ class _SliceRun(Search):
         distance = float(np.hypot(*(end.objects[self.planner.scene.goal_index, :2]
                                     - self.planner._goal_xy)))
         self.best = min(self.best, distance)
-        if result.stopped is StopReason.GOAL:
+        ended_in_goal = (goal_at_end and result.stopped not in (StopReason.TIMEOUT,
+                                                                StopReason.CANCEL)
+                         and self.stop.reached(end.objects))
+        if result.stopped is StopReason.GOAL or ended_in_goal:
             return self.success(self.approach[:-1] + self.tree.path_to(node, self.approach[-1]),
                                 distance)
         return None

@@ -460,6 +460,7 @@ def run_trial(trial: Trial, settings: dict[str, Any]) -> dict:
         row["goal_push_path_m"], row["goal_turn_rad"] = _num(path), _num(turn)
     else:
         row["goal_distance_m"] = _num(result.best_goal_distance)
+        row["goal_push_path_m"] = row["goal_turn_rad"] = ""
     for field in ("path_length_rad", "ee_path_length_m", "object_displacement_m"):
         row[f"{field}_before"] = _num(getattr(before, field) if before else None)
         row[f"{field}_after"] = _num(getattr(after, field) if after else None)

@@ -296,6 +296,14 @@ def _read_csv(path: Path) -> tuple[list[str], list[dict]]:
         return list(reader.fieldnames), list(reader)
 
 
+def test_an_unsolved_trial_fills_every_column():
+    path = benchmark.scene_set_dir() / "n7_s0.yaml"
+    row = benchmark.run_trial(benchmark.Trial("n7_s0", str(path), 7, "pc-rrt", 0, 0.01),
+                              {"trees": 1, "min_robustness": 0.0})
+    assert row["solved"] == "0" and set(row) == set(benchmark.CSV_COLUMNS)
+    assert row["goal_push_path_m"] == row["executed_servo"] == ""
+
+
 def test_goal_push_sums_the_goal_objects_travel_and_turn():
     from rearrangement_planner.model.state import State
 
@@ -332,6 +340,7 @@ def test_tiny_protocol_writes_csv_json_and_plots_and_resumes(tmp_path, capsys):
         else:
             assert r["executed_ideal"] == r["executed_servo"] == ""
             assert r["pushing_links"] == "" and r["non_goal_objects_moved"] == ""
+            assert r["goal_push_path_m"] == r["goal_turn_rad"] == ""
     summary = json.loads((out / "summary.json").read_text())
     assert {"protocol", "trials", "planners", "end_effector_links", "pc_rrt_vs", "targets",
             "paper"} <= set(summary)
