@@ -21,11 +21,14 @@ iteration:
 
 Every propagation is the compiled Project step and physics of PC-RRT (King et al. 2015,
 Algorithm 2; `propagation.constrained_prop`), so any link may push any object, several at
-once. The plan is found when a state has the goal object's centre inside the goal region.
+once. The plan is found when a state has the goal object's centre inside the goal region; an
+oracle's push is judged where it ends (it is not cut at its first step inside the region, so
+that plans end nearer the goal point than its edge).
 
-The oracle: `HandOracle`, the paper's hand-made baseline (the finger tips just behind the
-object on the far side from its target, the hand facing the push; a straight push towards the
-target), behind the `Oracle` interface the learned generator and policy will share.
+The oracles, behind one `Oracle` interface: `HandOracle`, the paper's hand-made baseline (the
+finger tips just behind the object on the far side from its target, the hand facing the push;
+a straight push towards the target), and `learned_oracle.LearnedOracle`, the paper's learned
+generator and policy (§II), the default.
 """
 
 from __future__ import annotations

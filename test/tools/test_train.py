@@ -115,3 +115,22 @@ def test_the_states_figure_is_drawn_from_weights(tiny, tmp_path, capsys):
     assert out.read_bytes().startswith(b"\x89PNG") and out.stat().st_size > 20000
     assert bench.main(["states", "--weights", str(tmp_path / "none.npz")]) == 2
     assert "--weights: no learned oracle at" in capsys.readouterr().err
+
+
+def test_evaluation_scores_the_forward_models_on_held_out_pushes(tiny):
+    _, data, path = tiny
+    scores = train.evaluate(lo.load_models(path), data)
+    assert {"r2_x", "r2_y", "r2_yaw", "r2_x_moved", "moved_share"} <= set(scores)
+    # models that predict each push's mean successor exactly score R² = 1
+    exact = train.evaluate(_Exact(data.successors.mean(axis=1)), data)
+    assert exact["r2_x"] == exact["r2_y"] == exact["r2_yaw"] == 1.0
+
+
+class _Exact:
+    """Stands in for the models: forward() returns the data's own mean successor."""
+
+    def __init__(self, mean):
+        self.mean = mean
+
+    def forward(self, tool, props, action):
+        return self.mean, np.full_like(self.mean, 1e-4)
