@@ -168,7 +168,7 @@ def model_path(robot: str) -> Path:
 def save_models(path: str | Path, params: dict[str, tuple[list, list]], max_speed: float,
                 max_duration: float, reach: float) -> None:
     """Write the networks `params` (name → (weights, biases)) as float32 arrays."""
-    arrays: dict[str, np.ndarray] = {"meta": np.array([max_speed, max_duration, reach])}
+    arrays: dict[str, Any] = {"meta": np.array([max_speed, max_duration, reach])}
     for name, (weights, biases) in params.items():
         for i, (w, b) in enumerate(zip(weights, biases, strict=True)):
             arrays[f"{name}/w{i}"] = np.asarray(w, dtype=np.float32)

@@ -27,8 +27,10 @@ from __future__ import annotations
 import dataclasses
 import math
 import multiprocessing
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import cast
 
 import numpy as np
 
@@ -103,8 +105,8 @@ def draw_object(rng: np.random.Generator) -> MovableObject:
     height = rng.uniform(*benchmark.HEIGHT)
     kind = rng.random()
     if kind < 0.25:
-        return MovableObject.box("object", benchmark.GOAL_OBJECT["size"], (0.0, 0.0, 0.0),
-                                 **frictions)
+        size = cast(Sequence[float], benchmark.GOAL_OBJECT["size"])
+        return MovableObject.box("object", size, (0.0, 0.0, 0.0), **frictions)
     if kind < 0.65:
         return MovableObject.box("object", (*rng.uniform(*benchmark.BOX_SIDE, 2), height),
                                  (0.0, 0.0, 0.0), **frictions)

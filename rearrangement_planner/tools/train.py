@@ -103,6 +103,13 @@ def init_network(key: Any, sizes: list[int], last_scale: float = 1.0) -> tuple[l
     return weights, biases
 
 
+def _apply(network: Any, x: Any) -> Any:
+    """A perceptron given as (weights, biases) applied to x with JAX."""
+    import jax.numpy as jnp
+
+    return mlp(network[0], network[1], x, jnp)
+
+
 def _fit(loss: Callable, params: Any, steps: int, learning_rate: float, batches: Callable,
          log: Callable[[int, float], None]) -> Any:
     """Adam on `loss(params, batch)` for `steps` steps; `batches(step)` gives each batch."""
@@ -201,8 +208,8 @@ class Trainer:
 
         def loss(params: Any, batch: tuple) -> Any:
             x, mu, lv = batch
-            return (jnp.mean((mlp(*params["f_mu"], x, jnp) - mu) ** 2)
-                    + jnp.mean((mlp(*params["f_var"], x, jnp) - lv) ** 2))
+            return (jnp.mean((_apply(params["f_mu"], x) - mu) ** 2)
+                    + jnp.mean((_apply(params["f_var"], x) - lv) ** 2))
 
         start = time.monotonic()
         params = {"f_mu": self._net(inputs.shape[1], 3), "f_var": self._net(inputs.shape[1], 3)}
@@ -220,10 +227,10 @@ class Trainer:
 
         def loss(policy: Any, tool: Any, desired: Any, props: Any) -> Any:
             tf, pf = tool_features(tool, jnp), property_features(props, jnp)
-            u = policy_output(mlp(*policy, jnp.concatenate(
-                [tf, desired / POSITION_SCALE, pf], axis=-1), jnp), speed, duration, jnp)
+            u = policy_output(_apply(policy, jnp.concatenate(
+                [tf, desired / POSITION_SCALE, pf], axis=-1)), speed, duration, jnp)
             x = forward_inputs(tool, props, u, speed, duration, jnp)
-            mu, var = forward_output(mlp(*f_mu, x, jnp), mlp(*f_var, x, jnp), jnp)
+            mu, var = forward_output(_apply(f_mu, x), _apply(f_var, x), jnp)
             target = jnp.concatenate([desired, jnp.zeros_like(desired[..., :1])], axis=-1)
             return jnp.sum(weights * (var + (mu - target) ** 2), axis=-1)
         return loss
@@ -320,21 +327,20 @@ class Trainer:
                   "discriminator": self._net(4 + c_size, 1)}
 
         def fake(g: Any, z: Any, c: Any) -> Any:
-            raw = mlp(*g, jnp.concatenate([z, c], axis=-1), jnp)
+            raw = _apply(g, jnp.concatenate([z, c], axis=-1))
             x_r = generator_output(raw, jnp)
             return jnp.concatenate([x_r[:, :2] / POSITION_SCALE, jnp.cos(x_r[:, 2:]),
                                     jnp.sin(x_r[:, 2:])], axis=-1)
 
         def d_loss(d: Any, g: Any, batch: tuple) -> Any:
             x, c, z = batch
-            real_logit = mlp(*d, jnp.concatenate([x, c], axis=-1), jnp)
-            fake_logit = mlp(*d, jnp.concatenate([fake(g, z, c), c], axis=-1), jnp)
+            real_logit = _apply(d, jnp.concatenate([x, c], axis=-1))
+            fake_logit = _apply(d, jnp.concatenate([fake(g, z, c), c], axis=-1))
             return jnp.mean(jax.nn.softplus(-real_logit) + jax.nn.softplus(fake_logit))
 
         def g_loss(g: Any, d: Any, batch: tuple) -> Any:
             _, c, z = batch
-            return jnp.mean(jax.nn.softplus(-mlp(*d, jnp.concatenate([fake(g, z, c), c], -1),
-                                                 jnp)))
+            return jnp.mean(jax.nn.softplus(-_apply(d, jnp.concatenate([fake(g, z, c), c], -1))))
 
         opt_d, opt_g = optax.adam(opts.learning_rate * 0.5, b1=0.5), \
             optax.adam(opts.learning_rate * 0.5, b1=0.5)
