@@ -39,7 +39,7 @@ from rearrangement_planner.tools.benchmark import (  # noqa: E402
 COLORS = {"pc-rrt": "#2ca02c", "static-rrt": "#9467bd", "darrt": "#ff7f0e",
           "slice-rrt": "#1f77b4", "slice-rrt:oracle=hand": "#17becf"}
 LABELS = {"pc-rrt": "PC-RRT", "static-rrt": "Static RRT", "darrt": "DARRT",
-          "slice-rrt": "slice-RRT", "slice-rrt:oracle=learned": "slice-RRT, learned",
+          "slice-rrt": "slice-RRT, learned", "slice-rrt:oracle=learned": "slice-RRT, learned",
           "slice-rrt:oracle=hand": "slice-RRT, hand-made"}
 DPI = 110
 
