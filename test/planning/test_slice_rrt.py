@@ -145,3 +145,29 @@ def test_the_learned_oracle_proposes_states_beside_the_object_and_bounded_pushes
             assert MIN_DURATION <= push.duration <= math.sqrt(2) * models.max_duration
     assert oracle.manipulation_state(default.object_poses, t, default.object_poses[t, :2],
                                      rng) is None      # nothing to push
+
+
+def test_a_push_is_judged_where_it_ends(panda):
+    """A push that passes through the goal region and leaves it is no plan; one that ends
+    inside is, and the push's propagation carries no goal test that would cut it short."""
+    from rearrangement_planner.planning.propagation import Propagation
+    from rearrangement_planner.planning.slice_rrt import _SliceRun
+
+    scene = load_scene("easy_push", robot=panda)
+    planner = SliceRRT(scene, SliceRRTOptions(oracle="hand"))
+    run = _SliceRun(planner, 0, None, None, None)
+    assert run.begin(scene.initial_state()) is None
+    assert run.push_stop.goal_index == -1 and run.stop.goal_index == scene.goal_index
+    root = run.tree.state(0)
+
+    def at(xy):
+        objects = root.objects.copy()
+        objects[scene.goal_index, :2] = xy
+        return State(root.q, objects)
+
+    goal = np.asarray(scene.goal.position)
+    through = Propagation((at(goal), at(goal + [0.3, 0.0])), 0.2, None, frozenset())
+    assert run.extend(0, through, goal_at_end=True) is None
+    into = Propagation((at(goal + [0.3, 0.0]), at(goal)), 0.2, None, frozenset())
+    result = run.extend(0, into, goal_at_end=True)
+    assert result is not None and result.solved
