@@ -265,7 +265,7 @@ def robust_search(candidates: Candidates) -> tuple[Candidate, float | None]:
     at the time limit, shortcuts at the time limit plus shortcut_time (a request takes no
     longer than without robust selection). The answer's plan time is all of it but its own
     shortcutting (reported apart, as without robust selection), and its seed the request's
-    (which reproduces the whole selection)."""
+    (which reproduces the whole selection). A cancel ends it with the cancelled search."""
     request = candidates.request
     robust, seed = request.robust, request.seed
     t0 = time.monotonic()
@@ -279,6 +279,8 @@ def robust_search(candidates: Candidates) -> tuple[Candidate, float | None]:
             break
         k_seed = candidate_seed(seed, k)
         last = candidates.plan(k_seed, remaining)
+        if last.outcome is Outcome.CANCELLED:
+            return Candidate(last), None        # the user's cancel ends the selection too
         if not last.solved:
             continue
         candidate = candidates.shortcut(last, k_seed, time_left=t0 + budget

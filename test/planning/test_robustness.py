@@ -244,3 +244,24 @@ def test_rollouts_leave_out_the_planners_restrictions():
     assert rollout.max_turn == 0.0
     assert rollout.tipping and rollout.max_substep == 0.003
     assert rollout.penetration_tolerance > planner.penetration_tolerance
+
+
+def test_a_cancel_ends_the_selection_not_only_the_candidate(panda, cancel_after, monkeypatch):
+    """A cancelled search is not one more unsolved candidate: the selection answers CANCELLED
+    at once instead of planning the next candidate (whose start waits for the cancelled
+    race's workers to wind down)."""
+    from rearrangement_planner.planning.pipeline import Candidates
+
+    planned = []
+    plan = Candidates.plan
+    monkeypatch.setattr(Candidates, "plan",
+                        lambda self, seed, time_limit=None: planned.append(seed)
+                        or plan(self, seed, time_limit))
+    clutter = load_scene("clutter", robot=panda)             # not solved in 1 s
+    request = PlanRequest.first_plan(
+        clutter, "pc-rrt", PCRRTOptions(time_limit=60.0, goal_bias=0.0), seed=3,
+        robust=RobustOptions(min_robustness=0.9, rollouts=4, candidates=4))
+    output, running, latency = cancel_after(lambda cancel: plan_scene(request, cancel), 1.0)
+    assert running and latency < 0.5
+    assert output.result.outcome.name == "CANCELLED" and not output.solved
+    assert planned == [3]
