@@ -1,26 +1,30 @@
 """`rearrangement-bench`: benchmarks.
 
     rearrangement-bench [run] [--quick] [--scenes SCENE ...] [--planners P ...] [--seeds N ...]
-                        [--time-limit S] [--set NAME=VALUE ...] [--workers N] [--out DIR]
+                        [--time-limit S] [--set NAME=VALUE ...] [--address HOST:PORT]
+                        [--workers N] [--out DIR] [--resume]
     rearrangement-bench generate [--seed S] [--out DIR]
     rearrangement-bench physics [--seconds S] [--json OUT]
     rearrangement-bench scenes [--scenes NAME ...] [--planners P ...] [--seeds N ...]
                                [--time-limit S] [--trees N] [--jsonl OUT]
     rearrangement-bench candidates [--scenes SCENE ...] [--seeds N ...] [--candidates K]
-                                   [--time-limit S] [--set NAME=VALUE ...] [--workers N]
-                                   [--out DIR]
+                                   [--time-limit S] [--set NAME=VALUE ...]
+                                   [--address HOST:PORT] [--workers N] [--out DIR]
     rearrangement-bench states [--weights NPZ] [--out PNG]
 
 `run` (the default) is the benchmark of King et al. 2015, §V (`benchmark.py`): each planner on each
 of the 35 scenes of config/benchmark/scenes with each seed, each trial the product's default plan
 request (`planning.request`; `--set NAME=VALUE` changes any of its settings, e.g. `--set
-min_robustness=0 --set trees=1` for the first plan of one tree), one worker process per raced
-tree's worth of cores; trials.csv, summary.json and the plots of Figs. 4, 7 and 8
-(`bench_plots.py`) in --out. It resumes: trials already in trials.csv are skipped. Ctrl-C
-stops it, keeps every finished trial and prints the command that resumes (exit code 130).
-`--quick` is the reduced protocol (14 scenes, seed 0, 20 s budget; about half an hour on 2
-cores). `generate` rewrites the scene set. Exit codes: 0 done, 1 some trials failed with an
-internal error, 2 bad input (one line naming the option), 130 interrupted.
+min_robustness=0 --set trees=1` for the first plan of one tree). Each trial is a Ray task with
+its raced trees' worth of CPUs (`engine.py`), on an embedded local Ray or on the cluster at
+`--address`; trials.csv gets a row as each finishes, then summary.json, the plots of Figs. 4, 7
+and 8 and the end-to-end plot (`bench_plots.py`) and OMPL benchmark logs (`ompl_log.py`) in
+--out. `--resume` continues a run: trials already in trials.csv are skipped (without it an
+--out that holds trials is refused). Ctrl-C stops it, keeps every finished trial and prints
+the command that resumes (exit code 130). `--quick` is the reduced protocol (14 scenes, seed 0,
+20 s budget; about half an hour on 2 cores). `generate` rewrites the scene set. Exit codes: 0
+done, 1 some trials failed with an internal error, 2 bad input (one line naming the option),
+130 interrupted.
 
 `scenes` runs each planner on the shipped demo scenes with the default request, one run at a
 time, one line of JSON per run.
@@ -57,7 +61,8 @@ from rearrangement_planner.planning.parallel import RaceOptions
 from rearrangement_planner.planning.registry import PLANNER_NAMES as PLANNERS
 from rearrangement_planner.planning.request import request_settings
 from rearrangement_planner.planning.robustness import RobustOptions
-from rearrangement_planner.tools import benchmark
+from rearrangement_planner.tools import benchmark, ompl_log
+from rearrangement_planner.tools.engine import EngineError
 
 COMMANDS = ("run", "generate", "physics", "scenes", "candidates", "states")
 
@@ -193,9 +198,10 @@ def build_parser() -> argparse.ArgumentParser:
         "run", help="the benchmark of King et al. 2015, §V: planners x scenes x seeds (the default "
                     "command)",
         description="Run each planner on each benchmark scene with each seed under a time "
-                    "budget, one worker process per core; write trials.csv (one row per trial, "
-                    "appended as it finishes), summary.json and PNG plots into --out. Trials "
-                    "already in trials.csv are skipped, so an interrupted run resumes.")
+                    "budget, each trial a Ray task; write trials.csv (one row per trial, "
+                    "appended as it finishes), summary.json, PNG plots and OMPL benchmark logs "
+                    "into --out. With --resume, trials already in trials.csv are skipped, so "
+                    "an interrupted run resumes.")
     run.add_argument("--quick", action="store_true",
                      help="reduced protocol: 2 scenes per object count (14 scenes), seed 0, "
                           "20 s budget (14 trials per planner); options given "
@@ -212,11 +218,12 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--time-limit", type=float, metavar="S",
                      help="planning budget per trial, s (default 60; --quick: 20)")
     _add_set_option(run)
-    run.add_argument("--workers", type=int, metavar="N",
-                     help=f"worker processes, at most the {benchmark.usable_cores()} cores "
-                          f"(default: the cores over the request's raced trees)")
+    _add_engine_options(run, "trials")
     run.add_argument("--out", type=Path, default=Path("out/benchmark"), metavar="DIR",
                      help="output folder (default out/benchmark)")
+    run.add_argument("--resume", action="store_true",
+                     help="continue the run whose trials.csv is in --out: trials already "
+                          "there are skipped (without it, an --out holding trials is refused)")
     gen = sub.add_parser(
         "generate", help="(re)write the 35 benchmark scene files",
         description="Draw the 35-scene set (5 scenes with each of 1..7 movable objects) from "
@@ -255,6 +262,18 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _add_engine_options(parser: argparse.ArgumentParser, what: str) -> None:
+    parser.add_argument("--address", metavar="HOST:PORT",
+                        help=f"run the {what} on the Ray cluster at this address (as `ray start "
+                             f"--head` prints it; every node needs this package installed); "
+                             f"default: an embedded local Ray on this machine's cores")
+    parser.add_argument("--workers", type=int, metavar="N",
+                        help=f"{what} at once, each a Ray task with its request's raced trees' "
+                             f"worth of CPUs (default: this machine's "
+                             f"{benchmark.usable_cores()} cores over the trees; with "
+                             f"--address: as many as the cluster's CPUs take)")
+
+
 def _add_set_option(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
                         help="change a setting of every trial's plan request from the product "
@@ -281,8 +300,7 @@ def _add_candidates_parser(sub) -> None:
     cands.add_argument("--time-limit", type=float, default=60.0, metavar="S",
                        help="a request's budget, s (default 60)")
     _add_set_option(cands)
-    cands.add_argument("--workers", type=int, metavar="N",
-                       help="worker processes (default: one per core)")
+    _add_engine_options(cands, "requests")
     cands.add_argument("--out", type=Path, default=Path("out/candidates"), metavar="DIR",
                        help="output folder (default out/candidates)")
 
@@ -360,25 +378,23 @@ def scenes_command(args: argparse.Namespace) -> int:
 def candidates_command(args: argparse.Namespace) -> int:
     from rearrangement_planner.tools import candidates
 
-    cores = benchmark.usable_cores()
-    workers = cores if args.workers is None else args.workers
     for option, ok, problem in (
             ("--time-limit", 0 < args.time_limit < math.inf, "a positive number of seconds"),
             ("--candidates", 1 <= args.candidates <= 20, "between 1 and 20"),
-            ("--seeds", all(seed >= 0 for seed in args.seeds), "seeds >= 0"),
-            ("--workers", 1 <= workers <= cores, f"between 1 and the {cores} cores")):
+            ("--seeds", all(seed >= 0 for seed in args.seeds), "seeds >= 0")):
         if not ok:
             value = getattr(args, option[2:].replace("-", "_"))
             raise benchmark.BenchmarkError(option, f"must be {problem}, got {value}")
+    workers = _workers(args, trees=1)
     settings = request_overrides(args.set, ["pc-rrt"])
     scenes = _resolve_scenes(args.scenes or benchmark.set_scene_names())
     out = args.out / "candidates.jsonl"
     requests = [(path, seed) for seed in dict.fromkeys(args.seeds) for path, _ in scenes]
     print(f"candidates: {_count(len(requests), 'request')}, up to {args.candidates} candidates "
-          f"each, {args.time_limit:g} s, {_count(workers, 'worker')} -> {out}",
+          f"each, {args.time_limit:g} s, {_engine_text(args.address, workers)} -> {out}",
           file=sys.stderr, flush=True)
     failed = candidates.record_all(requests, out, workers, args.candidates, args.time_limit,
-                                   settings)
+                                   settings, args.address)
     wanted = {(path.stem, seed) for path, seed in requests}
     records = [r for r in candidates.read_records(out) if (r["scene"], r["seed"]) in wanted]
     travel_penalty = RobustOptions(**{k: v for k, v in settings.items()
@@ -447,14 +463,29 @@ def _resolve_scenes(names: list[str]) -> list[tuple[Path, Scene]]:
     return out
 
 
-def _check_run_options(args: argparse.Namespace) -> None:
+def _workers(args: argparse.Namespace, trees: int) -> int | None:
+    """Tasks at once: --workers (checked), else this machine's cores over `trees` for the
+    embedded Ray, else None (the cluster's CPUs decide)."""
     cores = benchmark.usable_cores()
+    if args.workers is None:
+        return max(1, cores // trees) if args.address is None else None
+    if args.address is None and not 1 <= args.workers <= cores:
+        raise benchmark.BenchmarkError("--workers", f"must be between 1 and the {cores} "
+                                                    f"cores of this machine, got {args.workers}")
+    if args.workers < 1:
+        raise benchmark.BenchmarkError("--workers", f"must be at least 1, got {args.workers}")
+    return args.workers
+
+
+def _engine_text(address: str | None, workers: int | None) -> str:
+    where = "embedded Ray" if address is None else f"Ray at {address}"
+    return f"{where}, {_count(workers, 'at a time') if workers else 'as its CPUs take'}"
+
+
+def _check_run_options(args: argparse.Namespace) -> None:
     if not args.time_limit > 0 or not math.isfinite(args.time_limit):
         raise benchmark.BenchmarkError("--time-limit", f"must be a positive number of seconds, "
                                                        f"got {args.time_limit}")
-    if not 1 <= args.workers <= cores:
-        raise benchmark.BenchmarkError("--workers", f"must be between 1 and the {cores} "
-                                                    f"cores of this machine, got {args.workers}")
     if any(seed < 0 for seed in args.seeds):
         raise benchmark.BenchmarkError("--seeds", f"seeds must be >= 0, got {args.seeds}")
     if args.out.exists() and not args.out.is_dir():
@@ -475,9 +506,8 @@ def resolve_run(args: argparse.Namespace) -> tuple[list[tuple[Path, Scene]],
         args.time_limit = base["time_limit"]
     args.planners = list(dict.fromkeys(args.planners))
     args.settings = request_overrides(args.set, args.planners)
-    if args.workers is None:
-        trees = RaceOptions(**{k: v for k, v in args.settings.items() if k == "trees"}).trees
-        args.workers = max(1, benchmark.usable_cores() // trees)
+    trees = RaceOptions(**{k: v for k, v in args.settings.items() if k == "trees"}).trees
+    args.workers = _workers(args, trees)
     _check_run_options(args)
     scenes = _resolve_scenes(args.scenes or benchmark.set_scene_names(quick=args.quick))
     objects = {path.stem: len(scene.objects) for path, scene in scenes}
@@ -494,14 +524,25 @@ def run_command(args: argparse.Namespace, argv: list[str]) -> int:
         raise benchmark.BenchmarkError("--out", f"cannot create {args.out} ({exc.strerror})") \
             from None
     csv_path = args.out / "trials.csv"
+    earlier = benchmark.read_trials(csv_path)
+    if earlier and not args.resume:
+        raise benchmark.BenchmarkError(
+            "--out", f"{csv_path} already holds {_count(len(earlier), 'trial')} of an earlier "
+                     f"run; add --resume to continue it (its finished trials are skipped) or "
+                     f"choose another --out")
     print(f"benchmark: {_count(len(scenes), 'scene')} x {_count(len(args.planners), 'planner')}"
           f" x {_count(len(args.seeds), 'seed')} = {_count(len(trials), 'trial')}, "
-          f"{args.time_limit:g} s budget, {_count(args.workers, 'worker')} -> {csv_path}",
-          file=sys.stderr, flush=True)
-    report = benchmark.run_trials(trials, csv_path, args.workers, args.settings)
+          f"{args.time_limit:g} s budget, {_engine_text(args.address, args.workers)} -> "
+          f"{csv_path}", file=sys.stderr, flush=True)
+    try:
+        report = benchmark.run_trials(trials, csv_path, args.workers, args.settings,
+                                      address=args.address)
+    except EngineError as exc:
+        raise benchmark.BenchmarkError("--address", str(exc)) from None
     if report.interrupted:
+        resume = argv if "--resume" in argv else [*argv, "--resume"]
         print(f"interrupted: {csv_path} holds every finished trial ({report.finished} new). "
-              f"Resume with: rearrangement-bench {shlex.join(argv)}", file=sys.stderr)
+              f"Resume with: rearrangement-bench {shlex.join(resume)}", file=sys.stderr)
         return 130
     wanted = {t.key for t in trials}
     rows = [r for r in benchmark.read_trials(csv_path) if benchmark.row_key(r) in wanted]
@@ -514,9 +555,12 @@ def run_command(args: argparse.Namespace, argv: list[str]) -> int:
     from rearrangement_planner.tools.bench_plots import plot_all  # matplotlib only here
 
     plots = plot_all(rows, summary, args.out)
+    logs = ompl_log.write_logs(rows, protocol, args.out / "ompl")
     print(benchmark.summary_table(summary))
     print(f"wrote {csv_path}, {args.out / 'summary.json'}, "
-          + ", ".join(str(p) for p in plots), file=sys.stderr)
+          + ", ".join(str(p) for p in plots)
+          + f", OMPL benchmark logs {', '.join(p.name for p in logs)} in {args.out / 'ompl'}",
+          file=sys.stderr)
     if report.failed:
         print(f"rearrangement-bench: {report.failed} trials failed with an internal error "
               f"(not in the CSV; run again to retry them)", file=sys.stderr)

@@ -1,5 +1,5 @@
 """The benchmark of King et al. 2015, §V: a fixed, seeded set of 35 random scenes, each
-planner run on each scene with several seeds under a time budget, one worker process per core.
+planner run on each scene with several seeds under a time budget.
 
 The scene set (§V: "35 randomly generated scenes ... between 1 and 7 movable objects in the
 robot's reachable workspace ... the same goal object ... the starting pose of the goal object
@@ -19,9 +19,11 @@ are committed in ``config/benchmark/scenes/`` and a test checks they equal a fre
 A trial is one (scene, planner, seed, time limit): the product's default plan request for it
 (`trial_request`: raced trees, shortcutting, robust selection, changed by the command's --set)
 through `pipeline.plan_scene`, then a replay of the path through the physics to find which arm
-links pushed objects, then the plan executed in MuJoCo (ideal and servo arm). `run` runs the trials
-in a process pool, appends one CSV row per finished trial (complete rows only, flushed at once),
-skips trials already in the CSV (resumable), and `summarize` turns the rows into the JSON summary.
+links pushed objects, then the plan executed in MuJoCo (ideal and servo arm). `run_trials` runs
+the trials as Ray tasks (`engine`), appends one CSV row per finished trial (complete rows only,
+flushed at once), skips trials already in the CSV (resumable), and `summarize` turns the rows
+into the JSON summary, headed by the end-to-end figure: the share of requests whose plan,
+executed open loop with the servo arm, puts the goal object in its region with nothing toppled.
 """
 
 from __future__ import annotations
@@ -30,15 +32,10 @@ import csv
 import io
 import logging
 import math
-import multiprocessing
-import multiprocessing.pool
 import os
-import signal
 import sys
 import textwrap
-import threading
 import time
-import traceback
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -341,7 +338,8 @@ CSV_COLUMNS = (
     "object_displacement_m_before", "object_displacement_m_after",
     "shortcut_time_s", "pushing_links", "non_goal_objects_moved",
     "goal_start_distance_m", "goal_push_path_m", "goal_turn_rad",
-    "executed_ideal", "executed_servo", "executed_goal_distance_m", "trial_wall_s",
+    "executed_ideal", "executed_servo", "executed_goal_distance_m", "executed_toppled",
+    "trial_wall_s", "ray_node",
 )
 """trials.csv: one row per trial. goal_distance_m: the goal object's final distance from the
 goal point (solved) or the least distance reached (not solved). *_before / *_after: of the path
@@ -351,11 +349,14 @@ non_goal_objects_moved: how many objects other than the goal object the path mov
 executed_ideal / executed_servo: 1 when the solved plan, executed open loop in MuJoCo
 (`execution.mujoco_check`, ideal / servo-driven arm), reaches the goal region with nothing
 toppled, else 0 (empty when not solved); executed_goal_distance_m: the goal object's final
-distance there (ideal arm).
+distance there (ideal arm); executed_toppled: how many objects toppled in the servo arm's
+execution.
 goal_start_distance_m: the goal object's start distance from the goal point; goal_push_path_m
 and goal_turn_rad: how far its centre travels and how much it turns (sum of |Δyaw|) along the
 final path (empty when not solved).
-trial_wall_s: the whole trial (planning, shortcutting, timing, replay) on the wall clock."""
+trial_wall_s: the whole trial (planning, shortcutting, timing, replay) on the wall clock.
+ray_node: the Ray node the trial ran on (its node id's first 12 hex digits, `engine`).
+A CSV written before a column existed is read with that column empty."""
 
 MOVED_TOLERANCE = 1e-3   # m, an object counts as moved beyond this distance from its start
 
@@ -471,20 +472,23 @@ def run_trial(trial: Trial, settings: dict[str, Any]) -> dict:
     row["non_goal_objects_moved"] = str(len(moved)) if result.solved else ""
     row.update(_executed(output))
     row["trial_wall_s"] = _num(time.monotonic() - t0, 3)
+    row["ray_node"] = ""                       # the engine's to fill in
     return row
 
 
 def _executed(output) -> dict[str, str]:
     """The executed_* columns: the plan played open loop in MuJoCo, both arms."""
     if output.trajectory is None:
-        return {"executed_ideal": "", "executed_servo": "", "executed_goal_distance_m": ""}
+        return {"executed_ideal": "", "executed_servo": "", "executed_goal_distance_m": "",
+                "executed_toppled": ""}
     from rearrangement_planner.execution.mujoco_check import ExecutionOptions, check_execution
 
     reports = {arm: check_execution(output.scene, output.trajectory, None,
                                     ExecutionOptions(arm=arm)) for arm in ("ideal", "servo")}
     return {"executed_ideal": str(int(reports["ideal"].reached)),
             "executed_servo": str(int(reports["servo"].reached)),
-            "executed_goal_distance_m": _num(reports["ideal"].goal_distance_m)}
+            "executed_goal_distance_m": _num(reports["ideal"].goal_distance_m),
+            "executed_toppled": str(len(reports["servo"].toppled))}
 
 
 def _replay_physics(scene):
@@ -525,20 +529,26 @@ def read_trials(path: Path) -> list[dict]:
         return []
     reader = csv.reader(io.StringIO(text))
     header = next(reader, None)
-    if header is None or tuple(header) != CSV_COLUMNS:
+    if header is None or not set(ROW_KEY) <= set(header) <= set(CSV_COLUMNS):
         raise BenchmarkError("--out", f"{path} is not a trials CSV of this benchmark (its "
                                       f"columns differ from {', '.join(CSV_COLUMNS)}); move it "
                                       f"away or choose another --out")
     rows = []
     for line, values in enumerate(reader, start=2):
-        if len(values) != len(CSV_COLUMNS):
+        if len(values) != len(header):
             raise BenchmarkError("--out", f"{path} line {line} has {len(values)} fields, not "
-                                          f"{len(CSV_COLUMNS)}; fix or remove that row")
-        rows.append(dict(zip(CSV_COLUMNS, values, strict=True)))
+                                          f"{len(header)}; fix or remove that row")
+        row = dict.fromkeys(CSV_COLUMNS, "")
+        row.update(zip(header, values, strict=True))
+        rows.append(row)
     if not text.endswith("\n"):
         raise BenchmarkError("--out", f"{path} ends in an incomplete row; remove the last "
                                       f"line and run again")
     return rows
+
+
+ROW_KEY = ("scene", "planner", "seed", "time_limit")
+"""The columns of a row's `row_key`."""
 
 
 def row_key(row: dict) -> tuple[str, str, int, float]:
@@ -557,9 +567,24 @@ class TrialWriter:
     def __init__(self, path: Path):
         self.path = path
         new = not path.exists() or path.stat().st_size == 0
+        if not new and path.read_text().split("\n", 1)[0] != ",".join(CSV_COLUMNS):
+            self._upgrade(path)
         self._file = path.open("a", newline="")
         if new:
             self._write(CSV_COLUMNS)
+
+    @staticmethod
+    def _upgrade(path: Path) -> None:
+        """Rewrite a CSV of an earlier version with today's columns (new ones empty), in one
+        rename, so that its rows and the new ones share a header."""
+        rows = read_trials(path)
+        buffer = io.StringIO()
+        writer = csv.writer(buffer, lineterminator="\n")
+        writer.writerow(CSV_COLUMNS)
+        writer.writerows([r[c] for c in CSV_COLUMNS] for r in rows)
+        temporary = path.with_suffix(".csv.tmp")
+        temporary.write_text(buffer.getvalue())
+        os.replace(temporary, path)
 
     def _write(self, values: Iterable[str]) -> None:
         buffer = io.StringIO()
@@ -587,100 +612,12 @@ def usable_cores() -> int:
     return os.cpu_count() or 1
 
 
-def _worker_init() -> None:
-    # Ctrl-C reaches the whole process group: the parent alone handles it and terminates us.
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    logging.basicConfig(level=logging.WARNING)
+def trial_cpus(trial: Trial, settings: dict[str, Any]) -> int:
+    """The cores a trial occupies: its request's raced trees."""
+    from rearrangement_planner.planning.parallel import RaceOptions
 
-
-def _worker(task: tuple[Trial, dict[str, Any]]) -> tuple[Trial, dict | None, str]:
-    trial, settings = task
-    try:
-        return trial, run_trial(trial, settings), ""
-    except Exception:   # reported by the parent; the trial is not written, a rerun retries it
-        return trial, None, traceback.format_exc()
-
-
-class _TrialProcess(multiprocessing.get_context("spawn").Process):  # type: ignore[misc]
-    """A pool worker that may start processes of its own: a trial's plan request races its
-    trees on worker processes (`planning.parallel`), which a daemonic pool worker may not
-    start. The pool still terminates it (`Pool.terminate`)."""
-
-    @property
-    def daemon(self) -> bool:
-        return False
-
-    @daemon.setter
-    def daemon(self, value: bool) -> None:
-        pass
-
-
-class _TrialContext(type(multiprocessing.get_context("spawn"))):  # type: ignore[misc]
-    Process = _TrialProcess
-
-
-def start_pool(workers: int):
-    """A pool of `workers` fresh interpreters (spawn: no state copied from the parent, the same
-    on every platform; non-daemonic, so that a trial may race trees). They start with SIGINT
-    ignored (an ignored signal stays ignored across exec), so that a Ctrl-C while they import
-    does not print their tracebacks; the parent alone handles it."""
-    context = _TrialContext()
-    if threading.current_thread() is not threading.main_thread():
-        return multiprocessing.pool.Pool(workers, initializer=_worker_init, context=context)
-    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
-    try:
-        return multiprocessing.pool.Pool(workers, initializer=_worker_init, context=context)
-    finally:
-        signal.signal(signal.SIGINT, previous)
-
-
-class ProgressBar:
-    """A text progress bar on a stream (stderr): redrawn in place on a terminal, one line per
-    finished trial otherwise."""
-
-    WIDTH = 30
-
-    def __init__(self, total: int, stream=None):
-        self.total = total
-        self.done = self.solved = 0
-        self.stream = stream or sys.stderr
-        self.tty = bool(getattr(self.stream, "isatty", lambda: False)())
-        self.t0 = time.monotonic()
-
-    def line(self) -> str:
-        share = self.done / self.total if self.total else 1.0
-        filled = int(round(self.WIDTH * share))
-        elapsed = time.monotonic() - self.t0
-        text = (f"[{'#' * filled}{'-' * (self.WIDTH - filled)}] {self.done}/{self.total} "
-                f"trials, {self.solved} solved, {_duration(elapsed)}")
-        if 0 < self.done < self.total:
-            text += f", ~{_duration(elapsed / self.done * (self.total - self.done))} left"
-        return text
-
-    def advance(self, solved: bool, label: str) -> None:
-        self.done += 1
-        self.solved += int(solved)
-        if self.tty:
-            self.redraw()
-        else:
-            print(f"{self.line()}  {label}", file=self.stream, flush=True)
-
-    def redraw(self) -> None:
-        if self.tty:
-            print(f"\r{self.line()}\x1b[K", end="", file=self.stream, flush=True)
-
-    def finish(self) -> None:
-        if self.tty:
-            print(file=self.stream, flush=True)
-
-
-def _duration(seconds: float) -> str:
-    seconds = int(seconds)
-    if seconds < 60:
-        return f"{seconds}s"
-    if seconds < 3600:
-        return f"{seconds // 60}m{seconds % 60:02d}s"
-    return f"{seconds // 3600}h{seconds // 60 % 60:02d}m"
+    _, values = variant_settings(trial.planner, settings)
+    return RaceOptions(**{k: v for k, v in values.items() if k == "trees"}).trees
 
 
 @dataclass(frozen=True)
@@ -694,12 +631,15 @@ class RunReport:
     interrupted: bool
 
 
-def run_trials(trials: Sequence[Trial], csv_path: Path, workers: int,
-               settings: dict[str, Any], stream=None) -> RunReport:
-    """Run the trials not yet in `csv_path` on `workers` processes (each trial's request:
-    `trial_request` with `settings`), appending a row per
-    finished trial. Ctrl-C (KeyboardInterrupt) terminates the workers and returns with
-    `interrupted` set; the CSV then holds every trial finished so far."""
+def run_trials(trials: Sequence[Trial], csv_path: Path, workers: int | None,
+               settings: dict[str, Any], stream=None, address: str | None = None) -> RunReport:
+    """Run the trials not yet in `csv_path` as Ray tasks (`engine.Engine`: the embedded Ray, or
+    the cluster at `address`), at most `workers` at once (None: as many as the cluster's CPUs
+    take), each trial's request `trial_request` with `settings`; append a row per finished
+    trial as it finishes. Ctrl-C (KeyboardInterrupt) cancels the running trials and returns
+    with `interrupted` set; the CSV then holds every trial finished so far."""
+    from rearrangement_planner.tools.engine import Engine, Job, Progress
+
     stream = stream or sys.stderr
     done = {row_key(r) for r in read_trials(csv_path)}
     todo = [t for t in trials if t.key not in done]
@@ -713,43 +653,33 @@ def run_trials(trials: Sequence[Trial], csv_path: Path, workers: int,
         writer = TrialWriter(csv_path)
     except OSError as exc:
         raise BenchmarkError("--out", f"cannot write {csv_path} ({exc.strerror})") from None
-    bar = ProgressBar(len(todo), stream)
     finished = failed = 0
     interrupted = False
+    progress = None
     try:
-        pool = start_pool(min(workers, len(todo)))
-    except BaseException:
-        writer.close()
-        raise
-    try:
-        results = pool.imap_unordered(_worker, [(t, settings) for t in todo], chunksize=1)
-        bar.redraw()
-        while finished + failed < len(todo):
-            try:
-                trial, row, error = results.next(timeout=1.0)
-            except multiprocessing.TimeoutError:
-                bar.redraw()
-                continue
-            label = f"{trial.scene} {trial.planner} seed {trial.seed}"
-            if row is None:
+        engine = Engine(address)
+        progress = Progress(len(todo), stream)
+        jobs = [Job(t.key, (t, settings), trial_cpus(t, settings),
+                    f"{t.scene} {t.planner} seed {t.seed}") for t in todo]
+        for done_job in engine.run(run_trial, jobs, workers, tick=progress.tick):
+            label = done_job.job.label
+            if done_job.error:
                 failed += 1
-                bar.finish()
+                progress.advance(False, f"{label}: ERROR", failed=True)
                 print(f"trial {label} failed with an internal error (not written; a rerun "
-                      f"retries it):\n{error}", file=stream, flush=True)
-                bar.advance(False, label + " ERROR")
+                      f"retries it):\n{done_job.error}", file=stream, flush=True)
                 continue
+            row = {**done_job.result, "ray_node": done_job.node}
             writer.write(row)
             finished += 1
-            bar.advance(row["solved"] == "1", f"{label}: {row['outcome']} "
-                                              f"{row['plan_time_s']} s")
-        pool.close()
+            progress.advance(row["solved"] == "1",
+                             f"{label}: {row['outcome']} {row['plan_time_s']} s")
     except KeyboardInterrupt:
         interrupted = True
     finally:
-        pool.terminate()
-        pool.join()
         writer.close()
-        bar.finish()
+        if progress is not None:
+            progress.close()
     return RunReport(finished, skipped, failed, interrupted)
 
 
@@ -791,6 +721,10 @@ def success_at(rows: Sequence[dict], budget: float) -> float:
 
 def _median(values: Sequence[float]) -> float | None:
     return float(np.median(values)) if len(values) else None
+
+
+def _percentile(values: Sequence[float], q: float) -> float | None:
+    return float(np.percentile(values, q)) if values else None
 
 
 def _rounded(value: float | None, digits: int = 4) -> float | None:
@@ -850,14 +784,27 @@ def _planner_summary(rows: Sequence[dict], planner: str, protocol: dict,
             link_counts[name] = link_counts.get(name, 0) + 1
         pushed += bool(links)
         whole_arm += any(name not in end_effector for name in links)
+    reached = sum(r["executed_servo"] == "1" for r in rows)
+    all_times = [float(r["plan_time_s"]) for r in rows]
+    checked = [r for r in solved if r["executed_toppled"] != ""]
     summary: dict[str, Any] = {
         "trials": len(rows),
+        # the headline: requests whose plan, executed open loop with the servo arm in MuJoCo,
+        # puts the goal object in its region with nothing toppled
+        "end_to_end": {"requests": len(rows), "reached": reached,
+                       "share": _rounded(reached / len(rows)) if rows else None},
+        "request_time_s": {"median": _rounded(_median(all_times), 3),
+                           "p90": _rounded(_percentile(all_times, 90), 3)},
+        "toppled": {"checked": len(checked),
+                    "plans_toppling": sum(int(r["executed_toppled"]) > 0 for r in checked),
+                    "objects": sum(int(r["executed_toppled"]) for r in checked)},
         "solved": len(solved),
         "solved_share": _rounded(len(solved) / len(rows)) if rows else None,
         # a plan found by an iteration that began within the budget but ended after it: solved
         # for the planner, not within the budget for success_at_budget
         "solved_after_time_limit": sum(float(r["plan_time_s"]) > time_limit for r in solved),
         "plan_time_s": {"median": _rounded(_median(times), 3),
+                        "p90": _rounded(_percentile(times, 90), 3),
                         "mean": _rounded(float(np.mean(times)), 3) if times else None,
                         "max": _rounded(max(times), 3) if times else None},
         "iterations_median": _rounded(_median([float(r["iterations"]) for r in solved]), 1),
@@ -957,18 +904,29 @@ def end_effector_links(robot: RobotModel) -> frozenset[str]:
 
 
 def summary_table(summary: dict) -> str:
-    """The summary as a Markdown table, one row per planner."""
+    """The summary as a Markdown table, one row per planner: the end-to-end figure first (the
+    share of requests whose plan reaches the goal executed open loop with the servo arm in
+    MuJoCo, nothing toppled), then solved in the model, plan times and how plans push."""
     protocol = summary["protocol"]
-    marks = [b for b in budgets(float(protocol["time_limit"])) if b in (5.0, 10.0, 20.0, 60.0,
+    marks = [b for b in budgets(float(protocol["time_limit"])) if b in (5.0, 20.0, 60.0,
                                                                          300.0)]
-    head = (["planner", "solved", "median plan time"] + [f"solved ≤ {b:g} s" for b in marks]
-            + ["arm path before → after shortcut", "objects moved", "pushes beyond the hand"])
+    head = (["planner", "reached the goal, executed", "solved in the model",
+             "plan time median / p90 (all requests)"]
+            + [f"solved ≤ {b:g} s" for b in marks]
+            + ["push path / straight line", "plans toppling", "arm path before → after shortcut",
+               "pushes beyond the hand"])
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for name, p in summary["planners"].items():
-        median = p["plan_time_s"]["median"]
-        cells = [name, f"{p['solved']}/{p['trials']} ({100 * p['solved_share']:.0f} %)",
-                 "–" if median is None else f"{median:.1f} s"]
+        end = p["end_to_end"]
+        times = p["request_time_s"]
+        cells = [name, f"{end['reached']}/{end['requests']} ({100 * end['share']:.0f} %)",
+                 f"{p['solved']}/{p['trials']} ({100 * p['solved_share']:.0f} %)",
+                 f"{times['median']:.1f} / {times['p90']:.1f} s"]
         cells += [f"{100 * p['success_at_budget'][f'{b:g}']:.0f} %" for b in marks]
+        ratio = p["executed"]["goal_push_path_ratio_median"]
+        cells.append("–" if ratio is None else f"{ratio:.2f}")
+        toppled = p["toppled"]
+        cells.append(f"{toppled['plans_toppling']}/{toppled['checked']}")
         shortcut = p["shortcut"]
         if isinstance(shortcut, dict) and shortcut["trials"]:
             arm = shortcut["path_length_rad"]
@@ -976,8 +934,6 @@ def summary_table(summary: dict) -> str:
                          f"({-100 * arm['reduction']:+.0f} %)")
         else:
             cells.append("–" if isinstance(shortcut, dict) else shortcut)
-        moved = p["non_goal_objects_moved_mean"]
-        cells.append("–" if moved is None else f"{moved:.1f}")
         links = p["pushing_links"]
         cells.append(f"{links['beyond_end_effector']}/{links['trials_pushing']}")
         lines.append("| " + " | ".join(cells) + " |")

@@ -22,7 +22,6 @@ from __future__ import annotations
 import json
 import sys
 import time
-import traceback
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -159,45 +158,42 @@ def read_records(path: Path) -> list[dict]:
     return [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
 
 
-def _record_task(task: tuple) -> tuple[list[dict], str]:
-    try:
-        return record_request(*task), ""
-    except Exception:   # reported by the parent; the request is not written, a rerun retries
-        return [], traceback.format_exc()
-
-
-def record_all(requests: Sequence[tuple[Path, int]], out: Path, workers: int,
-               candidates: int, time_limit: float, settings: dict | None = None) -> int:
+def record_all(requests: Sequence[tuple[Path, int]], out: Path, workers: int | None,
+               candidates: int, time_limit: float, settings: dict | None = None,
+               address: str | None = None) -> int:
     """Record the (scene file, seed) `requests` not yet in `out` (candidates.jsonl), appending
-    each request's records as it finishes, on `workers` processes; progress on stderr.
-    Returns how many requests failed with an internal error (their tracebacks on stderr)."""
-    from rearrangement_planner.tools.benchmark import start_pool
+    each request's records as it finishes; each request a Ray task (`engine`: the embedded Ray
+    or the cluster at `address`), at most `workers` at once; progress on stderr. Returns how
+    many requests failed with an internal error (their tracebacks on stderr)."""
+    from rearrangement_planner.tools.engine import Engine, Job, Progress
 
     done = {(r["scene"], r["seed"]) for r in read_records(out)}
-    todo = [(path, seed, candidates, time_limit, settings) for path, seed in requests
-            if (path.stem, seed) not in done]
+    jobs = [Job((path.stem, seed), (path, seed, candidates, time_limit, settings), 1,
+                f"{path.stem} seed {seed}")
+            for path, seed in requests if (path.stem, seed) not in done]
     failed = 0
-    if not todo:
+    if not jobs:
         return 0
     out.parent.mkdir(parents=True, exist_ok=True)
-    pool = start_pool(min(workers, len(todo)))
+    engine = Engine(address)
+    progress = Progress(len(jobs), sys.stderr, unit="requests")
     try:
         with out.open("a") as f:
-            for n, (records, error) in enumerate(pool.imap_unordered(_record_task, todo), 1):
-                if error:
+            for finished in engine.run(record_request, jobs, workers, tick=progress.tick):
+                if finished.error:
                     failed += 1
-                    print(error, file=sys.stderr)
+                    progress.advance(False, f"{finished.job.label}: ERROR", failed=True)
+                    print(finished.error, file=sys.stderr)
                     continue
+                records = finished.result
                 for record in records:
                     f.write(json.dumps(record) + "\n")
                 f.flush()
-                first = records[0]
-                print(f"{n}/{len(todo)} {first['scene']} seed {first['seed']}: "
-                      f"{sum(r['solved'] for r in records)} of {len(records)} candidates "
-                      f"solved, {sum(bool(r.get('reached')) for r in records)} reached the "
-                      f"goal in MuJoCo", file=sys.stderr, flush=True)
-        pool.close()
+                progress.advance(any(r["solved"] for r in records),
+                                 f"{finished.job.label}: {sum(r['solved'] for r in records)} of "
+                                 f"{len(records)} candidates solved, "
+                                 f"{sum(bool(r.get('reached')) for r in records)} reached the "
+                                 f"goal in MuJoCo")
     finally:
-        pool.terminate()
-        pool.join()
+        progress.close()
     return failed

@@ -203,10 +203,12 @@ def test_summary_success_at_budget_shortcut_means_and_pushing_links():
                 "request_settings": {"shortcut_time": 5.0, "shortcut_attempts": 100},
                 "quick": False}
     rows[1]["shortcut_time_s"] = "5.0"   # ran out of time before its attempt bound
-    for row, ideal, servo, path in ((rows[0], "1", "1", "0.3"), (rows[1], "0", "1", "0.5"),
-                                    (rows[3], "0", "0", "0.9")):
+    for row, ideal, servo, path, toppled in ((rows[0], "1", "1", "0.3", "0"),
+                                             (rows[1], "0", "1", "0.5", "0"),
+                                             (rows[3], "0", "0", "0.9", "2")):
         row.update(executed_ideal=ideal, executed_servo=servo, executed_goal_distance_m="0.2",
-                   goal_start_distance_m="0.3", goal_push_path_m=path, goal_turn_rad="0.1")
+                   goal_start_distance_m="0.3", goal_push_path_m=path, goal_turn_rad="0.1",
+                   executed_toppled=toppled)
     summary = benchmark.summarize(rows, protocol, {"panda_hand", "panda_link7"})
     json.dumps(summary)   # JSON-safe
     pc, darrt = summary["planners"]["pc-rrt"], summary["planners"]["darrt"]
@@ -218,6 +220,12 @@ def test_summary_success_at_budget_shortcut_means_and_pushing_links():
                               # push paths 0.3, 0.5, 0.9 m from 0.3 m away: median 0.5 / 0.3
                               "goal_push_path_ratio_median": round(0.5 / 0.3, 4),
                               "goal_turn_rad_median": 0.1}
+    # the headline: 2 of the 4 requests reached the goal executed with the servo arm
+    assert pc["end_to_end"] == {"requests": 4, "reached": 2, "share": 0.5}
+    assert pc["toppled"] == {"checked": 3, "plans_toppling": 1, "objects": 2}
+    # plan times of all requests (2, 5, 8, 60 s) and of the solved ones (2, 5, 8 s)
+    assert pc["request_time_s"] == {"median": 6.5, "p90": 44.4}
+    assert pc["plan_time_s"]["p90"] == 7.4
     assert pc["solved_after_time_limit"] == 0
     assert pc["plan_time_s"]["median"] == 5.0
     # a trial counts at budget t when solved with plan time <= t (Fig. 7)
@@ -240,7 +248,8 @@ def test_summary_success_at_budget_shortcut_means_and_pushing_links():
     assert targets["solved_share_at_60s"]["measured"] == 0.75
     assert targets["shortcut_arm_path_reduction"]["measured"] == 0.25
     table = benchmark.summary_table(summary)
-    assert "| pc-rrt | 3/4 (75 %) | 5.0 s |" in table and "(-25 %)" in table
+    assert "| pc-rrt | 2/4 (50 %) | 3/4 (75 %) | 6.5 / 44.4 s |" in table
+    assert "| 1.67 | 1/3 |" in table and "(-25 %)" in table
 
 
 def test_summary_counts_plans_found_after_the_time_limit_as_solved_but_not_within_it():
@@ -262,23 +271,6 @@ def test_summary_does_not_claim_the_60_s_target_from_a_shorter_budget():
     assert target["measured"] is None and "20 s < 60 s" in target["note"]
 
 
-def test_progress_bar_redraws_in_place_on_a_terminal():
-    import io
-
-    class Tty(io.StringIO):
-        def isatty(self):
-            return True
-
-    stream = Tty()
-    bar = benchmark.ProgressBar(4, stream)
-    bar.advance(True, "a")
-    bar.advance(False, "b")
-    bar.finish()
-    text = stream.getvalue()
-    assert text.count("\r") == 2 and text.endswith("\n") and "\n" not in text[:-1]
-    assert "2/4 trials, 1 solved" in text and "[" + "#" * 15 + "-" * 15 + "]" in text
-
-
 # --------------------------------------------------------------------------------------------
 # The runner, end to end
 # --------------------------------------------------------------------------------------------
@@ -288,6 +280,9 @@ TINY = ["--scenes", "n1_s0", "n1_s1", "--planners", "pc-rrt", "static-rrt", "--s
         "--set", "min_robustness=0", "--set", "trees=1", "--workers", "1"]
 """Two scenes and two planners, first plans from one tree (the shipped request's robust
 selection and raced trees have tests of their own)."""
+
+
+from ompl_grammar import parse_ompl_log  # noqa: E402  (test/tools/ompl_grammar.py)
 
 
 def _read_csv(path: Path) -> tuple[list[str], list[dict]]:
@@ -348,17 +343,35 @@ def test_tiny_protocol_writes_csv_json_and_plots_and_resumes(tmp_path, capsys):
     for planner in ("pc-rrt", "static-rrt"):
         assert {"solved_share", "plan_time_s", "success_at_budget", "by_objects",
                 "pushing_links", "shortcut"} <= set(summary["planners"][planner])
-    for name in ("success_vs_budget", "plan_time", "shortcut", "by_objects", "executed"):
+    for name in ("success_vs_budget", "plan_time", "shortcut", "by_objects", "end_to_end"):
         png = (out / f"{name}.png").read_bytes()
         assert png.startswith(b"\x89PNG") and len(png) > 5000
     assert "| pc-rrt |" in captured.out and "4/4 trials" in captured.err
+    # every trial ran as a task of the embedded Ray, which names its node
+    assert len({r["ray_node"] for r in rows}) == 1 and len(rows[0]["ray_node"]) == 12
+    # the OMPL benchmark log of the scene set, read by a parser of OMPL's grammar
+    log = parse_ompl_log((out / "ompl" / "n1.log").read_text())
+    assert log["experiment"] == "n1_objects" and log["time_limit"] == 4.0
+    assert [p["name"] for p in log["planners"]] == ["pc-rrt", "static-rrt"]
+    for planner in log["planners"]:
+        runs = planner["runs"]
+        own = [r for r in rows if r["planner"] == planner["name"]]
+        assert [run["time"] for run in runs] == [float(r["plan_time_s"]) for r in own]
+        assert [run["solved"] for run in runs] == [r["solved"] == "1" for r in own]
+        assert [run["executed"] for run in runs] == [r["executed_servo"] == "1" for r in own]
+        assert {"goal_distance", "graph states", "seed"} <= set(runs[0])
 
     # Resume: a second run skips every trial already in the CSV; a trial of another protocol
     # (another time limit) stays in the CSV but out of this protocol's summary ...
     foreign = {**rows[0], "time_limit": "99.0"}
     with (out / "trials.csv").open("a", newline="") as f:
         csv.DictWriter(f, CSV_COLUMNS, lineterminator="\n").writerow(foreign)
-    assert bench.main(["run", *TINY, "--out", str(out)]) == 0
+    # ... but only when asked: without --resume an --out holding trials is refused, untouched
+    before = (out / "trials.csv").read_bytes()
+    assert bench.main(["run", *TINY, "--out", str(out)]) == 2
+    assert "add --resume to continue it" in capsys.readouterr().err
+    assert (out / "trials.csv").read_bytes() == before
+    assert bench.main(["run", *TINY, "--out", str(out), "--resume"]) == 0
     assert "resuming: 4 of 4 trials already in" in capsys.readouterr().err
     assert _read_csv(out / "trials.csv")[1] == [*rows, foreign]
     assert json.loads((out / "summary.json").read_text())["trials"] == 4
@@ -371,7 +384,7 @@ def test_tiny_protocol_writes_csv_json_and_plots_and_resumes(tmp_path, capsys):
         writer = csv.DictWriter(f, CSV_COLUMNS, lineterminator="\n")
         writer.writeheader()
         writer.writerows(kept)
-    assert bench.main(["run", *TINY, "--out", str(out)]) == 0
+    assert bench.main(["run", *TINY, "--out", str(out), "--resume"]) == 0
     assert "resuming: 3 of 4 trials" in capsys.readouterr().err
     again = _read_csv(out / "trials.csv")[1]
     assert again[:3] == kept and len(again) == 4
@@ -406,10 +419,9 @@ def test_ctrl_c_keeps_complete_rows_stops_the_workers_and_says_how_to_resume(tmp
         # a shell's background job starts with SIGINT ignored; give the bench the default
         preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     csv_path = out / "trials.csv"
-    deadline = time.monotonic() + 40
-    while time.monotonic() < deadline:
-        if csv_path.exists() and len(csv_path.read_text().splitlines()) >= 2:
-            break
+    deadline = time.monotonic() + 120        # Ray's start and the first trial
+    while not (csv_path.exists() and len(csv_path.read_text().splitlines()) >= 2):
+        assert time.monotonic() < deadline and proc.poll() is None, proc.stderr.read()
         time.sleep(0.1)
     time.sleep(0.5)   # the second trial is running
     os.killpg(proc.pid, signal.SIGINT)
@@ -419,7 +431,7 @@ def test_ctrl_c_keeps_complete_rows_stops_the_workers_and_says_how_to_resume(tmp
         os.killpg(proc.pid, signal.SIGKILL)
         raise
     assert proc.returncode == 130
-    assert f"Resume with: rearrangement-bench {' '.join(args)}" in err
+    assert f"Resume with: rearrangement-bench {' '.join(args)} --resume" in err
     assert "Traceback" not in err
     header, rows = _read_csv(csv_path)
     assert header == list(CSV_COLUMNS) and [r["scene"] for r in rows] == ["n1_s0"]
@@ -545,8 +557,8 @@ def test_an_unusable_csv_on_resume_is_a_one_line_error_naming_out(content, probl
     before = path.read_bytes()
     assert bench.main([*TINY, "--out", str(out)]) == 2
     err = capsys.readouterr().err.splitlines()
-    assert len(err) == 2 and err[1].startswith("rearrangement-bench: --out: ")
-    assert problem in err[1]
+    assert len(err) == 1 and err[0].startswith("rearrangement-bench: --out: ")
+    assert problem in err[0]
     assert path.read_bytes() == before   # never touched
 
 
