@@ -479,7 +479,7 @@ def _workers(args: argparse.Namespace, trees: int) -> int | None:
 
 def _engine_text(address: str | None, workers: int | None) -> str:
     where = "embedded Ray" if address is None else f"Ray at {address}"
-    return f"{where}, {_count(workers, 'at a time') if workers else 'as its CPUs take'}"
+    return f"{where}, {f'{workers} at a time' if workers else 'as its CPUs take'}"
 
 
 def _check_run_options(args: argparse.Namespace) -> None:
