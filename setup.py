@@ -43,6 +43,7 @@ setup(
             f"rearrangement-plan = {PACKAGE}.tools.cli:main",
             f"rearrangement-bench = {PACKAGE}.tools.bench:main",
             f"rearrangement-train = {PACKAGE}.tools.train:main",
+            f"rearrangement-robot = {PACKAGE}.tools.robot_fit:main",
         ],
     },
 )

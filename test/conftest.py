@@ -59,7 +59,8 @@ def cancel_after() -> Callable:
 ROS_FILES = {"test_node.py", "test_node_start.py", "test_world_sim.py", "test_bag_replay.py"}
 """Test files that start rclpy nodes over DDS (marker `ros`)."""
 SLOW_FILES = {"test_golden_plans.py", "test_parallel.py", "test_benchmark.py",
-              "test_bench.py", "test_baselines.py", "test_engine.py"}
+              "test_bench.py", "test_baselines.py", "test_engine.py",
+              "test_robot_fit.py"}
 """Test files whose tests plan whole scenes or spawn worker processes (marker `slow`)."""
 
 

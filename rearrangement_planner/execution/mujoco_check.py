@@ -11,24 +11,26 @@ trajectory points, as a joint trajectory controller given positions does (and as
 `open_loop.Command` does):
 - "ideal": kinematic; before every step the arm's joint positions and velocities are written
   from the reference, and a huge joint armature keeps contact impulses from slowing it;
-- "servo": position actuators (kp, kv, the Panda's effort limits, gravity compensated, a
+- "servo": position actuators (kp, kv, the URDF's effort limits, gravity compensated, a
   velocity feed-forward) that contacts can slow or deflect.
 
-The robot model is the Panda of the `example-robot-data` package (URDF + collision STL meshes,
-the franka_ros geometry): the planner's own contact capsules are what is being checked, so they
-must not be reused here. Frames as in the scene: the robot base frame, the table top at
-`table.height`. Units: m, rad, s, kg.
+The robot model is the scene's robot as its URDF describes it with real collision meshes
+(`RobotConfig.geometry_urdf`: for the Panda the `example-robot-data` URDF with the franka_ros
+collision STLs; for an arm fitted by `rearrangement-robot fit` the URDF it was fitted to): the
+planner's own contact capsules are what is being checked, so they must not be reused here.
+Joints other than the planning joints (gripper fingers) are welded at their neutral position
+(closed). MuJoCo reads STL and OBJ meshes. Frames as in the scene: the robot base frame, the
+table top at `table.height`. Units: m, rad, s, kg.
 """
 
 from __future__ import annotations
 
 import dataclasses
-import importlib.metadata
 import math
+import re
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from functools import cache
 from pathlib import Path
 from typing import Any
 
@@ -37,13 +39,13 @@ import numpy as np
 
 from rearrangement_planner.execution.open_loop import Command, InvalidStep, Updates
 from rearrangement_planner.model.errors import RearrangementError
+from rearrangement_planner.model.files import FileProblem, resolve_uri
 from rearrangement_planner.model.perturbation import Perturbation
+from rearrangement_planner.model.robot import RobotModel
 from rearrangement_planner.model.scene import MovableObject, Obstacle, Scene
 from rearrangement_planner.model.state import State
 from rearrangement_planner.planning.trajectory import Trajectory
 
-ARM_JOINTS = tuple(f"panda_joint{i}" for i in range(1, 8))
-FINGER_JOINTS = ("panda_finger_joint1", "panda_finger_joint2")
 ARM, OBJECT, STATIC = 1, 2, 4
 """Collision classes (contype bits). Arm: hits objects and the static world, not itself.
 Objects: hit the arm and each other; object-table contact is an explicit pair carrying the
@@ -69,12 +71,12 @@ class ExecutionOptions:
     """Simulated time after its end (the objects come to rest), s."""
     tip_angle: float = math.radians(30.0)
     """An object whose axis ends tilted more than this (rad) has toppled."""
-    kp: tuple[float, ...] = (3000.0,) * 4 + (1000.0,) * 3
-    """Servo stiffness per joint, N m/rad."""
-    kv: tuple[float, ...] = (150.0,) * 4 + (40.0,) * 3
-    """Servo damping per joint, N m s/rad."""
-    effort: tuple[float, ...] = (87.0,) * 4 + (12.0,) * 3
-    """Joint torque limits, N m (the Panda's)."""
+    kp: tuple[float, ...] | None = None
+    """Servo stiffness per joint, N m/rad (None: `servo_gains`)."""
+    kv: tuple[float, ...] | None = None
+    """Servo damping per joint, N m s/rad (None: `servo_gains`)."""
+    effort: tuple[float, ...] | None = None
+    """Joint torque limits, N m (None: the URDF's)."""
 
     def __post_init__(self) -> None:
         if self.arm not in ("ideal", "servo"):
@@ -140,76 +142,111 @@ class ExecutionReport:
 # -- the model ------------------------------------------------------------------------------------
 
 
-@cache
-def panda_description() -> Path:
-    """The `panda_description` folder of the installed `example-robot-data` package."""
+LARGE_JOINT = 50.0
+"""N m: joints with at least this effort limit get the large servo gains (`servo_gains`)."""
+
+
+def servo_gains(robot: RobotModel) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(kp, kv, effort) per planning joint: the effort limits from the URDF; kp 3000 N m/rad
+    and kv 150 N m s/rad for a joint whose effort limit is at least LARGE_JOINT, else 1000 and
+    40 (the gains tuned on the Panda, whose shoulder and elbow joints take 87 N m and wrist
+    joints 12 N m)."""
+    effort = np.asarray(robot.model.effortLimit[robot._idx_v], dtype=float)
+    if np.any(effort <= 0):
+        raise ExecutionCheckError(f"robot '{robot.name}': the servo arm needs a positive "
+                                  f"effort limit on every planning joint in its URDF")
+    large = effort >= LARGE_JOINT
+    return np.where(large, 3000.0, 1000.0), np.where(large, 150.0, 40.0), effort
+
+
+def _urdf_for_mujoco(path: Path) -> str:
+    """The URDF with every mesh file name made absolute (package:// URIs resolved) and a
+    <mujoco><compiler> element: visual meshes dropped, links kept as bodies."""
     try:
-        dist = importlib.metadata.distribution("example-robot-data")
-    except importlib.metadata.PackageNotFoundError:
-        raise ExecutionCheckError("the execution check needs the example-robot-data package "
-                                  "(the Panda's collision meshes)") from None
-    for f in dist.files or []:
-        if str(f).endswith("panda_description/urdf/panda.urdf"):
-            return Path(str(dist.locate_file(f))).resolve().parent.parent
-    raise ExecutionCheckError("example-robot-data has no panda_description/urdf/panda.urdf")
+        text = path.read_text()
+    except OSError as exc:
+        raise ExecutionCheckError(f"cannot read the arm's URDF {path} ({exc.strerror})") \
+            from None
 
+    def absolute(match: re.Match) -> str:
+        name = match.group(1)
+        try:
+            file = resolve_uri(name)
+        except FileProblem as exc:
+            raise ExecutionCheckError(str(exc)) from None
+        return f'filename="{file if file.is_absolute() else path.parent / file}"'
 
-def _panda_urdf() -> str:
-    """The URDF with a <mujoco><compiler> element: meshes from the collision STLs
-    (`strippath` turns the package:// URIs into file names), visual DAE meshes dropped,
-    panda_hand and panda_hand_tcp kept as bodies."""
-    folder = panda_description()
-    text = (folder / "urdf" / "panda.urdf").read_text()
-    compiler = (f'<mujoco><compiler meshdir="{folder / "meshes" / "collision"}" '
-                f'strippath="true" discardvisual="true" balanceinertia="true" '
-                f'fusestatic="false" autolimits="true"/></mujoco>')
+    text = re.sub(r'filename="([^"]+)"', absolute, text)
+    compiler = ('<mujoco><compiler discardvisual="true" balanceinertia="true" '
+                'fusestatic="false" autolimits="true"/></mujoco>')
     head, tag, tail = text.partition("<robot ")
     end = tail.index(">") + 1
     return head + tag + tail[:end] + "\n" + compiler + tail[end:]
 
 
-def arm_model() -> mujoco.MjModel:
-    """The Panda alone as `build_model` loads it (real collision meshes and finger boxes, all
-    joints free): what the planner's contact shapes are fitted to (config/robots/panda.yaml)."""
-    return mujoco.MjModel.from_xml_string(_panda_urdf())
+def _arm_spec(robot: RobotModel) -> mujoco.MjSpec:
+    """The arm alone from its collision URDF: planning joints free, every other joint (and its
+    <mimic> equality) removed, which welds gripper fingers at their neutral position."""
+    path = robot.config.geometry_urdf
+    if path is None:
+        raise ExecutionCheckError(f"robot '{robot.name}' has no URDF with collision geometry")
+    try:
+        spec = mujoco.MjSpec.from_string(_urdf_for_mujoco(path))
+    except ValueError as exc:
+        raise ExecutionCheckError(f"robot '{robot.name}': MuJoCo cannot load {path.name} "
+                                  f"({exc}); it reads STL and OBJ collision meshes") from None
+    for equality in list(spec.equalities):
+        spec.delete(equality)
+    keep = set(robot.joint_names)
+    missing = keep - {j.name for j in spec.joints}
+    if missing:
+        raise ExecutionCheckError(f"robot '{robot.name}': {path.name} lacks the planning "
+                                  f"joints {sorted(missing)}")
+    for joint in list(spec.joints):
+        if joint.name not in keep:
+            spec.delete(joint)
+    return spec
+
+
+def arm_model(robot: RobotModel) -> mujoco.MjModel:
+    """The arm alone as `build_model` loads it (real collision meshes, planning joints free):
+    what the planner's contact shapes are fitted to."""
+    return _arm_spec(robot).compile()
 
 
 def build_model(scene: Scene, options: ExecutionOptions) -> mujoco.MjModel:
-    """The arm (real collision meshes, fingers closed and rigid as the planner's hand), the
+    """The arm (real collision meshes, gripper closed and rigid as the planner's hand), the
     table, the obstacles and the objects as free bodies."""
-    if scene.robot.name != "panda":
-        raise ExecutionCheckError(f"no real-geometry model for robot '{scene.robot.name}': the "
-                                  f"execution check knows the Panda (example-robot-data)")
-    spec = mujoco.MjSpec.from_string(_panda_urdf())
+    spec = _arm_spec(scene.robot)
     spec.option.timestep = options.timestep
     spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
     spec.option.cone = mujoco.mjtCone.mjCONE_ELLIPTIC
-    for equality in list(spec.equalities):        # the fingers' <mimic>
-        spec.delete(equality)
-    for name in FINGER_JOINTS:
-        spec.delete(spec.joint(name))
-    _set_up_arm(spec, options)
+    _set_up_arm(spec, scene.robot, options)
     _add_world(spec, scene)
     return spec.compile()
 
 
-def _set_up_arm(spec: mujoco.MjSpec, options: ExecutionOptions) -> None:
+def _set_up_arm(spec: mujoco.MjSpec, robot: RobotModel, options: ExecutionOptions) -> None:
+    kp, kv, effort = servo_gains(robot)
+    kp = np.asarray(options.kp if options.kp is not None else kp)
+    kv = np.asarray(options.kv if options.kv is not None else kv)
+    effort = np.asarray(options.effort if options.effort is not None else effort)
     for body in spec.bodies:
-        if body.name.startswith("panda_"):
+        if body.name != "world":
             body.gravcomp = 1.0
             for geom in body.geoms:
                 geom.contype, geom.conaffinity = ARM, OBJECT | STATIC
                 geom.friction = [0.01, 0.005, 0.0001]   # max() mixing: the object's friction
-    for i, name in enumerate(ARM_JOINTS):
+    for i, name in enumerate(robot.joint_names):
         joint = spec.joint(name)
         joint.damping = [0.0, 0.0, 0.0]
         joint.armature = 1e4 if options.arm == "ideal" else 0.1
         if options.arm == "servo":
             actuator = spec.add_actuator(name=f"servo_{name}", target=name,
                                          trntype=mujoco.mjtTrn.mjTRN_JOINT)
-            actuator.set_to_position(kp=options.kp[i], kv=options.kv[i])
+            actuator.set_to_position(kp=kp[i], kv=kv[i])
             actuator.forcelimited = True
-            actuator.forcerange = [-options.effort[i], options.effort[i]]
+            actuator.forcerange = [-effort[i], effort[i]]
 
 
 def _add_world(spec: mujoco.MjSpec, scene: Scene) -> None:
@@ -262,19 +299,20 @@ def check_execution(scene: Scene, trajectory: Trajectory,
         raise ExecutionCheckError(f"{len(predicted)} predicted states for {len(trajectory)} "
                                   f"trajectory points")
     started = time.perf_counter()
-    run = _Execution(build_model(scene, options), scene, _command(trajectory), predicted, options)
+    command = _command(trajectory, scene.robot.joint_names)
+    run = _Execution(build_model(scene, options), scene, command, predicted, options)
     run.begin()
     run.advance(run.command.duration + options.hold)
     return run.report(time.perf_counter() - started)
 
 
-def _command(trajectory: Trajectory) -> Command:
-    """The trajectory in ARM_JOINTS order, as the controller plays it."""
+def _command(trajectory: Trajectory, joints: Sequence[str]) -> Command:
+    """The trajectory in the robot's joint order, as the controller plays it."""
     names = list(trajectory.joint_names)
-    missing = [n for n in ARM_JOINTS if n not in names]
+    missing = [n for n in joints if n not in names]
     if missing:
         raise ExecutionCheckError(f"the trajectory has no {', '.join(missing)}")
-    order = [names.index(n) for n in ARM_JOINTS]
+    order = [names.index(n) for n in joints]
     return Command(np.asarray(trajectory.times, dtype=float),
                    np.asarray(trajectory.positions, dtype=float)[:, order])
 
@@ -288,14 +326,16 @@ class _Execution:
         self.data = mujoco.MjData(model)
         self.command = command
         self.predicted = predicted
-        self.qadr = np.array([model.joint(n).qposadr[0] for n in ARM_JOINTS])
-        self.vadr = np.array([model.joint(n).dofadr[0] for n in ARM_JOINTS])
+        joints = scene.robot.joint_names
+        self.qadr = np.array([model.joint(n).qposadr[0] for n in joints])
+        self.vadr = np.array([model.joint(n).dofadr[0] for n in joints])
         self.bodies = [model.body(o.name).id for o in scene.objects]
         self.geom_body = model.geom_bodyid
-        self.is_arm = np.array([model.body(b).name.startswith("panda_")
-                                for b in self.geom_body])
+        self.is_arm = model.geom_contype == ARM
         self.is_static = model.geom_contype == STATIC
-        self.feedforward = np.asarray(options.kv) / np.asarray(options.kp)
+        kp, kv, _ = servo_gains(scene.robot)
+        self.feedforward = (np.asarray(options.kv if options.kv is not None else kv)
+                            / np.asarray(options.kp if options.kp is not None else kp))
         m = len(scene.objects)
         self.max_tilt, self.max_error = np.zeros(m), np.zeros(m)
         self.error_from: list[float | None] = [None] * m

@@ -16,6 +16,8 @@ from __future__ import annotations
 import os
 import reprlib
 import stat
+import sys
+import sysconfig
 from pathlib import Path
 from typing import Any
 
@@ -157,3 +159,30 @@ def is_file(path: str | os.PathLike[str]) -> bool:
         return Path(path).is_file()
     except (OSError, ValueError):
         return False
+
+
+def package_search_dirs() -> list[Path]:
+    """Folders that hold ROS-style packages (`share/<package>`): each AMENT_PREFIX_PATH prefix's
+    `share`, then the Python environment's (`sys.prefix/share`) and the cmeel prefix's that
+    PyPI wheels such as example-robot-data install into."""
+    prefixes = [Path(p) for p in os.environ.get("AMENT_PREFIX_PATH", "").split(os.pathsep) if p]
+    prefixes.append(Path(sys.prefix))
+    site = Path(sysconfig.get_paths()["purelib"])
+    prefixes.append(site / "cmeel.prefix")
+    return [p / "share" for p in prefixes if (p / "share").is_dir()]
+
+
+def resolve_uri(uri: str | os.PathLike[str]) -> Path:
+    """A file path from a path or a `package://PACKAGE/REST` URI (found under
+    `package_search_dirs`). FileProblem names the package when no folder holds it."""
+    text = str(uri)
+    if not text.startswith("package://"):
+        return Path(text)
+    package, _, rest = text[len("package://"):].partition("/")
+    dirs = package_search_dirs()
+    for share in dirs:
+        if (share / package).is_dir():
+            return share / package / rest
+    where = ", ".join(map(str, dirs)) or "any install prefix"
+    raise FileProblem(f"{text}: no package {package!r} in {where}; install it or add its "
+                      f"prefix to AMENT_PREFIX_PATH")

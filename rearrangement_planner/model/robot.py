@@ -23,7 +23,14 @@ import numpy as np
 import pinocchio as pin
 
 from rearrangement_planner.model.errors import RobotModelError
-from rearrangement_planner.model.files import FileProblem, is_file, load_yaml, quote, read_text
+from rearrangement_planner.model.files import (
+    FileProblem,
+    is_file,
+    load_yaml,
+    quote,
+    read_text,
+    resolve_uri,
+)
 from rearrangement_planner.model.resources import robots_dir
 
 SHAPE_KINDS = ("capsule", "sphere", "box", "cylinder")
@@ -106,6 +113,14 @@ class RobotConfig:
     push_posture: PushPosture
     contact_shapes: tuple[ContactShape, ...]
     source: Path | None = field(default=None, compare=False)
+    collision_urdf_path: Path | None = None
+    """A URDF of the same arm with its real collision meshes, for the MuJoCo execution check
+    (`collision_urdf`; default: `urdf_path`, when that one has them)."""
+
+    @property
+    def geometry_urdf(self) -> Path | None:
+        """The URDF whose collision geometry stands for the real arm."""
+        return self.collision_urdf_path or self.urdf_path
 
     @staticmethod
     def from_yaml(path: str | Path) -> RobotConfig:
@@ -123,7 +138,7 @@ class RobotConfig:
         where = f"robot config {source}" if source else "robot config"
         if not isinstance(data, dict):
             raise RobotModelError(f"{where}: expected a mapping at the top level")
-        known = {"name", "urdf", "base_frame", "joints", "tool_frame", "home",
+        known = {"name", "urdf", "collision_urdf", "base_frame", "joints", "tool_frame", "home",
                  "push_posture", "contact_shapes"}
         unknown = sorted(set(data) - known)
         if unknown:
@@ -132,11 +147,16 @@ class RobotConfig:
         for key in ("name", "joints", "tool_frame", "home", "push_posture", "contact_shapes"):
             if key not in data:
                 raise RobotModelError(f"{where}: missing required key '{key}'")
-        urdf_path = None
-        if data.get("urdf") is not None:
-            urdf_path = Path(data["urdf"])
-            if not urdf_path.is_absolute() and base_dir is not None:
-                urdf_path = base_dir / urdf_path
+        def urdf(key: str) -> Path | None:
+            if data.get(key) is None:
+                return None
+            try:
+                path = resolve_uri(str(data[key]))             # a path, or package://...
+            except FileProblem as exc:
+                raise RobotModelError(f"{where}: {key}: {exc}") from None
+            return base_dir / path if not path.is_absolute() and base_dir is not None else path
+
+        urdf_path = urdf("urdf")
         joints = tuple(str(j) for j in data["joints"])
         home = np.asarray(data["home"], dtype=float)
         if home.shape != (len(joints),):
@@ -155,7 +175,8 @@ class RobotConfig:
         return RobotConfig(
             name=str(data["name"]), urdf_path=urdf_path, joints=joints,
             tool_frame=str(data["tool_frame"]), base_frame=str(data.get("base_frame", "")),
-            home=_readonly(home), push_posture=push, contact_shapes=shapes, source=source)
+            home=_readonly(home), push_posture=push, contact_shapes=shapes, source=source,
+            collision_urdf_path=urdf("collision_urdf"))
 
 
 def _parse_shape(entry: dict, where: str) -> ContactShape:

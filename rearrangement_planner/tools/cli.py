@@ -190,8 +190,16 @@ def main(argv: list[str] | None = None) -> int:
               f"({time.monotonic() - started:.1f} s)", file=sys.stderr)
     record = output.to_dict()
     executed = None
+    check_failed = False
     if args.check_execution and output.trajectory is not None:
-        record["execution"], executed = _check_execution(output, args)
+        from rearrangement_planner.execution.mujoco_check import ExecutionCheckError
+
+        try:
+            record["execution"], executed = _check_execution(output, args)
+        except ExecutionCheckError as exc:      # the plan stands; the check could not run
+            print(f"rearrangement-plan: --check-execution: {exc}", file=sys.stderr)
+            record["execution"] = {"error": str(exc)}
+            check_failed = True
     text = json.dumps(record, indent=2)
     if args.json is not None:
         if str(args.json) == "-":
@@ -213,6 +221,8 @@ def main(argv: list[str] | None = None) -> int:
         summary = {k: record[k] for k in ("solved", "plan_time_s", "iterations",
                                           "goal_distance_m")}
         print(json.dumps(summary), file=sys.stderr)
+    if check_failed:
+        return 2
     return 0 if result.solved else 1
 
 

@@ -11,7 +11,7 @@ import mujoco
 import numpy as np
 import pytest
 
-from rearrangement_planner.execution.mujoco_check import ARM_JOINTS, arm_model
+from rearrangement_planner.execution.mujoco_check import arm_model
 from rearrangement_planner.planning.manifold import ik_on_manifold, lowest_point
 
 LINKS = [f"panda_link{i}" for i in range(1, 6)]
@@ -23,10 +23,10 @@ WRIST = ("panda_link6", "panda_link7")
 
 
 @pytest.fixture(scope="module")
-def real():
+def real(panda):
     """The arm model and, per body, its collision geometry as points in the body frame:
     mesh vertices plus points spread over the mesh faces, box corners."""
-    model = arm_model()
+    model = arm_model(panda)
     data = mujoco.MjData(model)
     mujoco.mj_kinematics(model, data)
     rng = np.random.default_rng(0)
@@ -108,7 +108,7 @@ def test_planned_pushing_postures_clear_the_table_as_the_real_arm_does(panda, re
     lowest point (the clearance the planner keeps is real, and not much more than real)."""
     model, _ = real
     data = mujoco.MjData(model)
-    qadr = [model.joint(n).qposadr[0] for n in ARM_JOINTS]
+    qadr = [model.joint(n).qposadr[0] for n in panda.joint_names]
     rng = np.random.default_rng(0)
     checked = 0
     for x, y, yaw in [(0.5, 0.0, 0.0), (0.4, 0.2, 1.0), (0.65, -0.2, -0.5), (0.45, 0.3, 1.57)]:

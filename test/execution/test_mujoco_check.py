@@ -154,3 +154,30 @@ def test_the_check_refuses_what_it_cannot_model(straight_push):
         ExecutionOptions(arm="loose")
 
 
+
+
+def test_a_robot_without_a_usable_collision_urdf_is_refused_by_name(straight_push, tmp_path):
+    """The check simulates the scene's own arm from its collision URDF; when that cannot be read
+    it says so (Collada meshes, which MuJoCo cannot read, end the same way)."""
+    from rearrangement_planner.model.robot import RobotConfig, RobotModel
+
+    scene, trajectory, _ = straight_push
+    data = yaml.safe_load(scene.robot.config.source.read_text())
+    data["collision_urdf"] = str(tmp_path / "gone.urdf")
+    robot = RobotModel(RobotConfig.from_dict(data, base_dir=scene.robot.config.source.parent))
+    with pytest.raises(ExecutionCheckError, match="cannot read the arm's URDF .*gone.urdf"):
+        check_execution(dataclasses.replace(scene, robot=robot), trajectory)
+
+
+def test_a_second_arm_plans_and_its_plan_reaches_the_goal_in_mujoco():
+    """The xArm7 (config fitted by `rearrangement-robot fit`, its own meshes in MuJoCo): the
+    default scene's first plan of one tree, seed 0, executed with the ideal and the servo arm."""
+    scene = load_scene("default_xarm7")
+    assert scene.robot.name == "xarm7"
+    output = plan_scene(PlanRequest.first_plan(scene, "pc-rrt", PCRRTOptions(time_limit=60.0),
+                                               seed=0))
+    assert output.solved
+    for arm in ("ideal", "servo"):
+        report = check_execution(scene, output.trajectory, output.trajectory_states,
+                                 ExecutionOptions(arm=arm))
+        assert report.reached and not report.toppled, (arm, report.goal_distance_m)

@@ -184,7 +184,7 @@ def test_within_limits(panda):
 
 
 def test_unknown_robot_name_lists_the_shipped_ones():
-    with pytest.raises(RobotModelError, match=r"unknown robot 'ur5'.*\['panda'\]"):
+    with pytest.raises(RobotModelError, match=r"unknown robot 'ur5'.*\['panda', 'xarm7'\]"):
         RobotModel.load("ur5")
 
 
@@ -214,6 +214,22 @@ def test_unknown_config_key_is_named(panda):
     data = _config_dict(panda)
     data["gripper"] = "hand"
     with pytest.raises(RobotModelError, match=r"unknown key\(s\) \['gripper'\]"):
+        RobotConfig.from_dict(data)
+
+
+def test_a_urdf_may_be_a_package_uri_of_an_installed_package(panda):
+    """The xArm7's config names its URDF in example-robot-data (no robot file copied); the
+    Panda's names the collision URDF the execution check simulates the same way."""
+    xarm = RobotModel.load("xarm7")
+    assert xarm.config.urdf_path.is_file()
+    assert "example-robot-data/robots/xarm_description/urdf" in str(xarm.config.urdf_path)
+    assert xarm.config.geometry_urdf == xarm.config.urdf_path and xarm.nq == 7
+    assert panda.config.geometry_urdf.name == "panda.urdf"
+    assert "panda_description" in str(panda.config.geometry_urdf)
+    data = _config_dict(panda)
+    data["collision_urdf"] = "package://no_such_robot_description/urdf/arm.urdf"
+    with pytest.raises(RobotModelError, match=r"collision_urdf: .*no package "
+                                              r"'no_such_robot_description'"):
         RobotConfig.from_dict(data)
 
 

@@ -196,6 +196,28 @@ def test_check_execution_reports_the_mujoco_outcome(tmp_path, capsys):
     assert "executed in MuJoCo (ideal arm): goal object" in capsys.readouterr().err
 
 
+def test_a_check_that_cannot_run_keeps_the_plan_and_exits_2(tmp_path, capsys):
+    """A robot whose collision URDF is gone: the plan is written, the check's error is in the
+    JSON and on stderr, exit 2."""
+    import yaml
+
+    robot = yaml.safe_load((scenes_dir().parent / "robots" / "panda.yaml").read_text())
+    robot["urdf"] = str(scenes_dir().parent / "robots" / "panda.urdf")
+    robot["collision_urdf"] = str(tmp_path / "gone.urdf")
+    (tmp_path / "arm.yaml").write_text(yaml.safe_dump(robot))
+    scene = yaml.safe_load((scenes_dir() / "easy_push.yaml").read_text())
+    scene["robot"] = str(tmp_path / "arm.yaml")
+    (tmp_path / "scene.yaml").write_text(yaml.safe_dump(scene))
+    out = tmp_path / "plan.json"
+    code = main([str(tmp_path / "scene.yaml"), "--seed", "1", "--trees", "1",
+                 "--min-robustness", "0", "--check-execution", "--quiet", "--json", str(out)])
+    record = json.loads(out.read_text())
+    assert code == 2 and record["solved"]
+    assert "gone.urdf" in record["execution"]["error"]
+    assert "rearrangement-plan: --check-execution: cannot read the arm's URDF" in \
+        capsys.readouterr().err
+
+
 def test_trials_need_check_execution(capsys):
     assert main(["easy_push", "--trials", "3", "--quiet"]) == 2
     assert "--trials must be between 0 and 1000 and goes with --check-execution" \
