@@ -3,7 +3,7 @@
 Each `x_to_msg` / `msg_to_x` pair round-trips: `msg_to_x(x_to_msg(x))` gives back `x` (angles
 wrapped to (-pi, pi], times to the nanosecond). The `msg_to_x` direction reads untrusted input
 and rejects anything unusable with one `InputError` whose `field` names the offending entry
-(``joint_states.position[panda_joint3]``, ``object_poses.poses[2].orientation``) and whose
+(``joint_states.position[joint3]``, ``object_poses.poses[2].orientation``) and whose
 `problem` says what is wrong and what would be right. The `x_to_msg` direction takes the core's
 own values; a wrongly shaped one is a programming error and raises `ValueError`.
 

@@ -135,3 +135,18 @@ def test_functions_and_classes_stay_small(path: Path):
         length = (node.end_lineno or node.lineno) - node.lineno + 1
         assert length <= limit, f"{_module_name(path)}.{node.name} has {length} lines " \
                                 f"(at most {limit})"
+
+
+def test_nothing_in_the_core_names_a_particular_arm():
+    """Robots come from config/ (a URDF and a robot config): no module of the package or the
+    message adapters names the first shipped arm, not even in a comment."""
+    import re
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    named = [f"{path.relative_to(root)}:{n}" for folder in ("rearrangement_planner",
+                                                             "msg_adapters")
+             for path in sorted((root / folder).rglob("*.py"))
+             for n, line in enumerate(path.read_text().splitlines(), start=1)
+             if re.search("panda|franka", line, re.IGNORECASE)]
+    assert named == []

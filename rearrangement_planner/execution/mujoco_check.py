@@ -15,8 +15,8 @@ trajectory points, as a joint trajectory controller given positions does (and as
   velocity feed-forward) that contacts can slow or deflect.
 
 The robot model is the scene's robot as its URDF describes it with real collision meshes
-(`RobotConfig.geometry_urdf`: for the Panda the `example-robot-data` URDF with the franka_ros
-collision STLs; for an arm fitted by `rearrangement-robot fit` the URDF it was fitted to): the
+(`RobotConfig.geometry_urdf`: a robot config's `collision_urdf`, or its URDF when that one has
+the meshes, as for an arm fitted by `rearrangement-robot fit`): the
 planner's own contact capsules are what is being checked, so they must not be reused here.
 Joints other than the planning joints (gripper fingers) are welded at their neutral position
 (closed). MuJoCo reads STL and OBJ meshes. Frames as in the scene: the robot base frame, the
@@ -149,8 +149,8 @@ LARGE_JOINT = 50.0
 def servo_gains(robot: RobotModel) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(kp, kv, effort) per planning joint: the effort limits from the URDF; kp 3000 N m/rad
     and kv 150 N m s/rad for a joint whose effort limit is at least LARGE_JOINT, else 1000 and
-    40 (the gains tuned on the Panda, whose shoulder and elbow joints take 87 N m and wrist
-    joints 12 N m)."""
+    40 (the gains tuned on the first shipped arm, whose shoulder and elbow joints take 87 N m
+    and wrist joints 12 N m)."""
     effort = np.asarray(robot.model.effortLimit[robot._idx_v], dtype=float)
     if np.any(effort <= 0):
         raise ExecutionCheckError(f"robot '{robot.name}': the servo arm needs a positive "

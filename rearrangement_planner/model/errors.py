@@ -22,7 +22,7 @@ class SceneError(RearrangementError):
 
 class InputError(RearrangementError):
     """A planning input (joint state, object poses, goal, parameter) is unusable. `field` names
-    the offending field (e.g. ``joint_states.position[panda_joint3]``), `problem` says why."""
+    the offending field (e.g. ``joint_states.position[joint3]``), `problem` says why."""
 
     def __init__(self, field: str, problem: str):
         self.field = field

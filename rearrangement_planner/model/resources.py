@@ -45,3 +45,16 @@ def robots_dir() -> Path:
 
 def scenes_dir() -> Path:
     return config_dir() / "scenes"
+
+
+def default_scene_file() -> Path:
+    """The default scene (`make demo`, the benchmark scenes' table and start)."""
+    return scenes_dir() / "default.yaml"
+
+
+@cache
+def default_robot() -> str:
+    """The name of the default scene's robot: the robot every tool uses when none is named."""
+    import yaml
+
+    return str(yaml.safe_load(default_scene_file().read_text())["robot"])

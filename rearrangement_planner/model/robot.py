@@ -1,7 +1,7 @@
 """The arm: URDF kinematics (Pinocchio) plus the robot config the planner needs on top of it.
 
 A robot is a URDF (file or string: the ROS `robot_description` convention) and a small YAML
-config (see ``config/robots/panda.yaml``) naming the planning joints, the base and tool frames,
+config (``config/robots/<name>.yaml``) naming the planning joints, the base and tool frames,
 the home configuration, the pushing posture and the contact shapes of every link.
 
 Frames: everything is expressed in the URDF root frame (the robot base), which is the planning
@@ -297,8 +297,9 @@ class RobotModel:
 
     @classmethod
     def load(cls, name_or_path: str | Path, urdf_xml: str | None = None) -> RobotModel:
-        """A shipped robot by name ('panda') or a robot config YAML by path. `urdf_xml`, when
-        given (e.g. the `robot_description` parameter), replaces the config's URDF file."""
+        """A shipped robot by name (config/robots/NAME.yaml) or a robot config YAML by path.
+        `urdf_xml`, when given (e.g. the `robot_description` parameter), replaces the config's
+        URDF file."""
         path = Path(name_or_path)
         if path.suffix not in (".yaml", ".yml"):
             path = robots_dir() / f"{name_or_path}.yaml"
@@ -357,9 +358,9 @@ class RobotModel:
     @property
     def tool_reach(self) -> float:
         """How far (m) the contact shapes that move rigidly with the tool frame reach past the
-        tool point along the tool's z axis, 0 if none does: the Panda's finger pads end 9.6 mm
-        past panda_hand_tcp. A pusher that should stop short of an object stops by this much
-        more than the tool point."""
+        tool point along the tool's z axis, 0 if none does (finger pads that end a little past
+        a tool frame between the finger tips, say). A pusher that should stop short of an
+        object stops by this much more than the tool point."""
         if self._tool_reach is None:
             self._tool_reach = self._reach_past_tool()
         return self._tool_reach

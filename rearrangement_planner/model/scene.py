@@ -3,8 +3,8 @@
 
 A scene file is a public contract (docs/design.md "The world model", "Scene file")::
 
-    robot: panda                        # a shipped robot config name or a path to one
-    start_configuration: [0.0, -0.3, 0.0, -2.2, 0.0, 2.0, 0.785]   # optional; default: home
+    robot: xarm7                        # a shipped robot config name or a path to one
+    start_configuration: [0.0, -0.5, 0.0, 0.8, 0.0, 1.3, 0.0]       # optional; default: home
     table: {center: [0.55, 0.0], size: [0.8, 1.2], height: 0.0}
     obstacles:                          # optional
       - {name: post, shape: box, size: [0.05, 0.05, 0.30], pose: [0.75, 0.35, 0.0]}
@@ -531,8 +531,8 @@ def _resolve_robot(value: Any, base_dir: Path | None, robot: RobotModel | None) 
     if value is None and robot is not None:
         return robot
     if not isinstance(value, str):
-        _fail("robot", f"expected a shipped robot name (e.g. 'panda') or the path of a robot "
-                       f"config .yaml, got {_type_name(value)}")
+        _fail("robot", f"expected a shipped robot name (a file in config/robots) or the path "
+                       f"of a robot config .yaml, got {_type_name(value)}")
     if len(value) > 255 or "\x00" in value:
         _fail("robot", f"{quote(value)} is not a robot name or a robot config path")
     target: str | Path = value

@@ -2,9 +2,9 @@
 reference plan recordings in `bags/plans/`.
 
 Each input bag is what `ros2 bag record /joint_states /rearrangement_planner/object_poses
-/rearrangement_planner/goal` would have written on a Panda cell running a perception node, seconds
-before planning: rosbag2 MCAP (profile ros2, ros2msg schemas, cdr, offered_qos_profiles;
-`recording.McapRecorder`), log times from a fixed epoch, with
+/rearrangement_planner/goal` would have written on the scene's robot cell running a perception
+node, seconds before planning: rosbag2 MCAP (profile ros2, ros2msg schemas, cdr,
+offered_qos_profiles; `recording.McapRecorder`), log times from a fixed epoch, with
 
 - `/joint_states` (sensor_msgs/JointState, best-effort sensor QoS) at the bag's joint rate:
   the 7 arm joints and the 2 finger joints, as joint_state_broadcaster publishes them, with
@@ -56,9 +56,6 @@ from rearrangement_planner.planning.interface import PlannerOptions
 EPOCH_NS = 1_700_000_000 * 1_000_000_000
 """Log time of the first message of every bag (2023-11-14 22:13:20 UTC)."""
 FRAME = "world"
-FINGER_JOINTS = ("panda_finger_joint1", "panda_finger_joint2")
-FINGER_OPENING = 0.04
-"""Finger joint positions, m (hand open)."""
 TOPICS = {"joint_states": "/joint_states", "object_poses": "/rearrangement_planner/object_poses",
           "goal": "/rearrangement_planner/goal"}
 PERCEPTION_LATENCY = 0.035
@@ -128,6 +125,9 @@ BAGS: tuple[BagSpec, ...] = (
             "seven_objects: 7 objects, a goal nearer than the scene's (which the planner does "
             "not reach in a minute); joint states 250 Hz, poses 30 Hz, 3 s.",
             seed=3, goal=(0.50, 0.32)),
+    BagSpec("default_xarm7_3obj", "default_xarm7",
+            "default_xarm7: the default scene with the xArm7 (a second arm, fitted from its "
+            "URDF); joint states 250 Hz, poses 30 Hz, 3 s.", seed=2),
 )
 
 
@@ -177,9 +177,27 @@ class _Message:
     qos: str
 
 
+def _other_joints(robot) -> tuple[list[str], list[float]]:
+    """The joints a real cell publishes beside the planning joints: the arm's other 1-DOF joints
+    in its collision URDF (a gripper's fingers), open (at their upper limit)."""
+    import pinocchio as pin
+
+    path = robot.config.geometry_urdf
+    model = pin.buildModelFromUrdf(str(path)) if path is not None else None
+    names: list[str] = []
+    values: list[float] = []
+    for i in range(1, model.njoints if model is not None else 1):
+        joint = model.joints[i]
+        if model.names[i] not in robot.joint_names and joint.nq == 1:
+            names.append(model.names[i])
+            values.append(float(model.upperPositionLimit[joint.idx_q]))
+    return names, values
+
+
 def _joint_states(spec: BagSpec, world: Scene, rng: np.random.Generator) -> list[_Message]:
-    names = list(world.robot.joint_names) + list(FINGER_JOINTS)
-    q = np.concatenate([world.start_configuration, [FINGER_OPENING] * len(FINGER_JOINTS)])
+    others, opening = _other_joints(world.robot)
+    names = list(world.robot.joint_names) + others
+    q = np.concatenate([world.start_configuration, opening])
     messages = []
     for k in range(int(spec.duration * spec.joint_rate)):
         stamp = k / spec.joint_rate + rng.normal(0.0, 5e-5)

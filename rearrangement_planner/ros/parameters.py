@@ -71,7 +71,7 @@ _NODE_FIRST: tuple[ParameterSpec, ...] = (
     ParameterSpec("goal_object", "", "Object to bring into the goal region; '' = the scene's."),
     ParameterSpec("goal_radius", 0.0, "Goal region radius, m; 0 = the scene's.", 0.0, 10.0),
     ParameterSpec("planning_frame", "world", "Frame of all inputs and outputs, the robot base "
-                  "frame; '' = the robot config's base frame name (panda_link0). "
+                  "frame; '' = the robot config's base frame name. "
                   "Inputs in another frame are rejected (no tf here)."),
     ParameterSpec("max_object_tilt", 0.05, "Largest tilt from upright of a received object "
                   "pose, rad; objects must stand on the table.", 0.0, 1.5),

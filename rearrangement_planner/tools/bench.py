@@ -35,7 +35,7 @@ candidate plans a robust search makes, each executed in MuJoCo, into --out/candi
 chosen plans reached the goal (docs/benchmark.md).
 
 `states` draws the learned generator's manipulation states (Fig. 2a of Haustein et al. 2018)
-from the shipped weights of the Panda or --weights.
+from the default robot's shipped weights or --weights.
 """
 
 from __future__ import annotations
@@ -51,7 +51,7 @@ from pathlib import Path
 from typing import Any
 
 from rearrangement_planner.model.errors import RearrangementError
-from rearrangement_planner.model.resources import scenes_dir
+from rearrangement_planner.model.resources import default_robot, scenes_dir
 from rearrangement_planner.model.scene import Scene
 from rearrangement_planner.model.settings import parse_assignments
 from rearrangement_planner.physics.options import simulation_options
@@ -67,7 +67,7 @@ from rearrangement_planner.tools.engine import EngineError
 COMMANDS = ("run", "generate", "physics", "scenes", "candidates", "states")
 
 PHYSICS_DOC = """`rearrangement-bench physics` measures the throughput of the quasistatic physics
-step on the Panda at the default scene's table: the arm, folded low so that forearm and
+step on the default scene's arm and table: the arm, folded low so that forearm and
 wrist sweep at object height, rotates about joint 1 through 1 and through 7 objects placed in
 its path, again and again. It prints a JSON record: physics steps per second (one
 `Physics.step` call moving joint 1 by `STEP_RAD`), substeps per second, the share of the time
@@ -256,7 +256,7 @@ def build_parser() -> argparse.ArgumentParser:
         "states", help="Fig. 2a of Haustein et al. 2018: the learned generator's manipulation "
                        "states around an object")
     states.add_argument("--weights", type=Path, default=None,
-                        help="a learned oracle .npz (default: the Panda's shipped one)")
+                        help="a learned oracle .npz (default: the default robot's shipped one)")
     states.add_argument("--out", type=Path, default=Path("manipulation_states.png"),
                         help="the PNG to write (default manipulation_states.png)")
     return parser
@@ -338,7 +338,7 @@ def states_command(args: argparse.Namespace) -> int:
     from rearrangement_planner.planning.learned_oracle import load_models, model_path
     from rearrangement_planner.tools.bench_plots import plot_manipulation_states
 
-    weights = args.weights or model_path("panda")
+    weights = args.weights or model_path(default_robot())
     try:
         models = load_models(weights)
     except (OSError, ValueError) as exc:

@@ -44,7 +44,7 @@ from typing import Any
 import numpy as np
 
 from rearrangement_planner.model.errors import RearrangementError
-from rearrangement_planner.model.resources import config_dir
+from rearrangement_planner.model.resources import config_dir, default_robot, default_scene_file
 from rearrangement_planner.model.robot import RobotModel
 from rearrangement_planner.physics.validation import parse_scene
 from rearrangement_planner.planning.registry import PLANNERS
@@ -59,9 +59,8 @@ SCENE_SET_SEED = 0
 OBJECT_COUNTS = tuple(range(1, 8))          # movable objects per scene, goal object included
 SCENES_PER_COUNT = 5
 
-# The table and start configuration of config/scenes/default.yaml (a test keeps them equal).
-ROBOT = "panda"
-START_CONFIGURATION = (0.0, -0.3, 0.0, -2.2, 0.0, 2.0, 0.785)   # rad
+# The table of config/scenes/default.yaml (a test keeps them equal); its robot and start
+# configuration are read from it (`default_robot`, `_default_start`).
 TABLE = {"center": (0.55, 0.0), "size": (0.8, 1.2), "height": 0.0}  # m
 
 GOAL_POSITION = (0.55, -0.20)   # m, the goal point of every scene
@@ -72,8 +71,8 @@ GOAL_OBJECT = {"name": "target", "shape": "box", "size": (0.06, 0.08, 0.12), "ma
 
 # The workspace: object centres at a distance from the base (the z axis of the base frame) in
 # [REACH_MIN, REACH_MAX] and at least WORKSPACE_MIN_X in front of it, and the whole footprint on
-# the table. The Panda's tool reaches the pushing plane (hand horizontal, 7 cm above the table)
-# out to about 0.88 m; REACH_MAX leaves room for the hand to get behind an object and push it
+# the table. The default robot's tool reaches the pushing plane (7 cm above the table) out to
+# about 0.88 m; REACH_MAX leaves room for the hand to get behind an object and push it
 # back towards the base. A test checks the tool reaches every object's centre by IK.
 REACH_MIN = 0.30                # m
 REACH_MAX = 0.72                # m
@@ -89,6 +88,14 @@ PUSHER_FRICTION = (0.2, 0.5)    # arm-object mu_c
 MIN_GAP = 0.01                  # m, least gap between the footprint circles of two objects
 MAX_DRAWS = 1000                # draws per scene before giving up (never reached in practice)
 DECIMALS = 3                    # values are written rounded to mm / mrad
+
+
+def _default_start() -> list[float]:
+    """The default scene's start configuration: every benchmark scene's."""
+    import yaml
+
+    return [float(v) for v in
+            yaml.safe_load(default_scene_file().read_text())["start_configuration"]]
 
 
 def scene_name(objects: int, index: int) -> str:
@@ -187,8 +194,8 @@ def _draw_scene(rng: np.random.Generator, objects: int) -> dict | None:
                                                        "pusher_friction")}})
         placed.append((xy[0], xy[1], radius))
     return {
-        "robot": ROBOT,
-        "start_configuration": list(START_CONFIGURATION),
+        "robot": default_robot(),
+        "start_configuration": _default_start(),
         "table": {key: (list(v) if isinstance(v, tuple) else v) for key, v in TABLE.items()},
         "objects": entries,
         "goal": {"object": GOAL_OBJECT["name"], "position": list(GOAL_POSITION),
@@ -203,7 +210,7 @@ def generate_scene(objects: int, index: int, seed: int = SCENE_SET_SEED,
     if objects < 1:
         raise ValueError(f"a scene needs at least the goal object, got objects={objects}")
     rng = np.random.default_rng([seed, objects, index])
-    robot = robot or RobotModel.load(ROBOT)
+    robot = robot or RobotModel.load(default_robot())
     for _ in range(MAX_DRAWS):
         data = _draw_scene(rng, objects)
         if data is None:
@@ -268,7 +275,7 @@ def scene_file_text(name: str, data: dict, seed: int = SCENE_SET_SEED) -> str:
 
 def generate_scene_set(seed: int = SCENE_SET_SEED) -> dict[str, str]:
     """{scene name: scene file text} of the 35-scene set drawn with `seed`, in set order."""
-    robot = RobotModel.load(ROBOT)
+    robot = RobotModel.load(default_robot())
     texts = {}
     for objects in OBJECT_COUNTS:
         for index in range(SCENES_PER_COUNT):
@@ -894,8 +901,8 @@ def summarize(rows: Sequence[dict], protocol: dict, end_effector: Iterable[str] 
 
 
 def end_effector_links(robot: RobotModel) -> frozenset[str]:
-    """Contact-shape links moved by the same joint as the tool frame (the Panda's hand and
-    flange, panda_hand and panda_link7): a push by any other link is a whole-arm push
+    """Contact-shape links moved by the same joint as the tool frame (the hand and the flange
+    it is mounted on): a push by any other link is a whole-arm push
     (docs/design.md: pushes by the hand alone would mean the whole-arm part is missing)."""
     model = robot.model
     tool_joint = model.frames[robot.tool_frame_id].parentJoint

@@ -33,6 +33,7 @@ from typing import Any
 
 import numpy as np
 
+from rearrangement_planner.model.resources import default_robot
 from rearrangement_planner.planning.learned_oracle import (
     NETWORKS,
     NOISE_SIZE,
@@ -420,10 +421,10 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(
         prog="rearrangement-train",
         description="Train the slice-based RRT's learned oracle (Haustein et al. 2018, §II) for "
-                    "the Panda and write it as the .npz the planner reads.")
+                    "the default scene's robot and write it as the .npz the planner reads.")
     parser.add_argument("--seed", type=int, default=0, help="the run's seed (default 0)")
     parser.add_argument("--out", type=Path, default=None,
-                        help=f"weights file (default: the shipped {model_path('panda')})")
+                        help=f"weights file (default: the shipped {model_path(default_robot())})")
     parser.add_argument("--report", type=Path, default=None,
                         help="write the loss curves and stage times as JSON here, and their "
                              "plot beside it (.png)")
@@ -448,7 +449,7 @@ def main(argv: list[str] | None = None) -> int:
     started = time.monotonic()
     trainer = Trainer(options, args.seed, workers=args.workers)
     trainer.run(args.data)
-    out = args.out or model_path("panda")
+    out = args.out or model_path(default_robot())
     trainer.save(out)
     total = time.monotonic() - started
     print(f"wrote {out} ({out.stat().st_size / 1e3:.0f} kB) in {total:.0f} s")

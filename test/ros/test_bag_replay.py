@@ -116,7 +116,7 @@ def test_bags_cover_the_scenes_sizes_rates_and_a_bad_connection():
     bags = [read_bag(p) for p in BAG_PATHS]
     assert len(bags) >= 6, [p.name for p in BAG_PATHS]
     scenes = {b.input_metadata()["planner_parameters"]["scene"] for b in bags}
-    assert scenes == {"easy_push", "default", "clutter", "seven_objects"}
+    assert scenes == {"easy_push", "default", "clutter", "seven_objects", "default_xarm7"}
     assert {1, 3, 7} <= {len(b.last(OBJECTS).poses) for b in bags}
     glitchy = []
     for bag in bags:
@@ -134,7 +134,9 @@ def test_bags_cover_the_scenes_sizes_rates_and_a_bad_connection():
             rates[topic] = 1.0 / float(np.median(np.diff(logs)))
         assert 95 <= rates[JOINTS] <= 525 and 14 <= rates[OBJECTS] <= 32, (name, rates)
         joint_state = bag.last(JOINTS)
-        assert len(joint_state.name) == 9 and len(joint_state.velocity) == 9   # arm + fingers
+        # the arm's joints and its gripper's (the Panda's 2 fingers; the xArm7 has none)
+        joints = 7 if "xarm7" in name else 9
+        assert len(joint_state.name) == joints and len(joint_state.velocity) == joints
         assert bag.last(OBJECTS).header.frame_id == "world"
         found = _glitches(bag)
         if any(found.values()):
