@@ -182,11 +182,13 @@ def _other_joints(robot) -> tuple[list[str], list[float]]:
     in its collision URDF (a gripper's fingers), open (at their upper limit)."""
     import pinocchio as pin
 
-    path = robot.config.geometry_urdf
-    model = pin.buildModelFromUrdf(str(path)) if path is not None else None
     names: list[str] = []
     values: list[float] = []
-    for i in range(1, model.njoints if model is not None else 1):
+    path = robot.config.geometry_urdf
+    if path is None:
+        return names, values
+    model = pin.buildModelFromUrdf(str(path))
+    for i in range(1, model.njoints):
         joint = model.joints[i]
         if model.names[i] not in robot.joint_names and joint.nq == 1:
             names.append(model.names[i])
