@@ -1,8 +1,8 @@
 """`rearrangement-bench`: benchmarks.
 
     rearrangement-bench [run] [--quick] [--scenes SCENE ...] [--planners P ...] [--seeds N ...]
-                        [--time-limit S] [--set NAME=VALUE ...] [--address HOST:PORT]
-                        [--workers N] [--out DIR] [--resume]
+                        [--time-limit S] [--set NAME=VALUE ...] [--robot ROBOT]
+                        [--address HOST:PORT] [--workers N] [--out DIR] [--resume]
     rearrangement-bench generate [--seed S] [--out DIR]
     rearrangement-bench physics [--seconds S] [--json OUT]
     rearrangement-bench scenes [--scenes NAME ...] [--planners P ...] [--seeds N ...]
@@ -15,7 +15,8 @@
 `run` (the default) is the benchmark of King et al. 2015, §V (`benchmark.py`): each planner on each
 of the 35 scenes of config/benchmark/scenes with each seed, each trial the product's default plan
 request (`planning.request`; `--set NAME=VALUE` changes any of its settings, e.g. `--set
-min_robustness=0 --set trees=1` for the first plan of one tree). Each trial is a Ray task with
+min_robustness=0 --set trees=1` for the first plan of one tree; `--robot` plans with another
+arm, from its home configuration). Each trial is a Ray task with
 its raced trees' worth of CPUs (`engine.py`), on an embedded local Ray or on the cluster at
 `--address`; trials.csv gets a row as each finishes, then summary.json, the plots of Figs. 4, 7
 and 8 and the end-to-end plot (`bench_plots.py`) and OMPL benchmark logs (`ompl_log.py`) in
@@ -215,6 +216,10 @@ def build_parser() -> argparse.ArgumentParser:
                           "(slice-rrt:oracle=hand)")
     run.add_argument("--seeds", nargs="+", type=int, metavar="N",
                      help="planner seeds (default 0 1 2; --quick: 0)")
+    run.add_argument("--robot", default="", metavar="ROBOT",
+                     help="plan every scene with this arm (a shipped robot name or a robot "
+                          "config .yaml), starting at its home configuration (default: each "
+                          "scene's own arm and start)")
     run.add_argument("--time-limit", type=float, metavar="S",
                      help="planning budget per trial, s (default 60; --quick: 20)")
     _add_set_option(run)
@@ -510,9 +515,15 @@ def resolve_run(args: argparse.Namespace) -> tuple[list[tuple[Path, Scene]],
     args.workers = _workers(args, trees)
     _check_run_options(args)
     scenes = _resolve_scenes(args.scenes or benchmark.set_scene_names(quick=args.quick))
+    if args.robot:
+        try:
+            scenes = [(path, benchmark.load_trial_scene(path, args.robot))
+                      for path, _ in scenes]
+        except RearrangementError as exc:
+            raise benchmark.BenchmarkError("--robot", str(exc)) from None
     objects = {path.stem: len(scene.objects) for path, scene in scenes}
     trials = benchmark.make_trials([p for p, _ in scenes], args.planners, args.seeds,
-                                   args.time_limit, objects)
+                                   args.time_limit, objects, args.robot)
     return scenes, trials
 
 
@@ -530,6 +541,12 @@ def run_command(args: argparse.Namespace, argv: list[str]) -> int:
             "--out", f"{csv_path} already holds {_count(len(earlier), 'trial')} of an earlier "
                      f"run; add --resume to continue it (its finished trials are skipped) or "
                      f"choose another --out")
+    arms = {r["robot"] for r in earlier if r["robot"]}
+    robot = scenes[0][1].robot.name
+    if arms - {robot}:
+        raise benchmark.BenchmarkError(
+            "--out", f"{csv_path} holds trials planned with {', '.join(sorted(arms))}, not "
+                     f"{robot}; give each arm its own --out")
     print(f"benchmark: {_count(len(scenes), 'scene')} x {_count(len(args.planners), 'planner')}"
           f" x {_count(len(args.seeds), 'seed')} = {_count(len(trials), 'trial')}, "
           f"{args.time_limit:g} s budget, {_engine_text(args.address, args.workers)} -> "
@@ -548,7 +565,7 @@ def run_command(args: argparse.Namespace, argv: list[str]) -> int:
     rows = [r for r in benchmark.read_trials(csv_path) if benchmark.row_key(r) in wanted]
     protocol = {"scenes": [p.stem for p, _ in scenes], "planners": args.planners,
                 "seeds": args.seeds, "time_limit": args.time_limit,
-                "request_settings": args.settings, "quick": args.quick}
+                "request_settings": args.settings, "quick": args.quick, "robot": robot}
     summary = benchmark.summarize(rows, protocol,
                                   benchmark.end_effector_links(scenes[0][1].robot))
     (args.out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")

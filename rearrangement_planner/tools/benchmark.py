@@ -322,6 +322,8 @@ class Trial:
     planner: str
     seed: int
     time_limit: float
+    robot: str = ""
+    """The arm that plans (a shipped robot name or a robot config path); "": the scene's own."""
 
     @property
     def key(self) -> tuple[str, str, int, float]:
@@ -330,11 +332,27 @@ class Trial:
 
 
 def make_trials(scene_files: Sequence[Path], planners: Sequence[str], seeds: Sequence[int],
-                time_limit: float, objects: dict[str, int]) -> list[Trial]:
+                time_limit: float, objects: dict[str, int], robot: str = "") -> list[Trial]:
     """Every (scene, planner, seed) at `time_limit`, scene-major; `objects` maps a scene name
-    to its number of movable objects."""
-    return [Trial(p.stem, str(p), objects[p.stem], planner, seed, float(time_limit))
+    to its number of movable objects; `robot` plans them all ("": each scene's own)."""
+    return [Trial(p.stem, str(p), objects[p.stem], planner, seed, float(time_limit), robot)
             for p in scene_files for planner in planners for seed in seeds]
+
+
+def load_trial_scene(path: str | Path, robot: str = ""):
+    """A benchmark scene, with `robot` in place of its own arm (starting at that arm's home
+    configuration, as the scene's start configuration is its own arm's)."""
+    from rearrangement_planner.physics.validation import load_scene, parse_scene
+
+    if not robot:
+        return load_scene(path)
+    import yaml
+
+    path = Path(path)
+    data = yaml.safe_load(path.read_text())
+    data["robot"] = robot
+    data.pop("start_configuration", None)
+    return parse_scene(data, base_dir=path.parent, name=str(path))
 
 
 CSV_COLUMNS = (
@@ -346,7 +364,7 @@ CSV_COLUMNS = (
     "shortcut_time_s", "pushing_links", "non_goal_objects_moved",
     "goal_start_distance_m", "goal_push_path_m", "goal_turn_rad",
     "executed_ideal", "executed_servo", "executed_goal_distance_m", "executed_toppled",
-    "trial_wall_s", "ray_node",
+    "trial_wall_s", "ray_node", "robot",
 )
 """trials.csv: one row per trial. goal_distance_m: the goal object's final distance from the
 goal point (solved) or the least distance reached (not solved). *_before / *_after: of the path
@@ -363,6 +381,7 @@ and goal_turn_rad: how far its centre travels and how much it turns (sum of |Δy
 final path (empty when not solved).
 trial_wall_s: the whole trial (planning, shortcutting, timing, replay) on the wall clock.
 ray_node: the Ray node the trial ran on (its node id's first 12 hex digits, `engine`).
+robot: the arm that planned (the robot config's name).
 A CSV written before a column existed is read with that column empty."""
 
 MOVED_TOLERANCE = 1e-3   # m, an object counts as moved beyond this distance from its start
@@ -430,11 +449,10 @@ def trial_request(trial: Trial, settings: dict[str, Any]):
     """The plan request of a trial: the product's default request (`planning.request`) with
     `settings` (the command's --set), the planner label's settings, and the trial's planner,
     time limit and seed."""
-    from rearrangement_planner.physics.validation import load_scene
     from rearrangement_planner.planning.request import PlanRequest
 
     name, values = variant_settings(trial.planner, settings)
-    return PlanRequest.from_settings(load_scene(trial.path), name,
+    return PlanRequest.from_settings(load_trial_scene(trial.path, trial.robot), name,
                                      {**values, "time_limit": trial.time_limit},
                                      seed=trial.seed)
 
@@ -480,6 +498,7 @@ def run_trial(trial: Trial, settings: dict[str, Any]) -> dict:
     row.update(_executed(output))
     row["trial_wall_s"] = _num(time.monotonic() - t0, 3)
     row["ray_node"] = ""                       # the engine's to fill in
+    row["robot"] = scene.robot.name
     return row
 
 

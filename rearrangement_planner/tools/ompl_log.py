@@ -112,6 +112,8 @@ def log_text(rows: Sequence[dict], protocol: dict, objects: int) -> str:
         own = [r for r in rows if r["planner"] == planner]
         name, _, variant = planner.partition(":")
         common = [f"planner = {name}"] + ([f"settings = {variant}"] if variant else [])
+        if protocol.get("robot"):
+            common.append(f"robot = {protocol['robot']}")
         lines.append(planner)
         lines.append(f"{len(common)} common properties")
         lines += common

@@ -573,3 +573,24 @@ def test_out_must_be_a_folder(tmp_path, capsys):
     (tmp_path / "file").write_text("")
     assert bench.main([*TINY, "--out", str(tmp_path / "file")]) == 2
     assert "--out" in capsys.readouterr().err
+
+
+def test_another_arm_plans_the_benchmark_and_keeps_its_own_out(tmp_path, capsys):
+    """--robot xarm7: every scene planned with the xArm7 from its home configuration; the
+    rows name the arm, and a run with another arm refuses to resume into them."""
+    out = tmp_path / "bench"
+    args = ["run", "--scenes", "n1_s0", "--planners", "pc-rrt", "--seeds", "0",
+            "--time-limit", "10", "--set", "min_robustness=0", "--set", "trees=1",
+            "--set", "shortcut_time=0", "--workers", "1", "--out", str(out)]
+    assert bench.main([*args, "--robot", "xarm7"]) == 0
+    _, rows = _read_csv(out / "trials.csv")
+    assert [r["robot"] for r in rows] == ["xarm7"]
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["protocol"]["robot"] == "xarm7"
+    assert "robot = xarm7" in (out / "ompl" / "n1.log").read_text()
+    capsys.readouterr()
+    assert bench.main([*args, "--resume"]) == 2
+    assert "planned with xarm7, not panda; give each arm its own --out" in \
+        capsys.readouterr().err
+    assert bench.main([*args, "--robot", "ur5"]) == 2
+    assert "rearrangement-bench: --robot: " in capsys.readouterr().err
