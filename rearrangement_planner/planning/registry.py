@@ -21,12 +21,16 @@ from rearrangement_planner.physics.step import Physics
 from rearrangement_planner.planning.darrt import DARRT, DARRTOptions
 from rearrangement_planner.planning.interface import Planner, PlannerOptions
 from rearrangement_planner.planning.pcrrt import PCRRT, PCRRTOptions
-from rearrangement_planner.planning.slice_rrt import SliceRRT, SliceRRTOptions
+from rearrangement_planner.planning.slice_rrt import SliceRRT, SliceRRTOptions, check_oracle
 from rearrangement_planner.planning.static_rrt import StaticRRT, static_physics
 
 
 def _own_physics(scene: Scene, physics: Physics | None) -> Physics:
     return physics or Physics(scene)
+
+
+def _plans_any(scene: Scene, options: PlannerOptions) -> None:
+    return None
 
 
 @dataclass(frozen=True)
@@ -48,6 +52,10 @@ class PlannerSpec:
     """Whether its paths may be shortcut: shortcutting re-simulates the pushes in the
     quasistatic physics, which DARRT's rigid carrying does not follow."""
     summary: str = ""
+    check: Callable[[Scene, PlannerOptions], None] = _plans_any
+    """Raises ValueError, naming the setting, when the planner cannot plan the scene with the
+    options (the slice-based RRT's learned oracle has no weights for the scene's arm); a
+    request calls it when it is made."""
 
     def options(self, base: PlannerOptions | None = None, **values: Any) -> PlannerOptions:
         """This planner's options: `base` (any `PlannerOptions`: its shared fields; a field
@@ -86,7 +94,8 @@ PLANNERS: dict[str, PlannerSpec] = {
                               summary="PC-RRT with every non-goal object a static obstacle"),
     "slice-rrt": PlannerSpec("slice-rrt", SliceRRT, SliceRRTOptions,
                              summary="slice-based RRT with manipulation states and pushes "
-                                     "from an oracle (Haustein et al. 2018, Alg. 1)"),
+                                     "from an oracle (Haustein et al. 2018, Alg. 1)",
+                             check=check_oracle),
     "darrt": PlannerSpec("darrt", DARRT, DARRTOptions, steps_physics=False, shortcut=False,
                          summary="DARRT primitives: transit, RRT transit, rigid straight push"),
 }

@@ -83,6 +83,7 @@ class PlanRequest:
                              f"it never steps the quasistatic pushing model")
         if not 0 <= self.seed < 2**63:
             raise ValueError(f"seed must be a non-negative integer, got {self.seed}")
+        planner.check(self.scene, self.options)
 
     @property
     def trees(self) -> int:

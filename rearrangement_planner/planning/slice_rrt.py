@@ -150,6 +150,22 @@ def _unit(v: np.ndarray) -> np.ndarray | None:
     return None if norm < 1e-3 else v / norm
 
 
+def check_oracle(scene: Scene, options: PlannerOptions) -> None:
+    """ValueError when the learned oracle is asked for and has no weights for the scene's arm
+    (`PlannerSpec.check`)."""
+    from rearrangement_planner.planning.learned_oracle import model_path
+
+    if SliceRRTOptions.adopt(options).oracle != "learned":
+        return
+    path = model_path(scene.robot.config.name)
+    if not path.is_file():
+        shipped = sorted(p.name.removesuffix("_oracle.npz")
+                         for p in path.parent.glob("*_oracle.npz"))
+        raise ValueError(f"oracle: no learned oracle for robot '{scene.robot.config.name}' "
+                         f"({path} is missing; shipped for {', '.join(shipped) or 'none'}); "
+                         f"use oracle=hand")
+
+
 class SliceRRT:
     """The slice-based RRT on one scene (models + options)."""
 

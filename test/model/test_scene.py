@@ -64,8 +64,9 @@ def test_the_four_demo_scenes_are_shipped() -> None:
 
 @pytest.mark.parametrize("filename", SHIPPED)
 def test_shipped_scene_loads_and_is_valid(filename: str, panda: RobotModel) -> None:
-    scene = load_scene(scenes_dir() / filename, robot=panda)
-    assert scene.robot is panda
+    own_arm = "xarm7" in filename                 # the second arm's demo scene
+    scene = load_scene(scenes_dir() / filename, robot=None if own_arm else panda)
+    assert scene.robot.name == "xarm7" if own_arm else scene.robot is panda
     assert scene.source.endswith(filename)
     assert scene.objects and scene.goal.object in scene.object_names
     state = scene.initial_state()
@@ -297,7 +298,7 @@ REJECTIONS: list[tuple[str, Mutation, str, str]] = [
      "expected a non-empty string, got int 7"),
     ("empty name", _set("objects.0.name", " "), "objects[0].name", "non-empty string"),
     ("robot is a number", _set("robot", 7), "robot",
-     r"expected a shipped robot name \(e.g. 'panda'\) or the path"),
+     r"expected a shipped robot name \(a file in config/robots\) or the path"),
     ("start is a string", _set("start_configuration", "home"), "start_configuration",
      r"expected a list of 7 numbers: joint positions \(rad\)"),
     # wrong lengths
@@ -384,7 +385,7 @@ REJECTIONS: list[tuple[str, Mutation, str, str]] = [
      "start_configuration", r"panda_\w+ \(contact shape \d+\) penetrates object 'tall'"),
     # robot
     ("unknown robot", _set("robot", "ur5"), "robot",
-     r"unknown robot 'ur5'; shipped robots are \['panda'\], or give the path"),
+     r"unknown robot 'ur5'; shipped robots are \['panda', 'xarm7'\], or give the path"),
     ("missing robot file", _set("robot", "no/such/robot.yaml"), "robot", "does not exist"),
 ]
 

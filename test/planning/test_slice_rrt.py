@@ -171,3 +171,16 @@ def test_a_push_is_judged_where_it_ends(panda):
     into = Propagation((at(goal + [0.3, 0.0]), at(goal)), 0.2, None, frozenset())
     result = run.extend(0, into, goal_at_end=True)
     assert result is not None and result.solved
+
+
+def test_the_learned_oracle_is_refused_for_an_arm_it_has_no_weights_for():
+    """The learned oracle ships per arm; a request for another arm names the setting and the
+    way out when it is made, before any planning."""
+    from rearrangement_planner.planning import PlanRequest
+    from rearrangement_planner.planning.slice_rrt import SliceRRTOptions
+
+    scene = load_scene("default_xarm7")
+    with pytest.raises(ValueError, match=r"oracle: no learned oracle for robot 'xarm7'.*"
+                                         r"shipped for panda\); use oracle=hand"):
+        PlanRequest.first_plan(scene, "slice-rrt")
+    PlanRequest.first_plan(scene, "slice-rrt", SliceRRTOptions(oracle="hand"))
