@@ -6,7 +6,8 @@
     rearrangement-bench generate [--seed S] [--out DIR]
     rearrangement-bench physics [--seconds S] [--json OUT]
     rearrangement-bench scenes [--scenes NAME ...] [--planners P ...] [--seeds N ...]
-                               [--time-limit S] [--trees N] [--jsonl OUT]
+                               [--time-limit S] [--set NAME=VALUE ...] [--address HOST:PORT]
+                               [--workers N] [--jsonl OUT]
     rearrangement-bench candidates [--scenes SCENE ...] [--seeds N ...] [--candidates K]
                                    [--time-limit S] [--set NAME=VALUE ...]
                                    [--address HOST:PORT] [--workers N] [--out DIR]
@@ -27,8 +28,8 @@ the command that resumes (exit code 130). `--quick` is the reduced protocol (14 
 done, 1 some trials failed with an internal error, 2 bad input (one line naming the option),
 130 interrupted.
 
-`scenes` runs each planner on the shipped demo scenes with the default request, one run at a
-time, one line of JSON per run.
+`scenes` runs each planner on the shipped demo scenes with the default request, each run a Ray
+task as in `run`, and prints one line of JSON per run in the order asked for.
 
 `candidates` measures robust selection (`candidates.py`): per scene and seed it records the
 candidate plans a robust search makes, each executed in MuJoCo, into --out/candidates.jsonl
@@ -255,6 +256,7 @@ def build_parser() -> argparse.ArgumentParser:
     scenes.add_argument("--time-limit", type=float, default=60.0, metavar="S",
                         help="planning budget per run, s (default 60)")
     _add_set_option(scenes)
+    _add_engine_options(scenes, "runs")
     scenes.add_argument("--jsonl", type=Path, help="also append the lines to this file")
     _add_candidates_parser(sub)
     states = sub.add_parser(
@@ -367,17 +369,35 @@ def scenes_command(args: argparse.Namespace) -> int:
     if not args.time_limit > 0:
         raise benchmark.BenchmarkError("--time-limit", f"must be positive, got "
                                                        f"{args.time_limit}")
+    from rearrangement_planner.tools.engine import Engine, EngineError, Job
+
     settings = request_overrides(args.set, args.planners)
-    for scene_name in args.scenes:
-        for planner in args.planners:
-            for seed in args.seeds:
-                line = json.dumps(scene_trial(scene_name, planner, seed, args.time_limit,
-                                              settings))
-                print(line, flush=True)
-                if args.jsonl:
-                    with args.jsonl.open("a") as f:
-                        f.write(line + "\n")
-    return 0
+    trees = RaceOptions(**{k: v for k, v in settings.items() if k == "trees"}).trees
+    jobs = [Job((scene_name, planner, seed), (scene_name, planner, seed, args.time_limit,
+                                              settings), trees,
+                f"{scene_name} {planner} seed {seed}")
+            for scene_name in args.scenes for planner in args.planners for seed in args.seeds]
+    try:
+        engine = Engine(args.address)
+    except EngineError as exc:
+        raise benchmark.BenchmarkError("--address", str(exc)) from None
+    done = {job.key: job for job in jobs}
+    results: dict = {}
+    failed = 0
+    for finished in engine.run(scene_trial, jobs, _workers(args, trees)):
+        if finished.error:
+            failed += 1
+            print(f"{finished.job.label} failed:\n{finished.error}", file=sys.stderr)
+            continue
+        results[finished.job.key] = finished.result
+    for key in done:                 # in the order asked for, whichever finished first
+        if key in results:
+            line = json.dumps(results[key])
+            print(line, flush=True)
+            if args.jsonl:
+                with args.jsonl.open("a") as f:
+                    f.write(line + "\n")
+    return 1 if failed else 0
 
 
 def candidates_command(args: argparse.Namespace) -> int:
