@@ -478,15 +478,18 @@ def posture_targets() -> list[tuple[float, float, float]]:
     return targets
 
 
-def search_posture(config: dict, base_dir: Path) -> tuple[tuple[float, float, float], float]:
-    """The pushing posture (module doc, step 4) and the share of targets it reaches."""
+def search_posture(config: dict, base_dir: Path, heights: tuple[float, ...] = HEIGHTS,
+                   rolls: tuple[float, ...] = ROLLS
+                   ) -> tuple[tuple[float, float, float], float]:
+    """The pushing posture (module doc, step 4) over `heights` x `rolls` and the share of
+    targets it reaches."""
     from rearrangement_planner.model.robot import RobotConfig, RobotModel
     from rearrangement_planner.planning.manifold import ik_on_manifold
 
     best: tuple[float, tuple[float, float, float]] | None = None
     targets = posture_targets()
-    for height in HEIGHTS:
-        for roll in ROLLS:
+    for height in heights:
+        for roll in rolls:
             posture = {"height": height, "roll": roll, "pitch": math.pi / 2}
             robot = RobotModel(RobotConfig.from_dict({**config, "push_posture": posture},
                                                      base_dir=base_dir))
