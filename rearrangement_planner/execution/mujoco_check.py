@@ -151,7 +151,7 @@ def servo_gains(robot: RobotModel) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     and kv 150 N m s/rad for a joint whose effort limit is at least LARGE_JOINT, else 1000 and
     40 (the gains tuned on the first shipped arm, whose shoulder and elbow joints take 87 N m
     and wrist joints 12 N m)."""
-    effort = np.asarray(robot.model.effortLimit[robot._idx_v], dtype=float)
+    effort = np.array(robot.effort_limits, dtype=float)
     if np.any(effort <= 0):
         raise ExecutionCheckError(f"robot '{robot.name}': the servo arm needs a positive "
                                   f"effort limit on every planning joint in its URDF")
@@ -333,9 +333,8 @@ class _Execution:
         self.geom_body = model.geom_bodyid
         self.is_arm = model.geom_contype == ARM
         self.is_static = model.geom_contype == STATIC
-        kp, kv, _ = servo_gains(scene.robot)
-        self.feedforward = (np.asarray(options.kv if options.kv is not None else kv)
-                            / np.asarray(options.kp if options.kp is not None else kp))
+        # kv/kp of the servos as compiled (a position actuator's bias is -kp q - kv qdot).
+        self.feedforward = -model.actuator_biasprm[:, 2] / model.actuator_gainprm[:, 0]
         m = len(scene.objects)
         self.max_tilt, self.max_error = np.zeros(m), np.zeros(m)
         self.error_from: list[float | None] = [None] * m

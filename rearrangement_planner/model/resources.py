@@ -53,8 +53,17 @@ def default_scene_file() -> Path:
 
 
 @cache
-def default_robot() -> str:
-    """The name of the default scene's robot: the robot every tool uses when none is named."""
+def _default_scene() -> dict:
     import yaml
 
-    return str(yaml.safe_load(default_scene_file().read_text())["robot"])
+    return yaml.safe_load(default_scene_file().read_text())
+
+
+def default_robot() -> str:
+    """The name of the default scene's robot: the robot every tool uses when none is named."""
+    return str(_default_scene()["robot"])
+
+
+def default_start() -> list[float]:
+    """The default scene's start configuration (every benchmark scene starts there)."""
+    return [float(v) for v in _default_scene()["start_configuration"]]

@@ -271,6 +271,7 @@ class RobotModel:
         self.lower = _readonly(model.lowerPositionLimit[self._idx_q])
         self.upper = _readonly(model.upperPositionLimit[self._idx_q])
         self.velocity_limits = _readonly(model.velocityLimit[self._idx_v])
+        self.effort_limits = _readonly(model.effortLimit[self._idx_v])
         if np.any(self.velocity_limits <= 0):
             raise RobotModelError(
                 f"robot '{config.name}': every planning joint needs a positive velocity limit")

@@ -44,7 +44,7 @@ from typing import Any
 import numpy as np
 
 from rearrangement_planner.model.errors import RearrangementError
-from rearrangement_planner.model.resources import config_dir, default_robot, default_scene_file
+from rearrangement_planner.model.resources import config_dir, default_robot, default_start
 from rearrangement_planner.model.robot import RobotModel
 from rearrangement_planner.physics.validation import parse_scene
 from rearrangement_planner.planning.registry import PLANNERS
@@ -60,7 +60,7 @@ OBJECT_COUNTS = tuple(range(1, 8))          # movable objects per scene, goal ob
 SCENES_PER_COUNT = 5
 
 # The table of config/scenes/default.yaml (a test keeps them equal); its robot and start
-# configuration are read from it (`default_robot`, `_default_start`).
+# configuration are read from it (`default_robot`, `default_start`).
 TABLE = {"center": (0.55, 0.0), "size": (0.8, 1.2), "height": 0.0}  # m
 
 GOAL_POSITION = (0.55, -0.20)   # m, the goal point of every scene
@@ -88,14 +88,6 @@ PUSHER_FRICTION = (0.2, 0.5)    # arm-object mu_c
 MIN_GAP = 0.01                  # m, least gap between the footprint circles of two objects
 MAX_DRAWS = 1000                # draws per scene before giving up (never reached in practice)
 DECIMALS = 3                    # values are written rounded to mm / mrad
-
-
-def _default_start() -> list[float]:
-    """The default scene's start configuration: every benchmark scene's."""
-    import yaml
-
-    return [float(v) for v in
-            yaml.safe_load(default_scene_file().read_text())["start_configuration"]]
 
 
 def scene_name(objects: int, index: int) -> str:
@@ -195,7 +187,7 @@ def _draw_scene(rng: np.random.Generator, objects: int) -> dict | None:
         placed.append((xy[0], xy[1], radius))
     return {
         "robot": default_robot(),
-        "start_configuration": _default_start(),
+        "start_configuration": default_start(),
         "table": {key: (list(v) if isinstance(v, tuple) else v) for key, v in TABLE.items()},
         "objects": entries,
         "goal": {"object": GOAL_OBJECT["name"], "position": list(GOAL_POSITION),

@@ -14,6 +14,8 @@ import yaml
 from rearrangement_planner.execution.mujoco_check import (
     ExecutionCheckError,
     ExecutionOptions,
+    _Execution,
+    build_model,
     check_execution,
     check_perturbed,
 )
@@ -105,6 +107,19 @@ def test_servo_arm_tracks_the_straight_push_like_the_ideal_arm(straight_push):
     assert servo.max_tracking_error_rad < 0.01
     assert ideal.max_tracking_error_rad < 1e-6
     np.testing.assert_allclose(servo.objects[0].pose[:2], ideal.objects[0].pose[:2], atol=0.003)
+
+
+def test_the_servo_feed_forward_is_kv_over_kp_of_the_compiled_servos(straight_push):
+    scene, trajectory, _ = straight_push
+    kp = tuple(500.0 + 100.0 * i for i in range(7))
+    kv = tuple(20.0 + 5.0 * i for i in range(7))
+    options = ExecutionOptions(arm="servo", kp=kp, kv=kv)
+    command = Command(trajectory.times, trajectory.positions)
+    run = _Execution(build_model(scene, options), scene, command, None, options)
+    np.testing.assert_allclose(run.feedforward, np.array(kv) / np.array(kp))
+    default = ExecutionOptions(arm="servo")
+    run = _Execution(build_model(scene, default), scene, command, None, default)
+    np.testing.assert_allclose(run.feedforward, [150 / 3000] * 4 + [40 / 1000] * 3)
 
 
 def test_a_real_plan_is_compared_with_its_prediction_point_by_point(panda):

@@ -17,6 +17,7 @@ PANDA_DH = [(0.0, 0.333, 0.0), (0.0, 0.0, -math.pi / 2), (0.0, 0.316, math.pi / 
 PANDA_LOWER = [-2.8973, -1.7628, -2.8973, -3.0718, -2.8973, -0.0175, -2.8973]
 PANDA_UPPER = [2.8973, 1.7628, 2.8973, -0.0698, 2.8973, 3.7525, 2.8973]
 PANDA_VELOCITY = [2.175, 2.175, 2.175, 2.175, 2.61, 2.61, 2.61]
+PANDA_EFFORT = [87, 87, 87, 87, 12, 12, 12]
 
 
 def rot_x(a):
@@ -55,6 +56,7 @@ def test_joint_limits_are_the_published_ones(panda):
     np.testing.assert_allclose(panda.lower, PANDA_LOWER)
     np.testing.assert_allclose(panda.upper, PANDA_UPPER)
     np.testing.assert_allclose(panda.velocity_limits, PANDA_VELOCITY)
+    np.testing.assert_allclose(panda.effort_limits, PANDA_EFFORT)
     assert panda.joint_names == tuple(f"panda_joint{i}" for i in range(1, 8))
 
 
