@@ -45,11 +45,17 @@ DPI = 110
 
 
 def _color(planner: str) -> str:
-    return COLORS.get(planner, "#7f7f7f")
+    """The planner's colour; a label with settings (`pc-rrt:trees=1`) takes its planner's."""
+    return COLORS.get(planner, COLORS.get(planner.partition(":")[0], "#7f7f7f"))
 
 
 def _label(planner: str) -> str:
-    return LABELS.get(planner, planner)
+    """The tick label: the planner's name, and a label's settings one per line below it, so
+    that long labels do not run into each other."""
+    if planner in LABELS:
+        return LABELS[planner]
+    name, _, settings = planner.partition(":")
+    return "\n".join([LABELS.get(name, name), *filter(None, settings.split(","))])
 
 
 def _of(rows: Sequence[dict], planner: str) -> list[dict]:
@@ -202,7 +208,7 @@ def plot_end_to_end(rows: Sequence[dict], planners: Sequence[str], path: Path) -
     """The headline, per planner: the share of requests solved in the model and the share
     whose plan reaches the goal executed open loop in MuJoCo (ideal arm; servo arm, the
     end-to-end figure, labelled)."""
-    fig, ax = plt.subplots(figsize=(6.4, 4.0))
+    fig, ax = plt.subplots(figsize=(max(6.4, 1.7 * len(planners)), 4.0))
     bars = (("solved", "solved in the model", 1.0), ("executed_ideal", "reached, ideal arm", 0.7),
             ("executed_servo", "reached, servo arm (end to end)", 0.4))
     width = 0.8 / len(bars)
@@ -218,7 +224,7 @@ def plot_end_to_end(rows: Sequence[dict], planners: Sequence[str], path: Path) -
     real = PAPER["executed_real_robot_share"]["pc-rrt"]
     ax.axhline(100 * real, color="gray", linestyle="--", linewidth=1,
                label=f"King et al., real robot ({100 * real:.0f} % of executions)")
-    ax.set_xticks(range(len(planners)), [_label(p) for p in planners])
+    ax.set_xticks(range(len(planners)), [_label(p) for p in planners], fontsize=8)
     ax.set_ylim(0, 105)
     ax.set_ylabel("requests (%)")
     ax.set_title("End to end: requests whose plan reaches the goal executed open loop")

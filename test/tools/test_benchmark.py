@@ -493,6 +493,15 @@ def _exit_code(argv: list[str]) -> int:
         return exc.code
 
 
+def test_a_plotted_label_puts_its_settings_on_lines_of_their_own():
+    from rearrangement_planner.tools.bench_plots import _color, _label
+
+    assert _label("pc-rrt:min_robustness=0,trees=1") == "PC-RRT\nmin_robustness=0\ntrees=1"
+    assert _label("slice-rrt:oracle=hand") == "slice-RRT, hand-made"
+    assert _label("pc-rrt") == "PC-RRT"
+    assert _color("darrt:trees=1") == _color("darrt") != _color("pc-rrt")
+
+
 def test_a_planner_label_may_carry_its_own_settings(tmp_path):
     """`slice-rrt:oracle=hand` plans with the hand-made oracle; its rows and summary carry the
     label, beside the plain planner's."""
