@@ -264,10 +264,31 @@ def _add_world(spec: mujoco.MjSpec, scene: Scene) -> None:
         body.add_freejoint(name=obj.name)
         geom = _prism(body, obj, at=None)
         geom.mass = obj.mass
+        if obj.support.centre != (0.0, 0.0):
+            _shift_centre_of_mass(body, obj)
         geom.contype, geom.conaffinity = OBJECT, ARM | OBJECT
         geom.friction = [obj.pusher_friction, 0.005, 0.0001]
         spec.add_pair(geomname1="table", geomname2=obj.name, condim=3,
                       friction=[obj.support_friction] * 2 + [0.005, 0.0001, 0.0001])
+
+
+def _shift_centre_of_mass(body: Any, obj: MovableObject) -> None:
+    """The object's mass centred over its drawn centre of friction (`SupportPressure.centre`):
+    its weight then rests off the footprint's centre, the support contacts carry it unequally
+    and the friction load is centred there too. The inertia is the uniform prism's about its
+    own centre (a few mm of offset change it by under 5 %)."""
+    sx, sy, sz = (float(v) for v in obj.size)
+    m = float(obj.mass)
+    if obj.shape == "cylinder":
+        r2 = (0.5 * sx) ** 2
+        inertia = [m * (3 * r2 + sz * sz) / 12, m * (3 * r2 + sz * sz) / 12, m * r2 / 2]
+    else:
+        inertia = [m * (sy * sy + sz * sz) / 12, m * (sx * sx + sz * sz) / 12,
+                   m * (sx * sx + sy * sy) / 12]
+    body.explicitinertial = True
+    body.mass = m
+    body.ipos = [obj.support.centre[0], obj.support.centre[1], 0.0]
+    body.inertia = inertia
 
 
 def _prism(parent: Any, prism: MovableObject | Obstacle, at: Sequence[float] | None) -> Any:
@@ -486,7 +507,10 @@ def check_perturbed(scene: Scene, trajectory: Trajectory, trials: int, seed: int
                     perturbation: Perturbation | None = None) -> PerturbedReport:
     """`trials` executions of `trajectory` in worlds perturbed by `perturbation` (drawn from
     `seed`): how often the goal object still reaches its region. The contact offset is left
-    out: MuJoCo executes with the real meshes, not the planner's contact shapes."""
+    out: MuJoCo executes with the real meshes, not the planner's contact shapes. Each object's
+    drawn support pressure moves its centre of mass over the drawn centre of friction
+    (`_shift_centre_of_mass`); its c is MuJoCo's own (the box's corners, the cylinder's rim
+    carry it), which lies inside the drawn range."""
     rng = np.random.default_rng(seed)
     perturbation = dataclasses.replace(perturbation or Perturbation(), contact_offset=0.0)
     reports = tuple(check_execution(perturbation.apply(scene, rng), trajectory, None, options)

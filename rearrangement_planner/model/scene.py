@@ -154,6 +154,32 @@ class Obstacle:
         return 0.5 * float(np.linalg.norm(self.size))
 
 
+@dataclass(frozen=True)
+class SupportPressure:
+    """How an object's weight rests on the table (Lynch, Maekawa & Tanie 1992): the pressure
+    distribution over its footprint sets both the limit surface's c = m_max / f_max and the
+    centre of friction about which the support's friction load is centred. A scene file cannot
+    say it (the nominal object carries uniform pressure, c of `physics.step.
+    object_limit_surface_c`, centre at the footprint's centre); `model.perturbation` draws it,
+    because it is what decides how a pushed object turns and no camera sees it.
+
+    `c_scale`: c as a multiple of the uniform-pressure value (about 0.8 when the weight rests
+    near the centre, 1.5 on a disk's rim, 1.85 on a box's corners). `centre`: the centre of
+    friction (x, y) in the object frame, m."""
+
+    c_scale: float = 1.0
+    centre: tuple[float, float] = (0.0, 0.0)
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.c_scale) and self.c_scale > 0.0):
+            raise ValueError(f"support c_scale must be positive and finite, got {self.c_scale}")
+        object.__setattr__(self, "centre", (float(self.centre[0]), float(self.centre[1])))
+
+
+UNIFORM_SUPPORT = SupportPressure()
+"""Uniform pressure over the footprint, centred: the nominal object of every scene."""
+
+
 @dataclass(frozen=True, eq=False)
 class MovableObject:
     """A movable vertical prism standing on the table top (docs/design.md "The world model").
@@ -163,7 +189,8 @@ class MovableObject:
     prism and `size[2]` is always its height. `pose` (3,) is the initial planar pose (x, y, yaw)
     of its centre in the base frame (m, rad). `mass` in kg; `support_friction` is the
     object-table coefficient mu_s and `pusher_friction` the arm-object coefficient mu_c
-    (docs/design.md "Quasistatic pushing physics").
+    (docs/design.md "Quasistatic pushing physics"). `support` is how its weight rests on the
+    table (`SupportPressure`; uniform unless a perturbation drew another).
     """
 
     name: str
@@ -173,6 +200,7 @@ class MovableObject:
     mass: float = DEFAULT_MASS
     support_friction: float = DEFAULT_SUPPORT_FRICTION
     pusher_friction: float = DEFAULT_PUSHER_FRICTION
+    support: SupportPressure = UNIFORM_SUPPORT
 
     def __post_init__(self) -> None:
         if self.shape not in OBJECT_SHAPES:
@@ -182,14 +210,14 @@ class MovableObject:
 
     @classmethod
     def cylinder(cls, name: str, radius: float, height: float, pose: Sequence[float],
-                 **kwargs: float) -> MovableObject:
+                 **kwargs: Any) -> MovableObject:
         """A cylinder of `radius` and `height` (m); keyword args as in the class."""
         return cls(name, "cylinder", np.array([2 * radius, 2 * radius, height]), np.asarray(pose),
                    **kwargs)
 
     @classmethod
     def box(cls, name: str, size: Sequence[float], pose: Sequence[float],
-            **kwargs: float) -> MovableObject:
+            **kwargs: Any) -> MovableObject:
         """A box of full extents `size` (x, y, z) (m); keyword args as in the class."""
         return cls(name, "box", np.asarray(size), np.asarray(pose), **kwargs)
 

@@ -639,6 +639,30 @@ def object_twist_kernel(c: float, P: np.ndarray, N: np.ndarray, V: np.ndarray, m
     return _forces_and_modes(twist_map, q, z, K, twist, f_n, f_t, modes)
 
 
+@njit(cache=True)
+def object_twist_about_kernel(c: float, cx: float, cy: float, P: np.ndarray, N: np.ndarray,
+                              V: np.ndarray, mus: np.ndarray, cap: int, twist: np.ndarray,
+                              f_n: np.ndarray, f_t: np.ndarray, modes: np.ndarray) -> int:
+    """`object_twist_kernel` for an object whose centre of friction is (cx, cy) in its frame
+    (m; the support pressure's centre, `model.scene.SupportPressure`): the limit surface
+    (LS) holds about that point, so the contacts are taken relative to it, and the twist it
+    gives (the motion of the centre of friction) is moved back to the object's origin:
+    v_o = v_c + omega x (o - c) = (v_cx + omega cy, v_cy - omega cx). With (cx, cy) = 0 it
+    is `object_twist_kernel` exactly. P is shifted in place and restored."""
+    if cx == 0.0 and cy == 0.0:
+        return object_twist_kernel(c, P, N, V, mus, cap, twist, f_n, f_t, modes)
+    for i in range(P.shape[0]):
+        P[i, 0] -= cx
+        P[i, 1] -= cy
+    code = object_twist_kernel(c, P, N, V, mus, cap, twist, f_n, f_t, modes)
+    for i in range(P.shape[0]):
+        P[i, 0] += cx
+        P[i, 1] += cy
+    twist[0] += twist[2] * cy
+    twist[1] -= twist[2] * cx
+    return code
+
+
 def _push_result(code: int, twist: np.ndarray, f_n: np.ndarray, f_t: np.ndarray,
                  modes: np.ndarray) -> PushResult:
     contact_modes: tuple[ContactMode, ...] = tuple(
@@ -680,9 +704,12 @@ def twist_from_lcp(problem: ContactLCP, solution: LCPSolution) -> PushResult:
 def object_twist(c: float, points: np.ndarray | Sequence[Sequence[float]],
                  normals: np.ndarray | Sequence[Sequence[float]],
                  pusher_disps: np.ndarray | Sequence[Sequence[float]],
-                 mu: float | Sequence[float] | np.ndarray) -> PushResult:
+                 mu: float | Sequence[float] | np.ndarray,
+                 centre: Sequence[float] = (0.0, 0.0)) -> PushResult:
     """Object twist for any number of contacts, by the cheapest exact route (compiled:
-    `object_twist_kernel`, which `Physics.step` calls directly).
+    `object_twist_about_kernel`, which `Physics.step` calls directly). `centre`: the centre
+    of friction (m, object frame; the footprint's centre under uniform pressure), about which
+    the limit surface holds; the twist is always that of the object's origin.
 
     - no contact, or no pusher moving into the object (all v_i·n_i <= 0): no motion;
     - one contact: the closed form (`single_contact_twist`);
@@ -698,16 +725,19 @@ def object_twist(c: float, points: np.ndarray | Sequence[Sequence[float]],
     """
     P, Nrm, Vp, mus = _as_contacts(points, normals, pusher_disps, mu)
     K = P.shape[0]
+    cx, cy = float(centre[0]), float(centre[1])
+    if not (math.isfinite(cx) and math.isfinite(cy)):
+        raise PushingError(f"centre of friction must be finite, got {centre!r}")
     if K == 0:
         _check_c_mu(float(c), 0.0)
         return PushResult(np.zeros(3), "separating", np.zeros(0), np.zeros(0), ())
     _check_c_mu(float(c), float(mus.max()))
-    if K == 1:
+    if K == 1 and cx == 0.0 and cy == 0.0:
         return single_contact_twist(c, P[0], Nrm[0], Vp[0], float(mus[0]))
     twist, f_n, f_t = np.empty(3), np.empty(K), np.empty(K)
     modes = np.empty(K, dtype=np.int64)
-    code = object_twist_kernel(float(c), P, np.ascontiguousarray(Nrm), Vp, mus, 20 * 4 * K,
-                               twist, f_n, f_t, modes)
+    code = object_twist_about_kernel(float(c), cx, cy, P, np.ascontiguousarray(Nrm), Vp, mus,
+                                     20 * 4 * K, twist, f_n, f_t, modes)
     return _push_result(code, twist, f_n, f_t, modes)
 
 

@@ -91,14 +91,15 @@ class StepResult:
 
 
 def object_limit_surface_c(obj: MovableObject) -> float:
-    """c = m_max / f_max (m) of a scene object's footprint under uniform pressure: 2R/3 for a
+    """c = m_max / f_max (m) of a scene object's footprint: under uniform pressure 2R/3 for a
     cylinder of radius R, the integrated mean distance for a box (King et al. 2015, §III-A;
-    `pushing.limit_surface_c`)."""
+    `pushing.limit_surface_c`), times the object's `SupportPressure.c_scale` (1 unless a
+    perturbation drew another pressure distribution)."""
     if obj.shape == "cylinder":
         radius = obj.radius
         assert radius is not None  # MovableObject.radius is a float for every cylinder
-        return pushing.limit_surface_c("cylinder", radius)
-    return pushing.limit_surface_c("box", obj.size)
+        return pushing.limit_surface_c("cylinder", radius) * obj.support.c_scale
+    return pushing.limit_surface_c("box", obj.size) * obj.support.c_scale
 
 
 def tips_over(obj: MovableObject, twist: np.ndarray, height: float) -> bool:
@@ -139,9 +140,11 @@ OPTION_FIELDS = ("max_substep", "penetration_tolerance", "overlap_tolerance",
                  "vertical_normal_limit", "tipping", None, "max_turn")
 """The `PhysicsOptions` field packed in each `World.options` column (None: a module constant,
 `FREE_SPACE_MARGIN`)."""
-(OBJ_CENTRE_Z, OBJ_C, OBJ_PUSHER_MU, OBJ_SUPPORT_MU, OBJ_FOOTPRINT, OBJ_STATIC) = range(6)
+(OBJ_CENTRE_Z, OBJ_C, OBJ_PUSHER_MU, OBJ_SUPPORT_MU, OBJ_FOOTPRINT, OBJ_STATIC, OBJ_COF_X,
+ OBJ_COF_Y, OBJ_MASS) = range(9)
 """The columns of `World.obj_props`: the centre's height, the limit surface's c, the pusher and
-support frictions, the footprint radius, 1 for a static object."""
+support frictions, the footprint radius, 1 for a static object, the centre of friction (x, y)
+in the object frame and the mass."""
 
 
 class World(NamedTuple):
@@ -159,7 +162,7 @@ class World(NamedTuple):
     obj_kind: np.ndarray            # (M,) kernels.BOX | kernels.CYLINDER
     obj_dims: np.ndarray            # (M, 3)
     obj_size: np.ndarray            # (M, 3) full extents (x, y, z), a cylinder's (2r, 2r, h)
-    obj_props: np.ndarray           # (M, 6): columns OBJ_CENTRE_Z .. OBJ_STATIC
+    obj_props: np.ndarray           # (M, 9): columns OBJ_CENTRE_Z .. OBJ_MASS
     table: np.ndarray               # (5,): top z, centre x, y, half size x, y
     options: np.ndarray             # (7,): columns OPT_MAX_SUBSTEP .. OPT_MAX_TURN
 
@@ -339,8 +342,9 @@ def _world_arrays(scene: Scene, robot: RobotModel, options: PhysicsOptions,
     obj_size = np.array([o.size for o in objects], dtype=float).reshape(-1, 3)
     obj_props = np.array([[top + 0.5 * o.size[2], object_limit_surface_c(o),
                            o.pusher_friction, o.support_friction, o.footprint_radius,
-                           float(i in static)] for i, o in enumerate(objects)],
-                         dtype=float).reshape(-1, 6)
+                           float(i in static), o.support.centre[0], o.support.centre[1],
+                           o.mass] for i, o in enumerate(objects)],
+                         dtype=float).reshape(-1, 9)
     return World(
         chain=chain.arrays,
         shapes=shapes, limits=np.array([robot.lower, robot.upper], dtype=float),
@@ -569,8 +573,9 @@ def _push_object(m: int, pose: np.ndarray, count: int, c_shape: np.ndarray,
     twist, f_n, f_t = np.empty(3), np.empty(k), np.empty(k)
     modes = np.empty(k, dtype=np.int64)
     mus = np.full(k, obj_props[m, OBJ_PUSHER_MU])
-    code = pushing.object_twist_kernel(obj_props[m, OBJ_C], P, N, V, mus, max(100, 80 * k), twist,
-                                       f_n, f_t, modes)
+    code = pushing.object_twist_about_kernel(obj_props[m, OBJ_C], obj_props[m, OBJ_COF_X],
+                                             obj_props[m, OBJ_COF_Y], P, N, V, mus,
+                                             max(100, 80 * k), twist, f_n, f_t, modes)
     if code == pushing.JAMMED:
         return _JAMMING
     if twist[0] == 0.0 and twist[1] == 0.0 and twist[2] == 0.0:

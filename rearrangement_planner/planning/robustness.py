@@ -53,6 +53,9 @@ class RobustOptions(Settings):
     at all."""
 
 
+ROLLOUT_PERTURBATION = Perturbation(pressure=(1.0, 1.0), centre_offset=0.0)
+"""The rollouts' perturbed worlds: every object's support pressure nominal."""
+
 FIRST_PLAN = RobustOptions(min_robustness=0.0)
 """A request answered by the first plan found, unchecked."""
 
@@ -109,7 +112,7 @@ def robustness(scene: Scene, states: Sequence[State], rollouts: int, seed: int,
     if rollouts < 1:
         raise ValueError(f"rollouts must be >= 1, got {rollouts}")
     rng = np.random.default_rng(seed)
-    perturbation = perturbation or Perturbation()
+    perturbation = perturbation or ROLLOUT_PERTURBATION
     options = rollout_options(physics_options or PhysicsOptions())
     arm_path = np.array([s.q for s in states])
     reached = sum(rollout_reaches(perturbation.apply(scene, rng), arm_path, options)

@@ -196,49 +196,18 @@ def build_parser() -> argparse.ArgumentParser:
         description="Benchmarks of the rearrangement planner. Without a command: `run`.",
         formatter_class=argparse.RawDescriptionHelpFormatter, epilog=__doc__)
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
-    run = sub.add_parser(
-        "run", help="the benchmark of King et al. 2015, §V: planners x scenes x seeds (the default "
-                    "command)",
-        description="Run each planner on each benchmark scene with each seed under a time "
-                    "budget, each trial a Ray task; write trials.csv (one row per trial, "
-                    "appended as it finishes), summary.json, PNG plots and OMPL benchmark logs "
-                    "into --out. With --resume, trials already in trials.csv are skipped, so "
-                    "an interrupted run resumes.")
-    run.add_argument("--quick", action="store_true",
-                     help="reduced protocol: 2 scenes per object count (14 scenes), seed 0, "
-                          "20 s budget (14 trials per planner); options given "
-                          "explicitly override it")
-    run.add_argument("--scenes", nargs="+", metavar="SCENE",
-                     help="benchmark scene names (n3_s2 = 3 objects, third scene) or scene "
-                          ".yaml files (default: the 35 scenes of config/benchmark/scenes)")
-    run.add_argument("--planners", nargs="+", default=list(PLANNERS), metavar="PLANNER",
-                     help=f"any of {', '.join(PLANNERS)} (default: all), each optionally with "
-                          "settings of its own: PLANNER:NAME=VALUE[,NAME=VALUE] "
-                          "(slice-rrt:oracle=hand)")
-    run.add_argument("--seeds", nargs="+", type=int, metavar="N",
-                     help="planner seeds (default 0 1 2; --quick: 0)")
-    run.add_argument("--robot", default="", metavar="ROBOT",
-                     help="plan every scene with this arm (a shipped robot name or a robot "
-                          "config .yaml), starting at its home configuration (default: each "
-                          "scene's own arm and start)")
-    run.add_argument("--time-limit", type=float, metavar="S",
-                     help="planning budget per trial, s (default 60; --quick: 20)")
-    _add_set_option(run)
-    _add_engine_options(run, "trials")
-    run.add_argument("--out", type=Path, default=Path("out/benchmark"), metavar="DIR",
-                     help="output folder (default out/benchmark)")
-    run.add_argument("--resume", action="store_true",
-                     help="continue the run whose trials.csv is in --out: trials already "
-                          "there are skipped (without it, an --out holding trials is refused)")
+    _add_run_parser(sub)
     gen = sub.add_parser(
-        "generate", help="(re)write the 35 benchmark scene files",
-        description="Draw the 35-scene set (5 scenes with each of 1..7 movable objects) from "
+        "generate", help="(re)write the 35 scene files of a benchmark scene set",
+        description="Draw a 35-scene set (5 scenes with each of 1..7 movable objects) from "
                     "the seed and write it as scene files.")
+    _add_scene_set_option(gen, "the set to write")
     gen.add_argument("--seed", type=int, default=benchmark.SCENE_SET_SEED, metavar="S",
                      help=f"scene set seed (default {benchmark.SCENE_SET_SEED}: the committed "
                           f"set)")
     gen.add_argument("--out", type=Path, metavar="DIR",
-                     help="folder for the scene files (default config/benchmark/scenes)")
+                     help="folder for the scene files (default the set's own: "
+                          "config/benchmark/scenes or config/benchmark/varied)")
     phys = sub.add_parser(
         "physics", help="physics steps per second with 1 and 7 objects in contact range",
         description=PHYSICS_DOC, formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -269,6 +238,49 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _add_run_parser(sub) -> None:
+    run = sub.add_parser(
+        "run", help="the benchmark of King et al. 2015, §V: planners x scenes x seeds (the default "
+                    "command)",
+        description="Run each planner on each benchmark scene with each seed under a time "
+                    "budget, each trial a Ray task; write trials.csv (one row per trial, "
+                    "appended as it finishes), summary.json, PNG plots and OMPL benchmark logs "
+                    "into --out. With --resume, trials already in trials.csv are skipped, so "
+                    "an interrupted run resumes.")
+    run.add_argument("--quick", action="store_true",
+                     help="reduced protocol: 2 scenes per object count (14 scenes), seed 0, "
+                          "20 s budget (14 trials per planner); options given "
+                          "explicitly override it")
+    run.add_argument("--scenes", nargs="+", metavar="SCENE",
+                     help="benchmark scene names (n3_s2 = 3 objects, third scene of the fixed "
+                          "set; v3_s2 of the varied set) or scene .yaml files (default: the 35 "
+                          "scenes of --scene-set)")
+    _add_scene_set_option(run, "the scenes to run (unless --scenes names them)")
+    run.add_argument("--planners", nargs="+", default=list(PLANNERS), metavar="PLANNER",
+                     help=f"any of {', '.join(PLANNERS)} (default: all), each optionally with "
+                          "settings of its own: PLANNER:NAME=VALUE[,NAME=VALUE] "
+                          "(slice-rrt:oracle=hand)")
+    run.add_argument("--seeds", nargs="+", type=int, metavar="N",
+                     help="planner seeds (default 0 1 2; --quick: 0)")
+    run.add_argument("--robot", default="", metavar="ROBOT",
+                     help="plan every scene with this arm (a shipped robot name or a robot "
+                          "config .yaml), starting at its home configuration (default: each "
+                          "scene's own arm and start)")
+    run.add_argument("--time-limit", type=float, metavar="S",
+                     help="planning budget per trial, s (default 60; --quick: 20)")
+    run.add_argument("--perturbed", type=int, default=benchmark.PERTURBED_EXECUTIONS,
+                     metavar="N",
+                     help=f"executions of each solved plan in perturbed MuJoCo worlds (servo "
+                          f"arm; default {benchmark.PERTURBED_EXECUTIONS}; 0: none)")
+    _add_set_option(run)
+    _add_engine_options(run, "trials")
+    run.add_argument("--out", type=Path, default=Path("out/benchmark"), metavar="DIR",
+                     help="output folder (default out/benchmark)")
+    run.add_argument("--resume", action="store_true",
+                     help="continue the run whose trials.csv is in --out: trials already "
+                          "there are skipped (without it, an --out holding trials is refused)")
+
+
 def _add_engine_options(parser: argparse.ArgumentParser, what: str) -> None:
     parser.add_argument("--address", metavar="HOST:PORT",
                         help=f"run the {what} on the Ray cluster at this address (as `ray start "
@@ -279,6 +291,14 @@ def _add_engine_options(parser: argparse.ArgumentParser, what: str) -> None:
                              f"worth of CPUs (default: this machine's "
                              f"{benchmark.usable_cores()} cores over the trees; with "
                              f"--address: as many as the cluster's CPUs take)")
+
+
+def _add_scene_set_option(parser: argparse.ArgumentParser, what: str) -> None:
+    parser.add_argument("--scene-set", choices=list(benchmark.SCENE_SETS), default="fixed",
+                        help=f"{what}: 'fixed', the 35 scenes of King et al. 2015, §V, with one "
+                             f"goal object and goal region (config/benchmark/scenes), or "
+                             f"'varied', whose goal object, goal point and blockers vary "
+                             f"(config/benchmark/varied); default fixed")
 
 
 def _add_set_option(parser: argparse.ArgumentParser) -> None:
@@ -322,8 +342,9 @@ def main(argv: list[str] | None = None) -> int:
         if args.command == "run":
             return run_command(args, argv)
         if args.command == "generate":
-            out = args.out or benchmark.scene_set_dir()
-            paths = benchmark.write_scene_set(out, args.seed)
+            scene_set = benchmark.SCENE_SETS[args.scene_set]
+            out = args.out or scene_set.directory()
+            paths = benchmark.write_scene_set(out, args.seed, scene_set)
             print(f"wrote {len(paths)} scenes to {out}")
             return 0
         if args.command == "scenes":
@@ -469,11 +490,13 @@ def _resolve_scenes(names: list[str]) -> list[tuple[Path, Scene]]:
     for name in names:
         path = Path(name)
         if path.suffix not in (".yaml", ".yml"):
-            path = benchmark.scene_set_dir() / f"{name}.yaml"
+            scene_set = benchmark.scene_set_of(name)
+            path = (scene_set or benchmark.FIXED).directory() / f"{name}.yaml"
             if not path.is_file():
                 raise benchmark.BenchmarkError(
                     "--scenes", f"no benchmark scene {name!r}; names are n<objects>_s<index> "
-                                f"(n1_s0 ... n7_s4) or give a scene .yaml file")
+                                f"(the fixed set, n1_s0 ... n7_s4), v<objects>_s<index> (the "
+                                f"varied set) or give a scene .yaml file")
         if path.stem in seen and seen[path.stem] != path:
             raise benchmark.BenchmarkError(
                 "--scenes", f"two scenes are called {path.stem!r} ({seen[path.stem]} and "
@@ -511,6 +534,9 @@ def _check_run_options(args: argparse.Namespace) -> None:
     if not args.time_limit > 0 or not math.isfinite(args.time_limit):
         raise benchmark.BenchmarkError("--time-limit", f"must be a positive number of seconds, "
                                                        f"got {args.time_limit}")
+    if not 0 <= args.perturbed <= 100:
+        raise benchmark.BenchmarkError("--perturbed", f"must be between 0 and 100 executions, "
+                                                      f"got {args.perturbed}")
     if any(seed < 0 for seed in args.seeds):
         raise benchmark.BenchmarkError("--seeds", f"seeds must be >= 0, got {args.seeds}")
     if args.out.exists() and not args.out.is_dir():
@@ -534,7 +560,8 @@ def resolve_run(args: argparse.Namespace) -> tuple[list[tuple[Path, Scene]],
     trees = RaceOptions(**{k: v for k, v in args.settings.items() if k == "trees"}).trees
     args.workers = _workers(args, trees)
     _check_run_options(args)
-    scenes = _resolve_scenes(args.scenes or benchmark.set_scene_names(quick=args.quick))
+    scenes = _resolve_scenes(args.scenes or benchmark.set_scene_names(
+        quick=args.quick, scene_set=benchmark.SCENE_SETS[args.scene_set]))
     if args.robot:
         try:
             scenes = [(path, benchmark.load_trial_scene(path, args.robot))
@@ -543,7 +570,7 @@ def resolve_run(args: argparse.Namespace) -> tuple[list[tuple[Path, Scene]],
             raise benchmark.BenchmarkError("--robot", str(exc)) from None
     objects = {path.stem: len(scene.objects) for path, scene in scenes}
     trials = benchmark.make_trials([p for p, _ in scenes], args.planners, args.seeds,
-                                   args.time_limit, objects, args.robot)
+                                   args.time_limit, objects, args.robot, args.perturbed)
     return scenes, trials
 
 
@@ -583,8 +610,9 @@ def run_command(args: argparse.Namespace, argv: list[str]) -> int:
         return 130
     wanted = {t.key for t in trials}
     rows = [r for r in benchmark.read_trials(csv_path) if benchmark.row_key(r) in wanted]
-    protocol = {"scenes": [p.stem for p, _ in scenes], "planners": args.planners,
-                "seeds": args.seeds, "time_limit": args.time_limit,
+    sets = {getattr(benchmark.scene_set_of(p.stem), "name", "file") for p, _ in scenes}
+    protocol = {"scenes": [p.stem for p, _ in scenes], "scene_sets": sorted(sets),
+                "planners": args.planners, "seeds": args.seeds, "time_limit": args.time_limit,
                 "request_settings": args.settings, "quick": args.quick, "robot": robot}
     summary = benchmark.summarize(rows, protocol,
                                   benchmark.end_effector_links(scenes[0][1].robot))

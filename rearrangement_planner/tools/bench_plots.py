@@ -11,7 +11,9 @@ rows (`benchmark.CSV_COLUMNS`) and the summary (`benchmark.summarize`):
   when the plan is executed open loop in MuJoCo (ideal and servo-driven arm), per planner,
   beside the paper's real-robot executions (Table I);
 - success_vs_iterations.png (Fig. 2b of Haustein et al. 2018): for each iteration count n, the
-  share of trials solved within n iterations, per planner.
+  share of trials solved within n iterations, per planner;
+- reliability.png: the robustness score against the share of perturbed MuJoCo executions that
+  reach the goal, per fifth of the score range (`benchmark.calibration`), with the Brier score.
 
 `plot_manipulation_states` draws Fig. 2a of Haustein et al. 2018 from a learned oracle, and
 `plot_training` the loss curves of its training (`rearrangement-train --report`).
@@ -32,6 +34,7 @@ import numpy as np  # noqa: E402
 from rearrangement_planner.tools.benchmark import (  # noqa: E402
     PAPER,
     SHORTCUT_PLANNERS,
+    calibration,
     planner_variant,
     success_at,
 )
@@ -233,6 +236,36 @@ def plot_end_to_end(rows: Sequence[dict], planners: Sequence[str], path: Path) -
     return _save(fig, path)
 
 
+def plot_reliability(rows: Sequence[dict], planners: Sequence[str], path: Path) -> Path:
+    """The reliability diagram of the robustness score: per fifth of the score range, the
+    share of the plans' perturbed MuJoCo executions that reached the goal against the plans'
+    mean score (the diagonal is a calibrated score), per planner, with its Brier score."""
+    fig, ax = plt.subplots(figsize=(5.2, 5.0))
+    ax.plot([0, 1], [0, 1], color="gray", linestyle="--", linewidth=1, label="calibrated")
+    ax.fill_between([0, 1], [-0.15, 0.85], [0.15, 1.15], color="gray", alpha=0.12,
+                    label="within 0.15")
+    for planner in planners:
+        cal = calibration(_solved(_of(rows, planner)))
+        points = [(b["mean_score"], b["reached_share"], b["plans"]) for b in cal["bins"]
+                  if b["mean_score"] is not None and b["reached_share"] is not None]
+        if not points:
+            continue
+        x, y, n = (np.array(v) for v in zip(*points, strict=True))
+        ax.plot(x, y, "o-", color=_color(planner),
+                label=f"{_label(planner)} (Brier {cal['brier']:.3f}, {cal['plans']} plans)")
+        for xi, yi, ni in zip(x, y, n, strict=True):
+            ax.annotate(str(ni), (xi, yi), textcoords="offset points", xytext=(4, -10),
+                        fontsize=7, color=_color(planner))
+    ax.set_xlim(0, 1)
+    ax.set_ylim(0, 1)
+    ax.set_xlabel("robustness score (mean in bin)")
+    ax.set_ylabel("perturbed MuJoCo executions reaching the goal")
+    ax.set_title("Is the robustness score honest?")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7, loc="upper left")
+    return _save(fig, path)
+
+
 def plot_success_vs_iterations(rows: Sequence[dict], planners: Sequence[str],
                                path: Path) -> Path:
     """Fig. 2b of Haustein et al. 2018: the share of trials solved within n iterations."""
@@ -324,7 +357,7 @@ def plot_training(report: dict, path: Path) -> Path:
 
 
 def plot_all(rows: Sequence[dict], summary: dict, out: Path) -> list[Path]:
-    """Write the six figures into `out`; returns their paths."""
+    """Write the seven figures into `out`; returns their paths."""
     protocol = summary["protocol"]
     planners = list(protocol["planners"])
     return [
@@ -335,4 +368,5 @@ def plot_all(rows: Sequence[dict], summary: dict, out: Path) -> list[Path]:
         plot_by_objects(rows, planners, out / "by_objects.png"),
         plot_end_to_end(rows, planners, out / "end_to_end.png"),
         plot_success_vs_iterations(rows, planners, out / "success_vs_iterations.png"),
+        plot_reliability(rows, planners, out / "reliability.png"),
     ]

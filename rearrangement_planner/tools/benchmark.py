@@ -1,20 +1,27 @@
-"""The benchmark of King et al. 2015, §V: a fixed, seeded set of 35 random scenes, each
-planner run on each scene with several seeds under a time budget.
+"""The benchmark of King et al. 2015, §V, and a harder set beside it: seeded random scenes,
+each planner run on each scene with several seeds under a time budget.
 
-The scene set (§V: "35 randomly generated scenes ... between 1 and 7 movable objects in the
-robot's reachable workspace ... the same goal object ... the starting pose of the goal object
-is randomly selected. The goal region is placed in the same location across all scenes"):
-5 scenes for each number of movable objects 1 ... 7. Every scene has the table and start
-configuration of ``config/scenes/default.yaml``, the same goal object (`GOAL_OBJECT`, a box)
-and the same goal region (`GOAL_POSITION`, `GOAL_RADIUS`). The goal object starts at a random
-pose at least `MIN_GOAL_OFFSET` from the goal point; the other objects are boxes and cylinders
-of random size, mass and frictions (`BOX_SIDE`, `CYLINDER_RADIUS`, `HEIGHT`, `MASS`, ...) at
-random poses. Every object lies in the arm's reach (`in_workspace`: an annulus about the base
-that the tool reaches on the pushing plane, wholly on the table); scenes are drawn by rejection
-until `scene.parse_scene` accepts them (no overlaps, start configuration collision-free).
-`generate_scene_set(seed)` is a pure function of the seed: scene ``n<M>_s<i>`` draws from its
-own generator seeded with (seed, M, i), so the scenes do not depend on each other. The files
-are committed in ``config/benchmark/scenes/`` and a test checks they equal a fresh generation.
+Two scene sets (`SCENE_SETS`), each 5 scenes for each number of movable objects 1 ... 7:
+
+- ``fixed`` (``n<M>_s<i>``, config/benchmark/scenes): the paper's set (§V: "35 randomly
+  generated scenes ... between 1 and 7 movable objects in the robot's reachable workspace ...
+  the same goal object ... the starting pose of the goal object is randomly selected. The goal
+  region is placed in the same location across all scenes"). Every scene has the same goal
+  object (`GOAL_OBJECT`, a box) and the same goal region (`GOAL_POSITION`, `GOAL_RADIUS`). It is
+  kept as it is: the record of where we were.
+- ``varied`` (``v<M>_s<i>``, config/benchmark/varied): what a user meets. The goal object is
+  drawn like the clutter (box or cylinder, size, height, mass, frictions), the goal point
+  anywhere in the reachable workspace on both sides of the arm, and in about half of the scenes
+  with other objects (`BLOCKER_SHARE`) one of them stands between the goal object and its goal.
+
+The goal object starts at least `MIN_GOAL_OFFSET` from the goal point; the other objects are
+boxes and cylinders of random size, mass and frictions (`BOX_SIDE`, `CYLINDER_RADIUS`, `HEIGHT`,
+`MASS`, ...) at random poses. Every object lies in the arm's reach (`in_workspace`: an annulus
+about the base that the tool reaches on the pushing plane, wholly on the table); scenes are
+drawn by rejection until `scene.parse_scene` accepts them (no overlaps, start configuration
+collision-free). `generate_scene(M, i, seed, scene_set=...)` is a pure function of its
+arguments: each scene draws from its own generator, so the scenes do not depend on each other.
+The files are committed and a test checks they equal a fresh generation.
 
 A trial is one (scene, planner, seed, time limit): the product's default plan request for it
 (`trial_request`: raced trees, shortcutting, robust selection, changed by the command's --set)
@@ -88,16 +95,68 @@ PUSHER_FRICTION = (0.2, 0.5)    # arm-object mu_c
 MIN_GAP = 0.01                  # m, least gap between the footprint circles of two objects
 MAX_DRAWS = 1000                # draws per scene before giving up (never reached in practice)
 DECIMALS = 3                    # values are written rounded to mm / mrad
+BLOCKER_SHARE = 0.5             # varied set: share of scenes with others with a blocker placed
+BLOCKER_ALONG = (0.35, 0.65)    # where along the start-goal segment the blocker stands (share)
+BLOCKER_ACROSS = 0.03           # m, its largest offset across that segment
+
+
+@dataclass(frozen=True)
+class SceneSet:
+    """One benchmark scene set: its scenes ``<prefix><M>_s<i>`` in `folder` (under
+    config/benchmark/), drawn by `varied_goal` rules or the paper's fixed goal."""
+
+    name: str
+    prefix: str
+    folder: str
+    varied_goal: bool
+    about: str
+
+    def scene_name(self, objects: int, index: int) -> str:
+        """``n3_s2``: the scene with 3 movable objects, third of its group."""
+        return f"{self.prefix}{objects}_s{index}"
+
+    def directory(self) -> Path:
+        """The folder of the set's committed files (in the checkout or installed package)."""
+        return config_dir() / "benchmark" / self.folder
+
+    def names(self, quick: bool = False) -> list[str]:
+        """Scene names in set order; `quick`: the first two of each object count."""
+        per_count = 2 if quick else SCENES_PER_COUNT
+        return [self.scene_name(n, i) for n in OBJECT_COUNTS for i in range(per_count)]
+
+
+FIXED = SceneSet(
+    "fixed", "n", "scenes", False,
+    "of the 35-scene set (King et al. 2015, §V; docs/benchmark.md): {count}. The goal object "
+    "`target` (the same box in every scene) starts at random, at least {offset:g} m from the "
+    "goal point; the goal region is the same in every scene.")
+VARIED = SceneSet(
+    "varied", "v", "varied", True,
+    "of the varied set (docs/benchmark.md): {count}. The goal object `target` is drawn like "
+    "the others (box or cylinder, size, mass, frictions) and starts at random, the goal point "
+    "anywhere in reach on either side of the arm, at least {offset:g} m from it.{blocker}")
+SCENE_SETS = {s.name: s for s in (FIXED, VARIED)}
+"""The benchmark's scene sets by name (`rearrangement-bench run --scene-set`)."""
 
 
 def scene_name(objects: int, index: int) -> str:
-    """``n3_s2``: the scene with 3 movable objects, third of its group."""
-    return f"n{objects}_s{index}"
+    """``n3_s2``: the fixed set's scene with 3 movable objects, third of its group."""
+    return FIXED.scene_name(objects, index)
 
 
 def scene_set_dir() -> Path:
-    """``config/benchmark/scenes`` of the checkout or the installed package."""
-    return config_dir() / "benchmark" / "scenes"
+    """``config/benchmark/scenes`` (the fixed set) of the checkout or the installed package."""
+    return FIXED.directory()
+
+
+def scene_set_of(name: str) -> SceneSet | None:
+    """The set a scene name (``v3_s2``) belongs to, by its prefix; None if none."""
+    for scene_set in SCENE_SETS.values():
+        rest = name[len(scene_set.prefix):]
+        if name.startswith(scene_set.prefix) and "_s" in rest \
+                and rest.replace("_s", "", 1).isdigit():
+            return scene_set
+    return None
 
 
 def _round(value: float) -> float:
@@ -132,16 +191,16 @@ def _draw_position(rng: np.random.Generator, footprint_radius: float,
     return None
 
 
-def _draw_clutter(rng: np.random.Generator, k: int) -> dict:
-    """Object k: a box or cylinder (equally likely; named ``box<k>`` / ``cylinder<k>``) of
-    random size, mass and frictions; no pose yet."""
+def _draw_clutter(rng: np.random.Generator, k: int, name: str | None = None) -> dict:
+    """Object k: a box or cylinder (equally likely; named ``box<k>`` / ``cylinder<k>``, or
+    `name`) of random size, mass and frictions; no pose yet."""
     if rng.random() < 0.5:
-        entry: dict[str, Any] = {"name": f"box{k}", "shape": "box",
+        entry: dict[str, Any] = {"name": name or f"box{k}", "shape": "box",
                                  "size": [_round(rng.uniform(*BOX_SIDE)),
                                           _round(rng.uniform(*BOX_SIDE)),
                                           _round(rng.uniform(*HEIGHT))]}
     else:
-        entry = {"name": f"cylinder{k}", "shape": "cylinder",
+        entry = {"name": name or f"cylinder{k}", "shape": "cylinder",
                  "radius": _round(rng.uniform(*CYLINDER_RADIUS)),
                  "height": _round(rng.uniform(*HEIGHT))}
     entry["mass"] = _round(rng.uniform(*MASS))
@@ -150,25 +209,53 @@ def _draw_clutter(rng: np.random.Generator, k: int) -> dict:
     return entry
 
 
-def _draw_scene(rng: np.random.Generator, objects: int) -> dict | None:
-    """One candidate scene mapping (docs/design.md), or None if the objects did not fit."""
-    goal = np.asarray(GOAL_POSITION)
+def _blocker_position(rng: np.random.Generator, start: tuple[float, float],
+                      goal: np.ndarray, radius: float,
+                      clear: Callable[[float, float, float], bool]) -> tuple[float, float] | None:
+    """A position on the way from the goal object's `start` to the `goal` point (a share
+    BLOCKER_ALONG of the way, up to BLOCKER_ACROSS to either side), in the workspace and
+    `clear` of the objects placed; None if the drawn one is not."""
+    a = np.asarray(start, dtype=float)
+    along = rng.uniform(*BLOCKER_ALONG)
+    across = rng.uniform(-BLOCKER_ACROSS, BLOCKER_ACROSS)
+    direction = (goal - a) / max(float(np.linalg.norm(goal - a)), 1e-9)
+    x, y = a + along * (goal - a) + across * np.array([-direction[1], direction[0]])
+    x, y = _round(x), _round(y)
+    return (x, y) if in_workspace(x, y, radius) and clear(x, y, radius) else None
+
+
+def _draw_scene(rng: np.random.Generator, objects: int, scene_set: SceneSet = FIXED,
+                blocked: bool = False) -> dict | None:
+    """One candidate scene mapping (docs/design.md), or None if the objects did not fit;
+    `blocked` (varied set): object 1 stands on the goal object's way to its goal."""
     entries: list[dict] = []
     placed: list[tuple[float, float, float]] = []   # x, y, footprint radius
 
     def clear(x: float, y: float, radius: float) -> bool:
         return all(math.hypot(x - px, y - py) >= radius + pr + MIN_GAP for px, py, pr in placed)
 
+    if scene_set.varied_goal:
+        target = _draw_clutter(rng, 0, name=str(GOAL_OBJECT["name"]))
+        goal_xy = _draw_position(rng, _footprint_radius(target), lambda x, y: True)
+        if goal_xy is None:
+            return None
+        goal = np.asarray(goal_xy)
+    else:
+        target = {key: (list(v) if isinstance(v, tuple) else v)
+                  for key, v in GOAL_OBJECT.items()}
+        goal, blocked = np.asarray(GOAL_POSITION), False
     for k in range(objects):
-        if k == 0:
-            entry = {key: (list(v) if isinstance(v, tuple) else v)
-                     for key, v in GOAL_OBJECT.items()}
-        else:
-            entry = _draw_clutter(rng, k)
+        entry = target if k == 0 else _draw_clutter(rng, k)
         radius = _footprint_radius(entry)
         if k == 0:
             xy = _draw_position(rng, radius, lambda x, y: math.hypot(x - goal[0], y - goal[1])
                                 >= MIN_GOAL_OFFSET)
+        elif k == 1 and blocked:
+            xy = None
+            for _ in range(50):
+                xy = _blocker_position(rng, (placed[0][0], placed[0][1]), goal, radius, clear)
+                if xy is not None:
+                    break
         else:
             def accept(x: float, y: float, r: float = radius) -> bool:
                 return clear(x, y, r)
@@ -190,25 +277,33 @@ def _draw_scene(rng: np.random.Generator, objects: int) -> dict | None:
         "start_configuration": default_start(),
         "table": {key: (list(v) if isinstance(v, tuple) else v) for key, v in TABLE.items()},
         "objects": entries,
-        "goal": {"object": GOAL_OBJECT["name"], "position": list(GOAL_POSITION),
+        "goal": {"object": GOAL_OBJECT["name"], "position": [float(v) for v in goal],
                  "radius": GOAL_RADIUS},
+        **({"blocked": True} if blocked else {}),
     }
 
 
 def generate_scene(objects: int, index: int, seed: int = SCENE_SET_SEED,
-                   robot: RobotModel | None = None) -> dict:
-    """The scene mapping of scene ``n<objects>_s<index>`` of the set drawn with `seed`:
-    candidates are drawn until `parse_scene` accepts one (rejection sampling)."""
+                   robot: RobotModel | None = None, scene_set: SceneSet = FIXED) -> dict:
+    """The scene mapping of scene ``<prefix><objects>_s<index>`` of `scene_set` drawn with
+    `seed`: candidates are drawn until `parse_scene` accepts one (rejection sampling). A
+    varied scene with a blocker says so (key ``blocked``, kept out of the scene file's own
+    keys: `scene_file_text` writes it as a comment)."""
     if objects < 1:
         raise ValueError(f"a scene needs at least the goal object, got objects={objects}")
-    rng = np.random.default_rng([seed, objects, index])
+    # The fixed set's generators are seeded (seed, M, i) as when it was made; the varied
+    # set's streams carry one more word, so that no scene repeats another set's draws.
+    key = [seed, objects, index] + ([1] if scene_set.varied_goal else [])
+    rng = np.random.default_rng(key)
+    blocked = scene_set.varied_goal and objects > 1 and bool(rng.random() < BLOCKER_SHARE)
     robot = robot or RobotModel.load(default_robot())
     for _ in range(MAX_DRAWS):
-        data = _draw_scene(rng, objects)
+        data = _draw_scene(rng, objects, scene_set, blocked)
         if data is None:
             continue
         try:
-            parse_scene(data, name=scene_name(objects, index), robot=robot)
+            parse_scene({k: v for k, v in data.items() if k != "blocked"},
+                        name=scene_set.scene_name(objects, index), robot=robot)
         except RearrangementError:
             continue
         return data
@@ -229,22 +324,24 @@ def _flow(value: Any) -> str:
     return str(value)
 
 
-def scene_file_text(name: str, data: dict, seed: int = SCENE_SET_SEED) -> str:
+def scene_file_text(name: str, data: dict, seed: int = SCENE_SET_SEED,
+                    scene_set: SceneSet = FIXED) -> str:
     """The scene file of `data`: a header comment saying how it was made, then the scene in
     the style of config/scenes/ (one flow mapping per object)."""
     objects = data["objects"]
     others = len(objects) - 1
-    about = (f"Benchmark scene {name} of the 35-scene set (King et al. 2015, §V; "
-             "docs/benchmark.md): "
-             f"{len(objects)} movable object{'s' if len(objects) > 1 else ''}. The goal object "
-             f"`{GOAL_OBJECT['name']}` (the same box in every scene) starts at random, at least "
-             f"{MIN_GOAL_OFFSET:g} m from the goal point; the goal region is the same in every "
-             f"scene." + (" The other objects are boxes and cylinders of random size, mass and "
-                          "frictions." if others else "")
+    count = f"{len(objects)} movable object{'s' if len(objects) > 1 else ''}"
+    blocker = (f" `{objects[1]['name']}` stands on the way from the goal object to the goal."
+               if data.get("blocked") else "")
+    about = (f"Benchmark scene {name} "
+             + scene_set.about.format(count=count, offset=MIN_GOAL_OFFSET, blocker=blocker)
+             + (" The other objects are boxes and cylinders of random size, mass and "
+                "frictions." if others else "")
              + " Every object stands in the arm's reach, clear of the others. Generated by "
-             f"`rearrangement-bench generate --seed {seed}` (rearrangement_planner/tools/"
-             "benchmark.py); do not edit: test/tools/test_benchmark.py checks that the files "
-             "equal a fresh generation.")
+             f"`rearrangement-bench generate --seed {seed}"
+             + ("" if scene_set is FIXED else f" --scene-set {scene_set.name}")
+             + "` (rearrangement_planner/tools/benchmark.py); do not edit: "
+               "test/tools/test_benchmark.py checks that the files equal a fresh generation.")
     lines = [
         *textwrap.wrap(about, width=98, initial_indent="# ", subsequent_indent="# ",
                        break_on_hyphens=False),
@@ -265,24 +362,26 @@ def scene_file_text(name: str, data: dict, seed: int = SCENE_SET_SEED) -> str:
     return "\n".join(lines) + "\n"
 
 
-def generate_scene_set(seed: int = SCENE_SET_SEED) -> dict[str, str]:
-    """{scene name: scene file text} of the 35-scene set drawn with `seed`, in set order."""
+def generate_scene_set(seed: int = SCENE_SET_SEED,
+                       scene_set: SceneSet = FIXED) -> dict[str, str]:
+    """{scene name: scene file text} of `scene_set` drawn with `seed`, in set order."""
     robot = RobotModel.load(default_robot())
     texts = {}
     for objects in OBJECT_COUNTS:
         for index in range(SCENES_PER_COUNT):
-            name = scene_name(objects, index)
-            texts[name] = scene_file_text(name, generate_scene(objects, index, seed, robot),
-                                          seed)
+            name = scene_set.scene_name(objects, index)
+            texts[name] = scene_file_text(
+                name, generate_scene(objects, index, seed, robot, scene_set), seed, scene_set)
     return texts
 
 
-def write_scene_set(out: Path, seed: int = SCENE_SET_SEED) -> list[Path]:
-    """Write the scene set drawn with `seed` into `out` (created if needed); returns the files.
+def write_scene_set(out: Path, seed: int = SCENE_SET_SEED,
+                    scene_set: SceneSet = FIXED) -> list[Path]:
+    """Write `scene_set` drawn with `seed` into `out` (created if needed); returns the files.
     Earlier scene files of the set's naming scheme that are not in the set are removed."""
     out.mkdir(parents=True, exist_ok=True)
-    texts = generate_scene_set(seed)
-    for stale in out.glob("n*_s*.yaml"):
+    texts = generate_scene_set(seed, scene_set)
+    for stale in out.glob(f"{scene_set.prefix}*_s*.yaml"):
         if stale.stem not in texts:
             stale.unlink()
     paths = []
@@ -293,10 +392,9 @@ def write_scene_set(out: Path, seed: int = SCENE_SET_SEED) -> list[Path]:
     return paths
 
 
-def set_scene_names(quick: bool = False) -> list[str]:
-    """Scene names of the set in set order; `quick`: the first two of each object count."""
-    per_count = 2 if quick else SCENES_PER_COUNT
-    return [scene_name(n, i) for n in OBJECT_COUNTS for i in range(per_count)]
+def set_scene_names(quick: bool = False, scene_set: SceneSet = FIXED) -> list[str]:
+    """Scene names of `scene_set` in set order; `quick`: the first two of each object count."""
+    return scene_set.names(quick)
 
 
 # --------------------------------------------------------------------------------------------
@@ -316,6 +414,9 @@ class Trial:
     time_limit: float
     robot: str = ""
     """The arm that plans (a shipped robot name or a robot config path); "": the scene's own."""
+    perturbed: int = 5
+    """Perturbed MuJoCo executions of a solved plan (servo arm; `PERTURBED_EXECUTIONS`,
+    defined below, is the same default)."""
 
     @property
     def key(self) -> tuple[str, str, int, float]:
@@ -324,10 +425,13 @@ class Trial:
 
 
 def make_trials(scene_files: Sequence[Path], planners: Sequence[str], seeds: Sequence[int],
-                time_limit: float, objects: dict[str, int], robot: str = "") -> list[Trial]:
+                time_limit: float, objects: dict[str, int], robot: str = "",
+                perturbed: int = 5) -> list[Trial]:
     """Every (scene, planner, seed) at `time_limit`, scene-major; `objects` maps a scene name
-    to its number of movable objects; `robot` plans them all ("": each scene's own)."""
-    return [Trial(p.stem, str(p), objects[p.stem], planner, seed, float(time_limit), robot)
+    to its number of movable objects; `robot` plans them all ("": each scene's own);
+    `perturbed` executions of each solved plan in perturbed MuJoCo worlds."""
+    return [Trial(p.stem, str(p), objects[p.stem], planner, seed, float(time_limit), robot,
+                  perturbed)
             for p in scene_files for planner in planners for seed in seeds]
 
 
@@ -357,6 +461,7 @@ CSV_COLUMNS = (
     "goal_start_distance_m", "goal_push_path_m", "goal_turn_rad",
     "executed_ideal", "executed_servo", "executed_goal_distance_m", "executed_toppled",
     "trial_wall_s", "ray_node", "robot",
+    "robustness", "executed_object_contacts", "perturbed_reached", "perturbed_trials",
 )
 """trials.csv: one row per trial. goal_distance_m: the goal object's final distance from the
 goal point (solved) or the least distance reached (not solved). *_before / *_after: of the path
@@ -374,7 +479,17 @@ final path (empty when not solved).
 trial_wall_s: the whole trial (planning, shortcutting, timing, replay) on the wall clock.
 ray_node: the Ray node the trial ran on (its node id's first 12 hex digits, `engine`).
 robot: the arm that planned (the robot config's name).
+robustness: the returned plan's robustness score (its share of perturbed rollouts in the
+planner's physics that reach the goal; empty when not measured).
+executed_object_contacts: how many pairs of objects touched in the servo arm's execution.
+perturbed_reached / perturbed_trials: of the executions (`--perturbed`, PERTURBED_EXECUTIONS by
+default) with the servo arm in
+MuJoCo worlds perturbed as `model.perturbation.Perturbation` draws them (seeded by the trial's
+seed), how many reached the goal with nothing toppled.
 A CSV written before a column existed is read with that column empty."""
+
+PERTURBED_EXECUTIONS = 5
+"""Perturbed MuJoCo executions (servo arm) per solved trial, by default (docs/benchmark.md)."""
 
 MOVED_TOLERANCE = 1e-3   # m, an object counts as moved beyond this distance from its start
 
@@ -487,26 +602,39 @@ def run_trial(trial: Trial, settings: dict[str, Any]) -> dict:
     row["shortcut_time_s"] = _num(output.shortcut_time, 3)
     row["pushing_links"] = ";".join(sorted(links))
     row["non_goal_objects_moved"] = str(len(moved)) if result.solved else ""
-    row.update(_executed(output))
+    row.update(_executed(output, trial.seed, trial.perturbed))
+    row["robustness"] = _num(output.robustness)
     row["trial_wall_s"] = _num(time.monotonic() - t0, 3)
     row["ray_node"] = ""                       # the engine's to fill in
     row["robot"] = scene.robot.name
     return row
 
 
-def _executed(output) -> dict[str, str]:
-    """The executed_* columns: the plan played open loop in MuJoCo, both arms."""
+def _executed(output, seed: int, perturbed_executions: int) -> dict[str, str]:
+    """The executed_* and perturbed_* columns: the plan played open loop in MuJoCo, both arms,
+    then `perturbed_executions` times with the servo arm in perturbed worlds drawn from
+    `seed`."""
     if output.trajectory is None:
         return {"executed_ideal": "", "executed_servo": "", "executed_goal_distance_m": "",
-                "executed_toppled": ""}
-    from rearrangement_planner.execution.mujoco_check import ExecutionOptions, check_execution
+                "executed_toppled": "", "executed_object_contacts": "",
+                "perturbed_reached": "", "perturbed_trials": ""}
+    from rearrangement_planner.execution.mujoco_check import (
+        ExecutionOptions,
+        check_execution,
+        check_perturbed,
+    )
 
     reports = {arm: check_execution(output.scene, output.trajectory, None,
                                     ExecutionOptions(arm=arm)) for arm in ("ideal", "servo")}
+    perturbed = check_perturbed(output.scene, output.trajectory, perturbed_executions, seed,
+                                ExecutionOptions(arm="servo"))
     return {"executed_ideal": str(int(reports["ideal"].reached)),
             "executed_servo": str(int(reports["servo"].reached)),
             "executed_goal_distance_m": _num(reports["ideal"].goal_distance_m),
-            "executed_toppled": str(len(reports["servo"].toppled))}
+            "executed_toppled": str(len(reports["servo"].toppled)),
+            "executed_object_contacts": str(len(reports["servo"].object_contacts)),
+            "perturbed_reached": str(perturbed.reached),
+            "perturbed_trials": str(perturbed.trials)}
 
 
 def _replay_physics(scene):
@@ -830,6 +958,7 @@ def _planner_summary(rows: Sequence[dict], planner: str, protocol: dict,
                               for b in budgets(time_limit)},
         "by_objects": by_objects,
         "executed": _executed_summary(solved),
+        "calibration": calibration(solved),
         "non_goal_objects_moved_mean": _rounded(float(np.mean(
             [int(r["non_goal_objects_moved"]) for r in solved]))) if solved else None,
         "pushing_links": {
@@ -842,6 +971,40 @@ def _planner_summary(rows: Sequence[dict], planner: str, protocol: dict,
                      else "not shortcut"),
     }
     return summary
+
+
+CALIBRATION_BINS = 5
+"""The reliability diagram's bins: fifths of the robustness score's range."""
+
+
+def calibration(rows: Sequence[dict]) -> dict[str, Any]:
+    """How well the robustness score predicts execution (docs/benchmark.md, "Calibration"): over
+    the solved plans with a score and perturbed MuJoCo executions, the Brier score (the mean
+    of (score - outcome)^2 over every perturbed execution, 0 for a perfect forecast, 0.25 for
+    a constant 0.5 on a fair coin) and a reliability diagram: per fifth of the score range the
+    plans' mean score, the share of their executions that reached the goal and how many plans
+    and executions it holds. A calibrated score has the share within 0.15 of the mean score in
+    every bin."""
+    scored = [r for r in rows if r.get("robustness") and r.get("perturbed_trials")
+              and int(r["perturbed_trials"]) > 0]
+    bins: list[dict[str, Any]] = []
+    for b in range(CALIBRATION_BINS):
+        lo, hi = b / CALIBRATION_BINS, (b + 1) / CALIBRATION_BINS
+        group = [r for r in scored if lo <= float(r["robustness"]) < hi
+                 or (b == CALIBRATION_BINS - 1 and float(r["robustness"]) == 1.0)]
+        trials = sum(int(r["perturbed_trials"]) for r in group)
+        reached = sum(int(r["perturbed_reached"]) for r in group)
+        bins.append({"range": [lo, hi], "plans": len(group), "executions": trials,
+                     "mean_score": _rounded(float(np.mean([float(r["robustness"])
+                                                           for r in group]))) if group else None,
+                     "reached_share": _rounded(reached / trials) if trials else None})
+    squared = [(float(r["robustness"]) - outcome) ** 2 for r in scored
+               for outcome in [1.0] * int(r["perturbed_reached"])
+               + [0.0] * (int(r["perturbed_trials"]) - int(r["perturbed_reached"]))]
+    gaps = [abs(b["mean_score"] - b["reached_share"]) for b in bins
+            if b["mean_score"] is not None and b["reached_share"] is not None]
+    return {"plans": len(scored), "brier": _rounded(float(np.mean(squared))) if squared
+            else None, "largest_bin_gap": _rounded(max(gaps)) if gaps else None, "bins": bins}
 
 
 def _executed_summary(solved: Sequence[dict]) -> dict[str, Any]:
@@ -861,7 +1024,19 @@ def _executed_summary(solved: Sequence[dict]) -> dict[str, Any]:
                                             / len(ideal)) if ideal else None,
             "goal_push_path_ratio_median": _rounded(_median(ratios)),
             "goal_turn_rad_median": _rounded(_median([float(r["goal_turn_rad"])
-                                                      for r in pushed]))}
+                                                      for r in pushed])),
+            "plans_with_object_contact": sum(int(r["executed_object_contacts"]) > 0
+                                             for r in ideal if r["executed_object_contacts"]),
+            "perturbed": _perturbed_summary(ideal)}
+
+
+def _perturbed_summary(checked: Sequence[dict]) -> dict[str, Any]:
+    """The perturbed executions of the checked plans: how many reached the goal."""
+    done = [r for r in checked if r["perturbed_trials"]]
+    trials = sum(int(r["perturbed_trials"]) for r in done)
+    reached = sum(int(r["perturbed_reached"]) for r in done)
+    return {"plans": len(done), "executions": trials, "reached": reached,
+            "share": _rounded(reached / trials) if trials else None}
 
 
 def _beats(a: dict, b: dict) -> dict[str, bool]:
@@ -931,8 +1106,9 @@ def summary_table(summary: dict) -> str:
     head = (["planner", "reached the goal, executed", "solved in the model",
              "plan time median / p90 (all requests)"]
             + [f"solved ≤ {b:g} s" for b in marks]
-            + ["push path / straight line", "plans toppling", "arm path before → after shortcut",
-               "pushes beyond the hand"])
+            + ["push path / straight line", "plans toppling", "perturbed executions reached",
+               "plans with object contact", "robustness Brier",
+               "arm path before → after shortcut", "pushes beyond the hand"])
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for name, p in summary["planners"].items():
         end = p["end_to_end"]
@@ -945,6 +1121,13 @@ def summary_table(summary: dict) -> str:
         cells.append("–" if ratio is None else f"{ratio:.2f}")
         toppled = p["toppled"]
         cells.append(f"{toppled['plans_toppling']}/{toppled['checked']}")
+        perturbed = p["executed"]["perturbed"]
+        cells.append(f"{perturbed['reached']}/{perturbed['executions']}"
+                     + (f" ({100 * perturbed['share']:.0f} %)" if perturbed["executions"]
+                        else ""))
+        cells.append(f"{p['executed']['plans_with_object_contact']}/{toppled['checked']}")
+        brier = p["calibration"]["brier"]
+        cells.append("–" if brier is None else f"{brier:.3f}")
         shortcut = p["shortcut"]
         if isinstance(shortcut, dict) and shortcut["trials"]:
             arm = shortcut["path_length_rad"]

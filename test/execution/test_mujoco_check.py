@@ -100,6 +100,31 @@ def test_an_off_centre_push_turns_the_box_as_much_as_in_mujoco(panda, push_path,
     assert np.linalg.norm(executed[:2] - predicted.objects[0, :2]) < 0.015
 
 
+def test_a_centre_of_friction_off_the_push_line_turns_the_box_the_same_way_in_both(
+        panda, push_path):
+    """The box pushed 3 cm off its centre line, with its weight resting 1 cm towards the
+    finger or 1 cm away from it (`SupportPressure.centre`; MuJoCo moves the centre of mass
+    there): away from the finger it turns more, in the model and in MuJoCo alike."""
+    from rearrangement_planner.model.scene import SupportPressure
+
+    box = {**BOX, "pose": [0.46, 0.03, 0.0]}
+    scene, trajectory, _ = _pushed(panda, push_path, [box])
+    times, positions = push_path
+    turns = {}
+    for side in (-1.0, 1.0):        # the finger meets the box at y = -3 cm in its frame
+        obj = dataclasses.replace(scene.objects[0],
+                                  support=SupportPressure(1.0, (0.0, 0.01 * side)))
+        world = dataclasses.replace(scene, objects=(obj,))
+        executed = check_execution(world, trajectory).objects[0].pose[2]
+        run = OpenLoopExecution(Physics(world, dataclasses.replace(simulation_options(),
+                                                                   max_substep=0.001)),
+                                world.initial_state(), Command(times, positions), period=0.01)
+        run.run()
+        turns[side] = (executed, float(run.state.objects[0, 2]))
+    for which in (0, 1):            # MuJoCo, then the model
+        assert turns[1.0][which] > turns[-1.0][which] + 0.05, turns
+
+
 def test_servo_arm_tracks_the_straight_push_like_the_ideal_arm(straight_push):
     scene, trajectory, _ = straight_push
     ideal = check_execution(scene, trajectory)

@@ -581,3 +581,65 @@ def test_frame_helpers_round_trip_with_pushing():
                                vectors_to_object_frame(pose, [(1.0, 0.0)])[0],
                                vectors_to_object_frame(pose, [(0.01, 0.0)])[0], 0.3)
     np.testing.assert_allclose(apply_twist(pose, res.twist), pose + [0.01, 0.0, 0.0], atol=1e-15)
+
+
+# ---------------------------------------------------------------------------------------------
+# Support pressure: c and the centre of friction (what the model cannot know)
+# ---------------------------------------------------------------------------------------------
+
+SQUARE_C = limit_surface_c("box", (0.08, 0.08))
+
+
+def test_a_centre_of_friction_shifts_the_limit_surface_and_a_zero_one_is_exact():
+    """The twist about an offset centre of friction equals the twist of the same contacts
+    taken relative to that centre, moved back to the origin (v_o = v_c + w x (o - c)); a zero
+    centre is the uniform model bit for bit."""
+    rng = np.random.default_rng(3)
+    for _ in range(30):
+        k = int(rng.integers(1, 3))
+        P = rng.uniform(-0.04, 0.04, (k, 2))
+        angles = rng.uniform(0, 2 * np.pi, k)
+        N = np.column_stack([np.cos(angles), np.sin(angles)])
+        V = N * rng.uniform(0.001, 0.004, (k, 1)) + rng.normal(0, 0.001, (k, 2))
+        centre = rng.uniform(-0.01, 0.01, 2)
+        plain = object_twist(SQUARE_C, P, N, V, 0.3)
+        assert np.array_equal(object_twist(SQUARE_C, P, N, V, 0.3, (0.0, 0.0)).twist,
+                              plain.twist)
+        about = object_twist(SQUARE_C, P, N, V, 0.3, centre)
+        shifted = object_twist(SQUARE_C, P - centre, N, V, 0.3)
+        if about.jammed or shifted.jammed:
+            assert about.jammed == shifted.jammed
+            continue
+        vx, vy, w = shifted.twist
+        expected = (vx + w * centre[1], vy - w * centre[0], w)
+        np.testing.assert_allclose(about.twist, expected, atol=1e-12)
+
+
+def test_an_off_centre_point_push_turns_differently_across_the_pressure_range():
+    """One finger 3 cm off the centre line of an 8 cm square pushes it 1 cm: how far the box
+    turns depends on c (centre- to corner-loaded) and on where the centre of friction lies,
+    which is why the rollouts draw them."""
+    point, normal, push = [0.03, -0.04], [0.0, 1.0], [0.0, 0.01]
+    turns = {scale: object_twist(scale * SQUARE_C, [point], [normal], [push], 0.3).twist[2]
+             for scale in (0.8, 1.0, 1.8)}
+    assert turns[0.8] > turns[1.0] > turns[1.8] > 0.0
+    assert turns[0.8] > 1.5 * turns[1.8]
+    toward = object_twist(SQUARE_C, [point], [normal], [push], 0.3, (0.015, 0.0)).twist[2]
+    away = object_twist(SQUARE_C, [point], [normal], [push], 0.3, (-0.015, 0.0)).twist[2]
+    assert away > turns[1.0] > toward         # a centre nearer the finger turns it less
+    assert away > 1.5 * toward
+
+
+def test_a_centred_face_push_with_two_contacts_barely_turns_across_the_range():
+    """Two fingers 6 cm apart on the near face push straight: a stable push (Lynch & Mason
+    1996). Whatever the pressure within the drawn range, the box goes straight."""
+    points = [[-0.03, -0.04], [0.03, -0.04]]
+    normals = [[0.0, 1.0]] * 2
+    pushes = [[0.0, 0.01]] * 2
+    rng = np.random.default_rng(0)
+    for _ in range(20):
+        scale = rng.uniform(0.8, 1.8)
+        centre = rng.uniform(-0.25, 0.25, 2) * 0.04
+        result = object_twist(scale * SQUARE_C, points, normals, pushes, 0.3, centre)
+        assert not result.jammed
+        assert abs(result.twist[2]) < 1e-9 and result.twist[1] == pytest.approx(0.01)

@@ -136,6 +136,74 @@ def test_generate_command_writes_the_set_and_removes_stale_files(tmp_path, capsy
     assert "--seed 5" in (tmp_path / "n3_s2.yaml").read_text()
 
 
+VARIED_DIR = benchmark.VARIED.directory()
+
+
+@pytest.fixture(scope="module")
+def varied_set(panda):
+    """{name: (Scene, file text)} of the committed varied set."""
+    return {p.stem: (load_scene(p, robot=panda), p.read_text())
+            for p in sorted(VARIED_DIR.glob("*.yaml"))}
+
+
+def test_committed_varied_files_equal_a_fresh_generation():
+    fresh = benchmark.generate_scene_set(benchmark.SCENE_SET_SEED, benchmark.VARIED)
+    committed = {p.stem: p.read_text() for p in VARIED_DIR.glob("*.yaml")}
+    assert sorted(committed) == sorted(fresh) == benchmark.VARIED.names()
+    for name, text in fresh.items():
+        assert committed[name] == text, f"{name}.yaml differs: run rearrangement-bench " \
+                                        f"generate --scene-set varied"
+
+
+def test_the_varied_set_varies_goal_object_and_goal_point_and_blocks_some_ways(varied_set):
+    """The goal object drawn like the clutter, the goal point over the
+    reachable table on both sides of the arm, clutter between goal object and goal in a
+    share of the scenes."""
+    shapes, sizes, goals, blocked = set(), set(), [], 0
+    for name, (scene, text) in varied_set.items():
+        target = scene.objects[scene.goal_index]
+        assert target.name == "target" and scene.goal.radius == benchmark.GOAL_RADIUS
+        shapes.add(target.shape)
+        sizes.add(tuple(target.size))
+        assert benchmark.HEIGHT[0] <= target.height <= benchmark.HEIGHT[1]
+        assert benchmark.MASS[0] <= target.mass <= benchmark.MASS[1]
+        assert benchmark.SUPPORT_FRICTION[0] <= target.support_friction \
+            <= benchmark.SUPPORT_FRICTION[1]
+        goal = np.asarray(scene.goal.position)
+        assert benchmark.in_workspace(*goal, target.footprint_radius), name
+        assert scene.goal.distance(target.pose[:2]) >= benchmark.MIN_GOAL_OFFSET
+        goals.append(goal)
+        if "stands on the way" in text:
+            blocked += 1
+            # the blocker stands near the segment from the goal object to its goal
+            a, b, p = target.pose[:2], goal, scene.objects[1].pose[:2]
+            along = float(np.dot(p - a, b - a) / np.dot(b - a, b - a))
+            u, v = b - a, p - a
+            across = abs(float(u[0] * v[1] - u[1] * v[0])) / float(np.linalg.norm(u))
+            assert benchmark.BLOCKER_ALONG[0] - 0.01 <= along <= benchmark.BLOCKER_ALONG[1] \
+                + 0.01 and across <= benchmark.BLOCKER_ACROSS + 0.002, name
+    goals = np.array(goals)
+    assert shapes == {"box", "cylinder"} and len(sizes) >= 30
+    assert len({tuple(g) for g in goals}) == 35
+    assert (goals[:, 1] > 0.1).sum() >= 8 and (goals[:, 1] < -0.1).sum() >= 8
+    assert 10 <= blocked <= 20     # about BLOCKER_SHARE of the 30 scenes with other objects
+
+
+def test_generate_command_writes_the_varied_set(tmp_path, capsys):
+    assert bench.main(["generate", "--scene-set", "varied", "--out", str(tmp_path)]) == 0
+    assert "wrote 35 scenes" in capsys.readouterr().out
+    assert (tmp_path / "v3_s2.yaml").read_text() == (VARIED_DIR / "v3_s2.yaml").read_text()
+
+
+def test_scene_names_resolve_to_their_set():
+    (path, scene), = bench._resolve_scenes(["v2_s1"])
+    assert path == VARIED_DIR / "v2_s1.yaml" and len(scene.objects) == 2
+    (path, _), = bench._resolve_scenes(["n2_s1"])
+    assert path == SCENE_DIR / "n2_s1.yaml"
+    with pytest.raises(benchmark.BenchmarkError, match="v<objects>_s<index>"):
+        bench._resolve_scenes(["v9_s9"])
+
+
 def test_a_benchmark_scene_runs_alone_with_rearrangement_plan(tmp_path):
     from rearrangement_planner.tools import cli
 
@@ -208,7 +276,8 @@ def test_summary_success_at_budget_shortcut_means_and_pushing_links():
                                              (rows[3], "0", "0", "0.9", "2")):
         row.update(executed_ideal=ideal, executed_servo=servo, executed_goal_distance_m="0.2",
                    goal_start_distance_m="0.3", goal_push_path_m=path, goal_turn_rad="0.1",
-                   executed_toppled=toppled)
+                   executed_toppled=toppled, executed_object_contacts=toppled,
+                   perturbed_reached=servo, perturbed_trials="1")
     summary = benchmark.summarize(rows, protocol, {"panda_hand", "panda_link7"})
     json.dumps(summary)   # JSON-safe
     pc, darrt = summary["planners"]["pc-rrt"], summary["planners"]["darrt"]
@@ -219,7 +288,11 @@ def test_summary_success_at_budget_shortcut_means_and_pushing_links():
                               "reached_servo_share": round(2 / 3, 4),
                               # push paths 0.3, 0.5, 0.9 m from 0.3 m away: median 0.5 / 0.3
                               "goal_push_path_ratio_median": round(0.5 / 0.3, 4),
-                              "goal_turn_rad_median": 0.1}
+                              "goal_turn_rad_median": 0.1,
+                              # objects touched where one toppled (this table's rows)
+                              "plans_with_object_contact": 1,
+                              "perturbed": {"plans": 3, "executions": 3, "reached": 2,
+                                            "share": round(2 / 3, 4)}}
     # the headline: 2 of the 4 requests reached the goal executed with the servo arm
     assert pc["end_to_end"] == {"requests": 4, "reached": 2, "share": 0.5}
     assert pc["toppled"] == {"checked": 3, "plans_toppling": 1, "objects": 2}
@@ -261,6 +334,28 @@ def test_summary_counts_plans_found_after_the_time_limit_as_solved_but_not_withi
     assert pc["success_at_budget"]["60"] == 0.5
 
 
+def test_calibration_bins_scores_against_perturbed_executions_with_a_brier_score():
+    rows = []
+    for score, reached in ((0.1, 0), (0.15, 1), (0.5, 3), (0.9, 5), (1.0, 4)):
+        row = _row("pc-rrt", 1, True, 2.0)
+        row.update(robustness=str(score), perturbed_reached=str(reached), perturbed_trials="5")
+        rows.append(row)
+    rows.append(_row("pc-rrt", 2, True, 2.0))          # not scored: left out
+    cal = benchmark.calibration(rows)
+    assert cal["plans"] == 5
+    first, _, middle, _, last = cal["bins"]
+    assert (first["plans"], first["executions"], first["reached_share"]) == (2, 10, 0.1)
+    assert first["mean_score"] == pytest.approx(0.125)
+    assert (middle["plans"], middle["reached_share"]) == (1, 0.6)
+    assert (last["plans"], last["reached_share"]) == (2, 0.9)    # a score of 1 is in the last
+    outcomes = [(0.1, [0] * 5), (0.15, [1] + [0] * 4), (0.5, [1] * 3 + [0] * 2),
+                (0.9, [1] * 5), (1.0, [1] * 4 + [0])]
+    brier = np.mean([(s - o) ** 2 for s, os in outcomes for o in os])
+    assert cal["brier"] == pytest.approx(brier, abs=1e-4)
+    assert cal["largest_bin_gap"] == pytest.approx(0.1, abs=1e-4)
+    assert benchmark.calibration([])["brier"] is None
+
+
 def test_summary_does_not_claim_the_60_s_target_from_a_shorter_budget():
     rows = [_row("pc-rrt", 1, True, 2.0)]
     for r in rows:
@@ -277,7 +372,7 @@ def test_summary_does_not_claim_the_60_s_target_from_a_shorter_budget():
 
 TINY = ["--scenes", "n1_s0", "n1_s1", "--planners", "pc-rrt", "static-rrt", "--seeds", "0",
         "--time-limit", "4", "--set", "shortcut_time=3", "--set", "shortcut_attempts=3",
-        "--set", "min_robustness=0", "--set", "trees=1", "--workers", "1"]
+        "--set", "min_robustness=0", "--set", "trees=1", "--workers", "1", "--perturbed", "1"]
 """Two scenes and two planners, first plans from one tree (the shipped request's robust
 selection and raced trees have tests of their own)."""
 
@@ -332,6 +427,9 @@ def test_tiny_protocol_writes_csv_json_and_plots_and_resumes(tmp_path, capsys):
             # the goal object travels at least from its start to the edge of the goal region
             assert float(r["goal_push_path_m"]) >= float(r["goal_start_distance_m"]) - 0.1
             assert float(r["goal_turn_rad"]) >= 0.0
+            assert r["perturbed_trials"] == "1" and r["perturbed_reached"] in ("0", "1")
+            assert r["executed_object_contacts"] == "0"     # one object touches none
+            assert r["robustness"] == ""                    # first plans are not scored
         else:
             assert r["executed_ideal"] == r["executed_servo"] == ""
             assert r["pushing_links"] == "" and r["non_goal_objects_moved"] == ""
@@ -343,7 +441,12 @@ def test_tiny_protocol_writes_csv_json_and_plots_and_resumes(tmp_path, capsys):
     for planner in ("pc-rrt", "static-rrt"):
         assert {"solved_share", "plan_time_s", "success_at_budget", "by_objects",
                 "pushing_links", "shortcut"} <= set(summary["planners"][planner])
-    for name in ("success_vs_budget", "plan_time", "shortcut", "by_objects", "end_to_end"):
+    for planner in summary["planners"].values():
+        perturbed = planner["executed"]["perturbed"]
+        assert perturbed["executions"] == planner["solved"] == perturbed["plans"]
+        assert planner["calibration"]["plans"] == 0      # no scores without robust selection
+    for name in ("success_vs_budget", "plan_time", "shortcut", "by_objects", "end_to_end",
+                 "reliability"):
         png = (out / f"{name}.png").read_bytes()
         assert png.startswith(b"\x89PNG") and len(png) > 5000
     assert "| pc-rrt |" in captured.out and "4/4 trials" in captured.err
@@ -412,7 +515,7 @@ def test_ctrl_c_keeps_complete_rows_stops_the_workers_and_says_how_to_resume(tmp
     out = tmp_path / "bench"
     args = ["run", "--scenes", "n1_s0", "n7_s0", "--planners", "pc-rrt", "--seeds", "0",
             "--time-limit", "30", "--set", "shortcut_time=0", "--set", "trees=1",
-            "--workers", "1", "--out", str(out)]
+            "--workers", "1", "--perturbed", "0", "--out", str(out)]
     proc = subprocess.Popen(
         [sys.executable, "-m", "rearrangement_planner.tools.bench", *args], stdout=subprocess.PIPE,
         stderr=subprocess.PIPE, text=True, start_new_session=True,
@@ -515,7 +618,7 @@ def test_a_planner_label_may_carry_its_own_settings(tmp_path):
     assert bench.main(["run", "--scenes", "n1_s0", "--planners", "slice-rrt",
                        "slice-rrt:oracle=hand", "--seeds", "0", "--time-limit", "4", "--set",
                        "min_robustness=0", "--set", "trees=1", "--set", "shortcut_time=0",
-                       "--workers", "1", "--out", str(out)]) == 0
+                       "--workers", "1", "--perturbed", "0", "--out", str(out)]) == 0
     _, rows = _read_csv(out / "trials.csv")
     assert sorted(r["planner"] for r in rows) == ["slice-rrt", "slice-rrt:oracle=hand"]
     summary = json.loads((out / "summary.json").read_text())
@@ -578,6 +681,11 @@ def test_two_scenes_of_the_same_name_are_refused(tmp_path, capsys):
     assert "--scenes: two scenes are called 'n1_s0'" in capsys.readouterr().err
 
 
+def test_a_bad_perturbed_count_is_a_one_line_error(tmp_path, capsys):
+    assert bench.main([*TINY, "--perturbed", "-1", "--out", str(tmp_path / "o")]) == 2
+    assert "--perturbed: must be between 0 and 100" in capsys.readouterr().err
+
+
 def test_out_must_be_a_folder(tmp_path, capsys):
     (tmp_path / "file").write_text("")
     assert bench.main([*TINY, "--out", str(tmp_path / "file")]) == 2
@@ -590,7 +698,7 @@ def test_another_arm_plans_the_benchmark_and_keeps_its_own_out(tmp_path, capsys)
     out = tmp_path / "bench"
     args = ["run", "--scenes", "n1_s0", "--planners", "pc-rrt", "--seeds", "0",
             "--time-limit", "10", "--set", "min_robustness=0", "--set", "trees=1",
-            "--set", "shortcut_time=0", "--workers", "1", "--out", str(out)]
+            "--set", "shortcut_time=0", "--workers", "1", "--perturbed", "0", "--out", str(out)]
     assert bench.main([*args, "--robot", "xarm7"]) == 0
     _, rows = _read_csv(out / "trials.csv")
     assert [r["robot"] for r in rows] == ["xarm7"]
