@@ -421,3 +421,156 @@ def segment(shape_poses: np.ndarray, s: int, half_length: float, a: np.ndarray,
         axis = shape_poses[s, k, 2] * half_length
         a[k] = shape_poses[s, k, 3] - axis
         b[k] = shape_poses[s, k, 3] + axis
+
+
+# -- object-object contacts on the table -------------------------------------------------------
+
+
+@njit(cache=True)
+def _box_vertices(size: np.ndarray, x: float, y: float, yaw: float, out: np.ndarray) -> None:
+    """The footprint rectangle's corners (4, 2), counter-clockwise from (-x, -y) in its frame;
+    edge k runs from corner k to corner k + 1 with outward normal R(yaw) (0, -1), (1, 0),
+    (0, 1), (-1, 0)."""
+    c, s = math.cos(yaw), math.sin(yaw)
+    hx, hy = 0.5 * size[0], 0.5 * size[1]
+    for k, (lx, ly) in enumerate(((-hx, -hy), (hx, -hy), (hx, hy), (-hx, hy))):
+        out[k, 0] = x + c * lx - s * ly
+        out[k, 1] = y + s * lx + c * ly
+
+
+@njit(cache=True)
+def _edge_normal(vertices: np.ndarray, k: int) -> tuple[float, float]:
+    """The outward unit normal of edge k of a counter-clockwise polygon."""
+    ax, ay = vertices[k]
+    bx, by = vertices[(k + 1) % vertices.shape[0]]
+    ex, ey = bx - ax, by - ay
+    n = math.hypot(ex, ey)
+    return ey / n, -ex / n
+
+
+@njit(cache=True)
+def _max_separation(ref: np.ndarray, inc: np.ndarray) -> tuple[int, float]:
+    """The edge of `ref` along whose outward normal `inc` lies farthest out, and how far
+    (the separating-axis distance of the two rectangles over ref's edge normals)."""
+    best_k, best = 0, -math.inf
+    for k in range(4):
+        nx, ny = _edge_normal(ref, k)
+        lowest = math.inf
+        for v in range(4):
+            lowest = min(lowest, nx * (inc[v, 0] - ref[k, 0]) + ny * (inc[v, 1] - ref[k, 1]))
+        if lowest > best:
+            best_k, best = k, lowest
+    return best_k, best
+
+
+@njit(cache=True)
+def _box_box_contacts(va: np.ndarray, vb: np.ndarray, margin: float, points: np.ndarray,
+                      normals: np.ndarray, gaps: np.ndarray) -> int:
+    """Up to two contacts of rectangles a and b (corners `va`, `vb`), normals from a into b:
+    the reference face is the edge of largest separation (Box2D's b2CollidePolygons, after
+    Catto's GDC 2007 notes); the incident edge of the other rectangle, clipped to the
+    reference face's side planes, gives the points whose separation is within `margin`."""
+    ka, sep_a = _max_separation(va, vb)
+    kb, sep_b = _max_separation(vb, va)
+    if max(sep_a, sep_b) > margin:
+        return 0
+    flip = sep_b > sep_a + 1e-6
+    ref, inc, k = (vb, va, kb) if flip else (va, vb, ka)
+    nx, ny = _edge_normal(ref, k)
+    # The incident edge: the one whose normal opposes the reference normal most.
+    best, j = math.inf, 0
+    for e in range(4):
+        ex, ey = _edge_normal(inc, e)
+        if ex * nx + ey * ny < best:
+            best, j = ex * nx + ey * ny, e
+    r1, r2 = ref[k], ref[(k + 1) % 4]
+    tx, ty = r2[0] - r1[0], r2[1] - r1[1]
+    length = math.hypot(tx, ty)
+    tx, ty = tx / length, ty / length
+    w1x, w1y = inc[j, 0], inc[j, 1]
+    w2x, w2y = inc[(j + 1) % 4, 0], inc[(j + 1) % 4, 1]
+    # Clip the incident segment to 0 <= t . (w - r1) <= length.
+    s1 = tx * (w1x - r1[0]) + ty * (w1y - r1[1])
+    s2 = tx * (w2x - r1[0]) + ty * (w2y - r1[1])
+    count = 0
+    for bound, sign in ((0.0, 1.0), (length, -1.0)):
+        d1, d2 = sign * (s1 - bound), sign * (s2 - bound)
+        if d1 < 0.0 and d2 < 0.0:
+            return 0
+        if d1 < 0.0 or d2 < 0.0:
+            f = d1 / (d1 - d2)
+            px, py = w1x + f * (w2x - w1x), w1y + f * (w2y - w1y)
+            if d1 < 0.0:
+                w1x, w1y = px, py
+            else:
+                w2x, w2y = px, py
+            s1 = tx * (w1x - r1[0]) + ty * (w1y - r1[1])
+            s2 = tx * (w2x - r1[0]) + ty * (w2y - r1[1])
+    for px, py in ((w1x, w1y), (w2x, w2y)):
+        gap = nx * (px - r1[0]) + ny * (py - r1[1])
+        if gap <= margin:
+            # the point midway between the incident point and its projection on the face
+            points[count, 0] = px - 0.5 * gap * nx
+            points[count, 1] = py - 0.5 * gap * ny
+            normals[count, 0], normals[count, 1] = (-nx, -ny) if flip else (nx, ny)
+            gaps[count] = gap
+            count += 1
+    return count
+
+
+@njit(cache=True)
+def planar_contacts(kind_a: int, size_a: np.ndarray, xa: float, ya: float, yaw_a: float,
+                    kind_b: int, size_b: np.ndarray, xb: float, yb: float, yaw_b: float,
+                    margin: float, points: np.ndarray, normals: np.ndarray,
+                    gaps: np.ndarray) -> int:
+    """The contacts of two upright prisms standing on the table, seen from above: up to two
+    points (2, 2) (m, world), unit normals (2, 2) from a into b and signed gaps (2,) (m,
+    negative when they penetrate), for every contact whose gap is at most `margin`. A disk
+    meets anything at one point; two rectangles at one (a corner) or two (faces side by side).
+    `size_*` are the full extents as in `prism_penetration`. Returns how many."""
+    if kind_a == CYLINDER and kind_b == CYLINDER:
+        dx, dy = xb - xa, yb - ya
+        d = math.hypot(dx, dy)
+        ra, rb = 0.5 * size_a[0], 0.5 * size_b[0]
+        gap = d - ra - rb
+        if gap > margin or d < 1e-12:
+            return 0
+        nx, ny = dx / d, dy / d
+        points[0, 0], points[0, 1] = xa + nx * (ra + 0.5 * gap), ya + ny * (ra + 0.5 * gap)
+        normals[0, 0], normals[0, 1] = nx, ny
+        gaps[0] = gap
+        return 1
+    if kind_a == CYLINDER or kind_b == CYLINDER:
+        flip = kind_a == CYLINDER        # work with a rectangle r and a disk d
+        rect, rx, ry, ryaw = (size_b, xb, yb, yaw_b) if flip else (size_a, xa, ya, yaw_a)
+        radius, dxc, dyc = (0.5 * size_a[0], xa, ya) if flip else (0.5 * size_b[0], xb, yb)
+        c, s = math.cos(ryaw), math.sin(ryaw)
+        lx, ly = c * (dxc - rx) + s * (dyc - ry), -s * (dxc - rx) + c * (dyc - ry)
+        hx, hy = 0.5 * rect[0], 0.5 * rect[1]
+        qx, qy = min(max(lx, -hx), hx), min(max(ly, -hy), hy)
+        ox, oy = lx - qx, ly - qy
+        d = math.hypot(ox, oy)
+        if d > 1e-12:                    # the disk's centre outside: its nearest point
+            nlx, nly = ox / d, oy / d
+            gap = d - radius
+        else:                            # inside: out through the nearest edge
+            if hx - abs(lx) < hy - abs(ly):
+                nlx, nly = (1.0 if lx >= 0.0 else -1.0), 0.0
+                qx, d = nlx * hx, -(hx - abs(lx))
+            else:
+                nlx, nly = 0.0, (1.0 if ly >= 0.0 else -1.0)
+                qy, d = nly * hy, -(hy - abs(ly))
+            gap = d - radius
+        if gap > margin:
+            return 0
+        nx, ny = c * nlx - s * nly, s * nlx + c * nly      # rectangle -> disk, world
+        px = rx + c * qx - s * qy + 0.5 * gap * nx
+        py = ry + s * qx + c * qy + 0.5 * gap * ny
+        points[0, 0], points[0, 1] = px, py
+        normals[0, 0], normals[0, 1] = (-nx, -ny) if flip else (nx, ny)
+        gaps[0] = gap
+        return 1
+    va, vb = np.empty((4, 2)), np.empty((4, 2))
+    _box_vertices(size_a, xa, ya, yaw_a, va)
+    _box_vertices(size_b, xb, yb, yaw_b, vb)
+    return _box_box_contacts(va, vb, margin, points, normals, gaps)

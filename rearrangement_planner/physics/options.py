@@ -29,6 +29,21 @@ class PhysicsOptions(Settings):
     travels (1 rad over 20 cm at the default 5). How fast an off-centre push turns an object is
     what the quasistatic model predicts worst, and a mispredicted turn sends every later push
     elsewhere. 0 = no limit, as in King et al. 2015. Measured: docs/experiments.md."""
+    object_contact: bool = setting(False)
+    """Objects that meet push each other (one complementarity problem over every object in
+    contact, `pushing.build_multibody_lcp_kernel`), as in Haustein et al.'s Box2D model and
+    Pang & Tedrake's quasistatic simulator, so that a plan may push a row of objects and the
+    model predicts what execution does when objects meet. Off: a state in which objects touch
+    is invalid, as in King et al. 2015 (§III-A). Results: docs/experiments.md."""
+    tip_judgement: bool = internal(False)
+    """Judge rather than refuse a push that would tip its object: the step reports, per
+    object, how far the pusher must carry it while it tips to topple it (`step.tip_travel`),
+    and the robustness rollouts count a topple when a push goes on that far
+    (`planning.robustness`). With `tipping` on, such a push is refused whatever this says."""
+    contact_tolerance: float = internal(0.002)
+    """With object_contact: object-object penetration (m) still valid after a step (the
+    contact problem is solved for the step's first-order motion; a rotation leaves a little
+    second-order overlap, which the next step pushes out)."""
     max_substep: float = internal(0.004)
     """Largest displacement (m) of any point of any contact shape within one substep."""
     penetration_tolerance: float = internal(0.003)
@@ -46,5 +61,7 @@ class PhysicsOptions(Settings):
 def simulation_options(max_substep: float = PhysicsOptions.max_substep) -> PhysicsOptions:
     """The physics of a simulated world that executes trajectories (world_sim, open-loop
     execution): a pushed object slides whatever the push height or turn, because tipping and
-    the turn limit are rules for choosing plans, not physics."""
-    return PhysicsOptions(tipping=False, max_turn=0.0, max_substep=max_substep)
+    the turn limit are rules for choosing plans, not physics; objects that meet push each
+    other."""
+    return PhysicsOptions(tipping=False, max_turn=0.0, max_substep=max_substep,
+                          object_contact=True)

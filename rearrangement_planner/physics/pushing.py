@@ -91,6 +91,15 @@ object displacement (dx, dy, dtheta) produced by the given pusher displacements 
      off one line, whose only "solution" is an absurd spin): pivots on entries below 1e-9 of
      their column are treated as zeros.
 
+3b. Several objects pushing each other (`build_multibody_lcp_kernel`)
+   When a pushed object meets another, it pushes it in turn: one LCP over every object of the
+   group (the quasistatic multi-body problem of Pang & Tedrake's quasistatic simulator and
+   Haustein et al.'s Box2D model; King et al. 2015 do not model it). Each object's limit
+   surface maps the wrench on it to its twist, scaled by its support load f_max = mu_s m g so
+   that the objects share the motion by how hard each is to slide (for one object the scale
+   cancels: §3 exactly); object-object contacts carry equal and opposite forces and a gap
+   (speculative contacts: a gap may close within the step, a penetration is pushed out).
+
 `object_twist` dispatches: no pushing contact -> no motion; one contact -> closed form; several
 contacts -> the LCP (after a cheap exact shortcut when only one contact pushes and the closed
 form motion does not run into the others).
@@ -661,6 +670,131 @@ def object_twist_about_kernel(c: float, cx: float, cy: float, P: np.ndarray, N: 
     twist[0] += twist[2] * cy
     twist[1] -= twist[2] * cx
     return code
+
+
+# --------------------------------------------------------------------------------------------
+# 3b. Several objects pushing each other: one LCP over all of them
+# --------------------------------------------------------------------------------------------
+
+
+@njit(cache=True)
+def build_multibody_lcp_kernel(centres: np.ndarray, cs: np.ndarray, weights: np.ndarray,
+                               P: np.ndarray, N: np.ndarray, body: np.ndarray,
+                               other: np.ndarray, V: np.ndarray, gaps: np.ndarray,
+                               mus: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(M, q, twist_map) of the quasistatic LCP of module docstring §3 over B objects at once
+    (module docstring, §3b), compiled. Everything is in the world frame (m):
+
+    - object b has its limit surface about `centres[b]` (its centre of friction) with
+      c = `cs[b]`, and the scale `weights[b]` = f_ref / f_max,b (f_max = mu_s m g): its twist
+      about that point is V_b = weights[b] diag(1, 1, 1/c_b^2) F_b, F_b the wrench on it
+      there. One object alone gives the twist of §3 (the scale cancels); between objects
+      it shares the motion by their support loads, as a heavier or grippier object gives way
+      less;
+    - contact k at P[k] with unit normal N[k] pointing into object body[k] (the one it
+      pushes); the force on it is f_n N[k] + f_t t_k, t_k = R(+90°) N[k]; on other[k] the
+      opposite, or, when other[k] = -1, the pusher (the arm) moves by V[k] (its displacement
+      over the step, m);
+    - non-penetration with a gap: the normal velocity of body[k] relative to the other side
+      at P[k] is at least -gaps[k] (an object-object contact gaps[k] apart may close by that
+      much, one penetrating by -gaps[k] is pushed apart; an arm contact's gap is 0, its V[k]
+      already undoes its penetration); Coulomb friction mus[k] with maximal dissipation, as
+      in §3.
+
+    The rows of G (3K x 3B) are d^T J for d = n_k, +t_k, -t_k, with J_b(p) V = (v_x - w
+    (p_y - c_y), v_y + w (p_x - c_x)) for body[k] and -J for other[k]; M, E, U as in §3 with
+    A the block-diagonal of the weighted limit surfaces; q = -(d . V[k]) + (gaps[k] on the
+    normal row). The twists are twist_map @ z[:3K] (3B: v_x, v_y, omega per object, about its
+    centre of friction, world frame)."""
+    K, B = P.shape[0], centres.shape[0]
+    G = np.zeros((3 * K, 3 * B))
+    q = np.zeros(4 * K)
+    for k in range(K):
+        nx, ny = N[k, 0], N[k, 1]
+        tx, ty = -ny, nx
+        for row, dx, dy in ((k, nx, ny), (K + 2 * k, tx, ty), (K + 2 * k + 1, -tx, -ty)):
+            a = body[k]
+            G[row, 3 * a] = dx
+            G[row, 3 * a + 1] = dy
+            G[row, 3 * a + 2] = (P[k, 0] - centres[a, 0]) * dy - (P[k, 1] - centres[a, 1]) * dx
+            b = other[k]
+            if b >= 0:
+                G[row, 3 * b] -= dx
+                G[row, 3 * b + 1] -= dy
+                G[row, 3 * b + 2] -= ((P[k, 0] - centres[b, 0]) * dy
+                                      - (P[k, 1] - centres[b, 1]) * dx)
+            else:
+                q[row] = -(dx * V[k, 0] + dy * V[k, 1])
+        q[k] += gaps[k]
+    GA = G.copy()
+    for b in range(B):
+        GA[:, 3 * b] *= weights[b]
+        GA[:, 3 * b + 1] *= weights[b]
+        GA[:, 3 * b + 2] *= weights[b] / (cs[b] * cs[b])
+    M = np.zeros((4 * K, 4 * K))
+    M[:3 * K, :3 * K] = GA @ G.T
+    # A compliance of MULTIBODY_COMPLIANCE times the largest diagonal entry on the force
+    # block: a group in contact has many redundant contacts (a face pushed flat against a
+    # face), whose singular M stalls Lemke's method on its degenerate pivots; the regularised
+    # M is strictly copositive on the forces; the twists move by a relative 1e-3 or less
+    # (1e-8 leaves three of seven pushed rows of objects in test jammed).
+    eps = MULTIBODY_COMPLIANCE * max(np.abs(np.diag(M)).max(), 1e-300)
+    for r in range(3 * K):
+        M[r, r] += eps
+    for k in range(K):
+        M[K + 2 * k, 3 * K + k] = M[K + 2 * k + 1, 3 * K + k] = 1.0     # E
+        M[3 * K + k, K + 2 * k] = M[3 * K + k, K + 2 * k + 1] = -1.0    # -E^T
+        M[3 * K + k, k] = mus[k]                                        # U
+    return M, q, GA.T.copy()
+
+
+MULTIBODY_COMPLIANCE = 1e-6
+"""Relative compliance added to the multi-body LCP's force block (`build_multibody_lcp_kernel`)."""
+
+
+@njit(cache=True)
+def multibody_twists_kernel(centres: np.ndarray, cs: np.ndarray, weights: np.ndarray,
+                            P: np.ndarray, N: np.ndarray, body: np.ndarray, other: np.ndarray,
+                            V: np.ndarray, gaps: np.ndarray, mus: np.ndarray, cap: int,
+                            twists: np.ndarray) -> int:
+    """Solve the LCP of `build_multibody_lcp_kernel` (Lemke): writes each object's twist
+    about its centre of friction (B, 3) (world frame) and returns MOVING, SEPARATING (no
+    contact loaded: nothing moves) or JAMMED (no solution: the pushers squeeze the group;
+    zero twists)."""
+    M, q, twist_map = build_multibody_lcp_kernel(centres, cs, weights, P, N, body, other, V,
+                                                 gaps, mus)
+    z, _, status, _ = lemke_kernel(M, q, cap, 1e-9)
+    twists[:] = 0.0
+    if status != SOLVED:
+        return JAMMED
+    K = P.shape[0]
+    if z[:K].max() <= 1e-9 * max(np.abs(q).max(), 1e-300):
+        return SEPARATING
+    flat = twist_map @ z[:3 * K]
+    for b in range(centres.shape[0]):
+        twists[b, 0], twists[b, 1], twists[b, 2] = flat[3 * b], flat[3 * b + 1], flat[3 * b + 2]
+    return MOVING
+
+
+def multibody_twists(centres: np.ndarray, cs: np.ndarray, weights: np.ndarray,
+                     points: np.ndarray, normals: np.ndarray, body: np.ndarray,
+                     other: np.ndarray, pusher_disps: np.ndarray, gaps: np.ndarray,
+                     mus: np.ndarray) -> tuple[str, np.ndarray]:
+    """Objects pushing each other (module docstring, §3b; `build_multibody_lcp_kernel` says
+    what each array is): the mode ('moving', 'separating' or 'jammed') and each object's
+    twist (B, 3) about its centre of friction, world frame."""
+    arrays = [np.ascontiguousarray(np.asarray(a, dtype=float)) for a in
+              (centres, cs, weights, points, normals, pusher_disps, gaps, mus)]
+    centres_, cs_, weights_, P, Nrm, Vp, gaps_, mus_ = arrays
+    norms = np.hypot(Nrm[:, 0], Nrm[:, 1])
+    if Nrm.shape[0] and not norms.min() > 1e-12:
+        raise PushingError("every contact normal must be a non-zero vector")
+    twists = np.zeros((centres_.shape[0], 3))
+    code = multibody_twists_kernel(
+        centres_.reshape(-1, 2), cs_, weights_, P.reshape(-1, 2), Nrm.reshape(-1, 2)
+        / norms[:, None], np.asarray(body, dtype=np.int64), np.asarray(other, dtype=np.int64),
+        Vp.reshape(-1, 2), gaps_, mus_, max(100, 80 * P.shape[0]), twists)
+    return MODES[code], twists
 
 
 def _push_result(code: int, twist: np.ndarray, f_n: np.ndarray, f_t: np.ndarray,

@@ -135,9 +135,11 @@ _REASONS: tuple[Invalid | None, ...] = (
 # takes no Python objects); these name their columns. `_world_arrays` packs them in this order
 # (a test checks it against `PhysicsOptions`).
 (OPT_MAX_SUBSTEP, OPT_PENETRATION, OPT_OVERLAP, OPT_VERTICAL_NORMAL, OPT_TIPPING,
- OPT_FREE_SPACE, OPT_MAX_TURN) = range(7)
+ OPT_FREE_SPACE, OPT_MAX_TURN, OPT_OBJECT_CONTACT, OPT_TIP_JUDGEMENT,
+ OPT_CONTACT_TOLERANCE) = range(10)
 OPTION_FIELDS = ("max_substep", "penetration_tolerance", "overlap_tolerance",
-                 "vertical_normal_limit", "tipping", None, "max_turn")
+                 "vertical_normal_limit", "tipping", None, "max_turn", "object_contact",
+                 "tip_judgement", "contact_tolerance")
 """The `PhysicsOptions` field packed in each `World.options` column (None: a module constant,
 `FREE_SPACE_MARGIN`)."""
 (OBJ_CENTRE_Z, OBJ_C, OBJ_PUSHER_MU, OBJ_SUPPORT_MU, OBJ_FOOTPRINT, OBJ_STATIC, OBJ_COF_X,
@@ -164,7 +166,7 @@ class World(NamedTuple):
     obj_size: np.ndarray            # (M, 3) full extents (x, y, z), a cylinder's (2r, 2r, h)
     obj_props: np.ndarray           # (M, 9): columns OBJ_CENTRE_Z .. OBJ_MASS
     table: np.ndarray               # (5,): top z, centre x, y, half size x, y
-    options: np.ndarray             # (7,): columns OPT_MAX_SUBSTEP .. OPT_MAX_TURN
+    options: np.ndarray             # (10,): columns OPT_MAX_SUBSTEP .. OPT_CONTACT_TOLERANCE
 
 
 class Physics:
@@ -580,21 +582,213 @@ def _push_object(m: int, pose: np.ndarray, count: int, c_shape: np.ndarray,
         return _JAMMING
     if twist[0] == 0.0 and twist[1] == 0.0 and twist[2] == 0.0:
         return -1
+    code = _object_rules(m, twist, height - table[0], obj_kind, obj_size, obj_props, options,
+                         value)
+    if code != _VALID:
+        return code
+    x, y, yaw = pushing.apply_twist_kernel(pose[0], pose[1], pose[2], twist[0], twist[1],
+                                           twist[2])
+    new_pose[0], new_pose[1], new_pose[2] = x, y, yaw
+    return _VALID
+
+
+@njit(cache=True)
+def _object_rules(m: int, twist: np.ndarray, height: float, obj_kind: np.ndarray,
+                  obj_size: np.ndarray, obj_props: np.ndarray, options: np.ndarray,
+                  value: np.ndarray) -> int:
+    """The pushing model's rules for object m moving by `twist` (object frame) under a push
+    `height` m above the table (module docstring, step 5): the turn limit and tipping refuse
+    the push; with the tip judgement on, a tipping push is not refused but reported in
+    value[1 + m] as the travel that topples the object (`tip_travel`)."""
     turn = options[OPT_MAX_TURN]
     if turn > 0.0 and abs(twist[2]) > turn * math.hypot(twist[0], twist[1]) \
             + TURN_SLACK:
         value[0] = abs(twist[2]) / max(math.hypot(twist[0], twist[1]), 1e-9)
         return _TURNING
-    if options[OPT_TIPPING] > 0.0:
-        height -= table[0]
-        if _tips_over(obj_kind[m], obj_size[m], obj_props[m, OBJ_SUPPORT_MU],
-                      twist[0], twist[1], height):
+    if (options[OPT_TIPPING] > 0.0 or options[OPT_TIP_JUDGEMENT] > 0.0) and _tips_over(
+            obj_kind[m], obj_size[m], obj_props[m, OBJ_SUPPORT_MU], twist[0], twist[1],
+            height):
+        if options[OPT_TIPPING] > 0.0:
             value[0] = height
             return _TIPPING
-    x, y, yaw = pushing.apply_twist_kernel(pose[0], pose[1], pose[2], twist[0], twist[1],
-                                           twist[2])
-    new_pose[0], new_pose[1], new_pose[2] = x, y, yaw
+        if value.shape[0] > 1 + m:
+            travel = _tip_travel(obj_kind[m], obj_size[m], twist[0], twist[1], height)
+            value[1 + m] = travel if value[1 + m] <= 0.0 else min(value[1 + m], travel)
     return _VALID
+
+
+@njit(cache=True)
+def _tip_travel(kind: int, size: np.ndarray, dx: float, dy: float, height: float) -> float:
+    """How far (m) a pusher at `height` above the table must carry an object that tips about
+    its leading bottom edge (moving along (dx, dy), object frame) before its centre of mass
+    passes over that edge and it falls: tilted by theta about the edge, the pushed point of
+    the trailing face (2 d behind the edge, `height` up) has moved 2 d (1 - cos theta) +
+    height sin theta, and the object falls at theta_c = atan(2 d / H), d its half extent along
+    the push and H its height (the centre of mass d behind the edge and H / 2 up). Short of
+    it, an object that stops being pushed falls back upright."""
+    speed = math.hypot(dx, dy)
+    if kind == kernels.CYLINDER:
+        d = 0.5 * size[0]
+    else:
+        d = 0.5 * (abs(dx / speed) * size[0] + abs(dy / speed) * size[1])
+    critical = math.atan2(2.0 * d, size[2])
+    return 2.0 * d * (1.0 - math.cos(critical)) + height * math.sin(critical)
+
+
+@njit(cache=True)
+def _resolve_object_contacts(objects: np.ndarray, new_objects: np.ndarray,
+                             changed: np.ndarray, count: int, c_shape: np.ndarray,
+                             c_obj: np.ndarray, c_point: np.ndarray, c_normal: np.ndarray,
+                             c_depth: np.ndarray, poses_a: np.ndarray, poses_b: np.ndarray,
+                             obj_kind: np.ndarray, obj_size: np.ndarray,
+                             obj_props: np.ndarray, table: np.ndarray, options: np.ndarray,
+                             moved: np.ndarray, near: np.ndarray, info: np.ndarray,
+                             value: np.ndarray) -> int:
+    """Objects that meet push each other (`PhysicsOptions.object_contact`; module docstring,
+    step 5b). When the pushes of step 5 leave a moved object overlapping another, the group of
+    objects in contact (within `_CONTACT_MARGIN` substeps of each other at the substep's
+    start, transitively) is moved by one complementarity problem over all of them
+    (`pushing.multibody_twists_kernel`): the arm's contacts on any of them, and their
+    contacts with each other (`kernels.planar_contacts`). Replaces the group's poses in
+    new_objects; the rest keep theirs. Returns _VALID or the invalid code."""
+    M = objects.shape[0]
+    tol = options[OPT_OVERLAP]
+    group = np.zeros(M, dtype=np.bool_)
+    for i in range(M):
+        for j in range(i + 1, M):
+            if (changed[i] or changed[j]) and kernels.prism_penetration(
+                    obj_kind[i], obj_size[i], new_objects[i, 0], new_objects[i, 1],
+                    new_objects[i, 2], obj_kind[j], obj_size[j], new_objects[j, 0],
+                    new_objects[j, 1], new_objects[j, 2]) > tol:
+                group[i] = group[j] = True
+    if not group.any():
+        return _VALID
+    margin = _CONTACT_MARGIN * options[OPT_MAX_SUBSTEP]
+    grown = True
+    while grown:                     # every object within the margin of the group joins it
+        grown = False
+        for j in range(M):
+            if group[j]:
+                continue
+            for i in range(M):
+                if group[i] and kernels.prism_penetration(
+                        obj_kind[i], obj_size[i], objects[i, 0], objects[i, 1],
+                        objects[i, 2], obj_kind[j], obj_size[j], objects[j, 0],
+                        objects[j, 1], objects[j, 2]) > -margin:
+                    group[j] = grown = True
+                    break
+    members = np.flatnonzero(group)
+    for m in members:
+        if obj_props[m, OBJ_STATIC] > 0.0:      # a static object is an obstacle: no contact
+            for i in members:
+                if i != m:
+                    info[1], info[2] = i, m
+                    return _OBJECT_OVERLAP
+    index = np.full(M, -1, dtype=np.int64)
+    for b in range(members.shape[0]):
+        index[members[b]] = b
+    # Contacts: the arm's on every member, then the members' with each other.
+    K = 0
+    for i in range(count):
+        if group[c_obj[i]]:
+            K += 1
+    pts, nrm, gps = np.empty((2, 2)), np.empty((2, 2)), np.empty(2)
+    pairs = 0
+    for a in range(members.shape[0]):
+        for b in range(a + 1, members.shape[0]):
+            i, j = members[a], members[b]
+            pairs += kernels.planar_contacts(
+                obj_kind[i], obj_size[i], objects[i, 0], objects[i, 1], objects[i, 2],
+                obj_kind[j], obj_size[j], objects[j, 0], objects[j, 1], objects[j, 2],
+                margin, pts, nrm, gps)
+    K += pairs
+    B = members.shape[0]
+    P, N, V = np.zeros((K, 2)), np.zeros((K, 2)), np.zeros((K, 2))
+    body, other = np.empty(K, dtype=np.int64), np.full(K, -1, dtype=np.int64)
+    gaps, mus = np.zeros(K), np.empty(K)
+    heights = np.full(B, -math.inf)
+    centres, cs, weights = np.empty((B, 2)), np.empty(B), np.empty(B)
+    row = 0
+    for b in range(B):
+        m = members[b]
+        cos, sin = math.cos(objects[m, 2]), math.sin(objects[m, 2])
+        cx, cy = obj_props[m, OBJ_COF_X], obj_props[m, OBJ_COF_Y]
+        centres[b, 0] = objects[m, 0] + cos * cx - sin * cy
+        centres[b, 1] = objects[m, 1] + sin * cx + cos * cy
+        cs[b] = obj_props[m, OBJ_C]
+        weights[b] = 1.0 / (obj_props[m, OBJ_SUPPORT_MU] * obj_props[m, OBJ_MASS])
+        k = 0
+        for i in range(count):
+            if c_obj[i] == m:
+                k += 1
+        if k == 0:
+            continue
+        Pm, Nm, Vm = np.empty((k, 2)), np.empty((k, 2)), np.empty((k, 2))
+        top = _object_frame_contacts(m, objects[m], count, c_shape, c_obj, c_point, c_normal,
+                                     c_depth, poses_a, poses_b, options[OPT_PENETRATION], Pm,
+                                     Nm, Vm)
+        heights[b] = top - table[0]
+        for r in range(k):           # object frame -> world
+            P[row, 0] = objects[m, 0] + cos * Pm[r, 0] - sin * Pm[r, 1]
+            P[row, 1] = objects[m, 1] + sin * Pm[r, 0] + cos * Pm[r, 1]
+            N[row, 0], N[row, 1] = cos * Nm[r, 0] - sin * Nm[r, 1], sin * Nm[r, 0] + cos * Nm[r, 1]
+            V[row, 0], V[row, 1] = cos * Vm[r, 0] - sin * Vm[r, 1], sin * Vm[r, 0] + cos * Vm[r, 1]
+            body[row], mus[row] = b, obj_props[m, OBJ_PUSHER_MU]
+            row += 1
+    weights /= weights.max()
+    for a in range(B):
+        for b in range(a + 1, B):
+            i, j = members[a], members[b]
+            n = kernels.planar_contacts(
+                obj_kind[i], obj_size[i], objects[i, 0], objects[i, 1], objects[i, 2],
+                obj_kind[j], obj_size[j], objects[j, 0], objects[j, 1], objects[j, 2],
+                margin, pts, nrm, gps)
+            # Both stand on the table: the force acts at half the lower one's height.
+            level = 0.5 * min(obj_size[i, 2], obj_size[j, 2])
+            for r in range(n):
+                P[row, 0], P[row, 1] = pts[r, 0], pts[r, 1]
+                N[row, 0], N[row, 1] = nrm[r, 0], nrm[r, 1]
+                body[row], other[row], gaps[row] = b, a, gps[r]
+                # MuJoCo's rule for two geoms' friction, and the objects' geoms carry mu_c
+                mus[row] = max(obj_props[i, OBJ_PUSHER_MU], obj_props[j, OBJ_PUSHER_MU])
+                heights[a] = max(heights[a], level)
+                heights[b] = max(heights[b], level)
+                row += 1
+    twists = np.empty((B, 3))
+    code = pushing.multibody_twists_kernel(centres, cs, weights, P, N, body, other, V, gaps,
+                                           mus, max(100, 80 * K), twists)
+    if code == pushing.JAMMED:
+        info[1] = members[0]
+        return _JAMMING
+    twist = np.empty(3)
+    for b in range(B):
+        m = members[b]
+        new_objects[m] = objects[m]
+        vx, vy, w = twists[b, 0], twists[b, 1], twists[b, 2]
+        if vx == 0.0 and vy == 0.0 and w == 0.0:
+            continue
+        # the origin's displacement (v_o = v_c + w x (o - c)), into the object frame
+        ox = vx - w * (objects[m, 1] - centres[b, 1])
+        oy = vy + w * (objects[m, 0] - centres[b, 0])
+        cos, sin = math.cos(objects[m, 2]), math.sin(objects[m, 2])
+        twist[0], twist[1], twist[2] = cos * ox + sin * oy, -sin * ox + cos * oy, w
+        code = _object_rules(m, twist, heights[b], obj_kind, obj_size, obj_props, options,
+                             value)
+        if code != _VALID:
+            info[1] = m
+            return code
+        x, y, yaw = pushing.apply_twist_kernel(objects[m, 0], objects[m, 1], objects[m, 2],
+                                               twist[0], twist[1], twist[2])
+        new_objects[m, 0], new_objects[m, 1], new_objects[m, 2] = x, y, yaw
+        changed[m] = True
+        moved[m] = 1
+        near[:, m] = True
+    return _VALID
+
+
+_CONTACT_MARGIN = 2.0
+"""Object pairs closer than this many substeps (`PhysicsOptions.max_substep`) at a substep's
+start join one contact problem: within a substep nothing moves farther than one."""
 
 
 @njit(cache=True)
@@ -606,6 +800,7 @@ def _object_checks(objects: np.ndarray, which: np.ndarray, static_centre: np.nda
     tolerance) and keep their centres on the table."""
     M = objects.shape[0]
     tol = options[OPT_OVERLAP]
+    pair_tol = options[OPT_CONTACT_TOLERANCE] if options[OPT_OBJECT_CONTACT] > 0.0 else tol
     for i in range(M):
         for j in range(i + 1, M):
             if not (which[i] or which[j]):
@@ -613,7 +808,7 @@ def _object_checks(objects: np.ndarray, which: np.ndarray, static_centre: np.nda
             depth = kernels.prism_penetration(
                 obj_kind[i], obj_size[i], objects[i, 0], objects[i, 1], objects[i, 2],
                 obj_kind[j], obj_size[j], objects[j, 0], objects[j, 1], objects[j, 2])
-            if depth > tol:
+            if depth > pair_tol:
                 info[1], info[2] = i, j
                 return _OBJECT_OVERLAP
     for i in range(M):
@@ -750,6 +945,13 @@ def _substep(poses_a: np.ndarray, poses_b: np.ndarray, objects: np.ndarray,
                          table, options, changed, pushing_shapes, moved, near, info, value)
     if code != _VALID:
         return code
+    if options[OPT_OBJECT_CONTACT] > 0.0 and changed.any():
+        code = _resolve_object_contacts(objects, new_objects, changed, count, c_shape, c_obj,
+                                        c_point, c_normal, c_depth, poses_a, poses_b,
+                                        obj_kind, obj_size, obj_props, table, options, moved,
+                                        near, info, value)
+        if code != _VALID:
+            return code
     any_changed = bool(changed.any())
     depth = _residual_depth(poses_b, shapes, new_objects, changed, any_changed, count,
                             c_shape, c_obj, c_point, c_normal, c_depth, near, obj_kind,

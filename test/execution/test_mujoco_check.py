@@ -125,6 +125,30 @@ def test_a_centre_of_friction_off_the_push_line_turns_the_box_the_same_way_in_bo
         assert turns[1.0][which] > turns[-1.0][which] + 0.05, turns
 
 
+SMALL_BOX = {**BOX, "size": [0.05, 0.05, 0.1], "mass": 0.3}
+CAN = {"name": "can", "shape": "cylinder", "radius": 0.03, "height": 0.1, "mass": 0.3,
+       "support_friction": 0.4, "pusher_friction": 0.3}
+
+
+@pytest.mark.parametrize("row", [
+    [("second", BOX, (0.525, 0.0))],                                  # two in a row
+    [("second", BOX, (0.525, 0.03))],                                 # the second off the line
+    [("second", SMALL_BOX, (0.525, 0.0)), ("can", CAN, (0.585, 0.0))],   # three in a row
+    [("can", CAN, (0.525, -0.02))],                                   # a can off the line
+], ids=["two", "offset", "three", "can"])
+def test_a_row_of_objects_moves_as_in_mujoco(panda, push_path, row):
+    """The box pushed into one or two more (object contact, `PhysicsOptions.object_contact`):
+    each object ends where MuJoCo puts it, within 5 mm (0.4-2.2 mm measured)."""
+    objects = [BOX] + [{**spec, "name": name, "pose": [x, y, 0.0]}
+                       for name, spec, (x, y) in row]
+    scene, trajectory, predicted = _pushed(panda, push_path, objects)
+    executed = check_execution(scene, trajectory)
+    for i, outcome in enumerate(executed.objects):
+        assert outcome.moved_m > 0.05, outcome.name            # all of them pushed along
+        error = np.hypot(*(np.asarray(outcome.pose[:2]) - predicted.objects[i, :2]))
+        assert error < 0.005, (outcome.name, outcome.pose, predicted.objects[i])
+
+
 def test_servo_arm_tracks_the_straight_push_like_the_ideal_arm(straight_push):
     scene, trajectory, _ = straight_push
     ideal = check_execution(scene, trajectory)

@@ -1,6 +1,7 @@
 """The quasistatic physics step on the Panda (docs/design.md): whole-arm pushing, invariants after
 every valid step, independence of how a motion is chopped, and every invalid reason."""
 
+import dataclasses
 import math
 
 import numpy as np
@@ -255,7 +256,8 @@ def test_invalid_arm_obstacle_penetration(panda, push_q):
     assert results[-1].reason is Invalid.ARM_OBSTACLE and "'post'" in results[-1].detail
 
 
-def _pushed_into(panda, push_q, second=(), obstacles=(), table=TABLE, gap=0.005):
+def _pushed_into(panda, push_q, second=(), obstacles=(), table=TABLE, gap=0.005,
+                 options=None):
     """The hand pushes a box ('target') in +y; `second`/`obstacles`/`table` get the target's
     +y face position and place something just beyond it."""
     tool = panda.tool_pose(push_q)[:3, 3]
@@ -264,14 +266,30 @@ def _pushed_into(panda, push_q, second=(), obstacles=(), table=TABLE, gap=0.005)
     scene = make_scene([box("target", target), *second(face)], push_q,
                        obstacles=obstacles(face) if obstacles else (), robot=panda,
                        table=table(face) if callable(table) else table)
-    _, results = sweep(Physics(scene, SIM), scene.initial_state(), 0, 0.004, 100)
+    _, results = sweep(Physics(scene, options or SIM), scene.initial_state(), 0, 0.004, 100)
     return results[-1]
 
 
-def test_invalid_object_object_overlap(panda, push_q):
-    last = _pushed_into(panda, push_q, lambda face: [box("other", [0.47, face + 0.03, 0.0])])
+def test_invalid_object_object_overlap_without_object_contact(panda, push_q):
+    """King et al.'s model (object_contact off): objects never touch."""
+    last = _pushed_into(panda, push_q, lambda face: [box("other", [0.47, face + 0.03, 0.0])],
+                        options=dataclasses.replace(SIM, object_contact=False))
     assert last.reason is Invalid.OBJECT_OVERLAP
     assert "'target'" in last.detail and "'other'" in last.detail
+
+
+def test_a_pushed_object_pushes_the_next_with_object_contact(panda, push_q):
+    """With object contact (the default), the target pushed into another box pushes it along:
+    both move, neither penetrates the other beyond the contact tolerance."""
+    from rearrangement_planner.physics.kernels import BOX, prism_penetration
+
+    last = _pushed_into(panda, push_q, lambda face: [box("other", [0.47, face + 0.03, 0.0])])
+    assert last.valid and last.moved_objects == {0, 1}
+    (x0, y0, yaw0), (x1, y1, yaw1) = last.state.objects
+    size = np.array([0.06, 0.06, 0.12])
+    assert prism_penetration(BOX, size, x0, y0, yaw0, BOX, size, x1, y1, yaw1) \
+        < SIM.contact_tolerance
+    assert y1 > y0 + 0.03                                # pushed ahead, not passed through
 
 
 def test_invalid_object_obstacle_overlap(panda, push_q):
@@ -431,12 +449,15 @@ def test_the_packed_options_follow_the_named_columns(panda):
 
     options = PhysicsOptions(max_substep=0.0031, penetration_tolerance=0.0021,
                              overlap_tolerance=0.00011, vertical_normal_limit=0.61,
-                             tipping=True, max_turn=7.5)
+                             tipping=True, max_turn=7.5, object_contact=True,
+                             tip_judgement=True, contact_tolerance=0.0017)
     packed = step.packed_options(options)
     columns = {"max_substep": step.OPT_MAX_SUBSTEP, "penetration_tolerance": step.OPT_PENETRATION,
                "overlap_tolerance": step.OPT_OVERLAP,
                "vertical_normal_limit": step.OPT_VERTICAL_NORMAL, "tipping": step.OPT_TIPPING,
-               "max_turn": step.OPT_MAX_TURN}
+               "max_turn": step.OPT_MAX_TURN, "object_contact": step.OPT_OBJECT_CONTACT,
+               "tip_judgement": step.OPT_TIP_JUDGEMENT,
+               "contact_tolerance": step.OPT_CONTACT_TOLERANCE}
     assert len(packed) == len(step.OPTION_FIELDS) == len(columns) + 1
     for name, column in columns.items():
         assert step.OPTION_FIELDS[column] == name
@@ -453,3 +474,5 @@ def test_the_packed_options_follow_the_named_columns(panda):
     assert props[step.OBJ_SUPPORT_MU] == obj.support_friction
     assert props[step.OBJ_FOOTPRINT] == obj.footprint_radius
     assert props[step.OBJ_STATIC] == 0.0
+    assert (props[step.OBJ_COF_X], props[step.OBJ_COF_Y]) == obj.support.centre == (0.0, 0.0)
+    assert props[step.OBJ_MASS] == obj.mass

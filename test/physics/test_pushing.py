@@ -643,3 +643,68 @@ def test_a_centred_face_push_with_two_contacts_barely_turns_across_the_range():
         result = object_twist(scale * SQUARE_C, points, normals, pushes, 0.3, centre)
         assert not result.jammed
         assert abs(result.twist[2]) < 1e-9 and result.twist[1] == pytest.approx(0.01)
+
+
+# ---------------------------------------------------------------------------------------------
+# Several objects pushing each other (module docstring, §3b)
+# ---------------------------------------------------------------------------------------------
+
+
+def test_one_object_alone_in_the_multibody_problem_moves_as_in_the_single_object_model():
+    """With one object and the arm's contacts only, the multi-body LCP is §3's problem (in the
+    world frame, about the centre of friction, any support scale): the same twist."""
+    from rearrangement_planner.physics.pushing import multibody_twists
+
+    rng = np.random.default_rng(5)
+    checked = 0
+    for _ in range(40):
+        k = int(rng.integers(1, 4))
+        yaw, origin = rng.uniform(-np.pi, np.pi), rng.uniform(-0.5, 0.5, 2)
+        centre = rng.uniform(-0.01, 0.01, 2)
+        P = rng.uniform(-0.04, 0.04, (k, 2))
+        angles = rng.uniform(0, 2 * np.pi, k)
+        N = np.column_stack([np.cos(angles), np.sin(angles)])
+        V = N * rng.uniform(0.001, 0.004, (k, 1)) + rng.normal(0, 0.001, (k, 2))
+        local = object_twist(SQUARE_C, P, N, V, 0.3, centre)
+        R = np.array([[np.cos(yaw), -np.sin(yaw)], [np.sin(yaw), np.cos(yaw)]])
+        world_centre = origin + R @ centre
+        mode, twists = multibody_twists(
+            [world_centre], [SQUARE_C], [rng.uniform(0.2, 5.0)], origin + P @ R.T, N @ R.T,
+            np.zeros(k), -np.ones(k), V @ R.T, np.zeros(k), np.full(k, 0.3))
+        if local.jammed or mode == "jammed":
+            continue
+        checked += 1
+        vx, vy, w = twists[0]
+        # the twist of the object's origin, in its own frame
+        v_origin = R.T @ (np.array([vx, vy]) + w * np.array([-(origin - world_centre)[1],
+                                                             (origin - world_centre)[0]]))
+        # the same up to the multi-body problem's compliance (MULTIBODY_COMPLIANCE)
+        np.testing.assert_allclose([*v_origin, w], local.twist, rtol=1e-3, atol=1e-8)
+    assert checked >= 30
+
+
+def test_a_box_pushed_into_another_pushes_it_along_and_the_lighter_gives_way():
+    """The arm pushes box a (2 contacts on its back face) against box b (face to face): both
+    go straight at the arm's speed. Pushed into b from its side at a corner, b turns and the
+    arm's box goes on."""
+    from rearrangement_planner.physics.pushing import multibody_twists
+
+    centres = [[0.0, 0.0], [0.065, 0.0]]
+    arm = dict(P=[[-0.03, 0.01], [-0.03, -0.01]], V=[[0.001, 0.0]] * 2)
+    faces = [[0.0325, 0.04], [0.0325, -0.04]]
+    P = np.array(arm["P"] + faces)
+    N = np.array([[1.0, 0.0]] * 4)
+    mode, twists = multibody_twists(centres, [SQUARE_C] * 2, [1.0, 1.0], P, N, [0, 0, 1, 1],
+                                    [-1, -1, 0, 0], arm["V"] + [[0, 0]] * 2, [0, 0, 0.0005,
+                                                                              0.0005],
+                                    [0.3] * 4)
+    assert mode == "moving"
+    np.testing.assert_allclose(twists[0], [0.001, 0, 0], atol=1e-8)
+    # b closes the 0.5 mm gap first: it moves 0.5 mm less
+    np.testing.assert_allclose(twists[1], [0.0005, 0, 0], atol=1e-8)
+    corner = np.array(arm["P"] + [[0.0325, 0.04]])
+    mode, twists = multibody_twists(centres[:1] + [[0.065, 0.07]], [SQUARE_C] * 2, [1.0, 1.0],
+                                    corner, N[:3], [0, 0, 1], [-1, -1, 0],
+                                    arm["V"] + [[0, 0]], [0, 0, 0.0], [0.3] * 3)
+    assert mode == "moving" and twists[1, 2] > 0.0          # b turns about its far side
+    assert twists[0, 0] == pytest.approx(0.001, abs=1e-8)   # the arm carries a on
