@@ -1,13 +1,15 @@
 """The planner status (docs/design.md, the `~/status` topic) as a diagnostic_msgs/DiagnosticArray.
 
-One DiagnosticStatus: level OK while idle, planning or after a success, WARN after a cancel,
-ERROR after a failure; message "<state>: <message>"; one KeyValue per `PlannerStatus` field,
-numbers written with `repr` so that they read back exactly (inf as 'inf').
+One DiagnosticStatus: level OK while idle, planning or after a success, WARN after a cancel
+or a fragile success, ERROR after a failure; message "<state>: <message>"; one KeyValue per
+`PlannerStatus` field, numbers written with `repr` so that they read back exactly (inf as
+'inf'), booleans as 'True' / 'False'.
 """
 
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Callable
 
 from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
@@ -26,7 +28,17 @@ LEVELS = {
 """The diagnostic level of each planner state."""
 
 _FIELDS = {f.name: f for f in dataclasses.fields(PlannerStatus)}
-_PARSERS = {"iterations": int, "tree_size": int, "best_goal_distance": float, "elapsed": float}
+
+
+def _boolean(text: str) -> bool:
+    if text not in ("True", "False"):
+        raise ValueError(text)
+    return text == "True"
+
+
+_PARSERS: dict[str, Callable[[str], object]] = {
+    "iterations": int, "tree_size": int, "best_goal_distance": float, "elapsed": float,
+    "fragile": _boolean}
 
 
 def status_to_diagnostics(status: PlannerStatus, stamp: Time | None = None,
@@ -37,7 +49,8 @@ def status_to_diagnostics(status: PlannerStatus, stamp: Time | None = None,
               for key, value in dataclasses.asdict(status).items()]
     return DiagnosticArray(
         header=Header(stamp=stamp if stamp is not None else Time()),
-        status=[DiagnosticStatus(level=LEVELS[status.state], name=name, message=message,
+        status=[DiagnosticStatus(level=DiagnosticStatus.WARN if status.fragile
+                                 else LEVELS[status.state], name=name, message=message,
                                  hardware_id="", values=values)])
 
 
@@ -64,9 +77,8 @@ def _parse(values: dict[str, str], field: str) -> PlannerStatus:
         try:
             kwargs[key] = parse(text)
         except ValueError:
-            raise InputError(f"{field}.values[{key}]",
-                             f"is {text!r}; need {'an integer' if parse is int else 'a number'}"
-                             ) from None
+            need = {int: "an integer", _boolean: "True or False"}.get(parse, "a number")
+            raise InputError(f"{field}.values[{key}]", f"is {text!r}; need {need}") from None
     if "state" not in kwargs:
         raise InputError(f"{field}.values", "has no 'state' value; every status needs one")
     try:

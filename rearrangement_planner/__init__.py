@@ -8,7 +8,8 @@ import tempfile
 from pathlib import Path
 
 COMPILED_MODULES = ("physics/kernels.py", "physics/pushing.py", "physics/step.py",
-                    "planning/manifold.py", "planning/propagation.py", "planning/tree.py")
+                    "planning/manifold.py", "planning/propagation.py", "planning/robustness.py",
+                    "planning/tree.py")
 """The modules with Numba-compiled functions (`@njit(cache=True)`)."""
 
 

@@ -16,7 +16,8 @@ and when solved
   N/trajectory                 trajectory_msgs/msg/JointTrajectory
   N/predicted_object_poses     geometry_msgs/msg/PoseArray, one per trajectory point, logged and
                                stamped at start + time_from_start.
-Metadata record "rearrangement_plan": plan_id, planner, seed, outcome, message, parameters
+Metadata record "rearrangement_plan": plan_id, planner, seed, outcome, message, fragile
+("true" for a fragile plan: `PlanOutput.fragile`), parameters
 (JSON), scene (YAML of the scene file format), statistics (JSON result of docs/design.md without
 the trajectory).
 """
@@ -134,6 +135,7 @@ def plan_metadata(output: PlanOutput, plan_id: str, parameters: Mapping[str, Any
         "seed": str(result.seed),
         "outcome": result.outcome.value,
         "message": result.message,
+        "fragile": str(output.fragile).lower(),
         "parameters": _json(parameters),
         "scene": yaml.safe_dump(_jsonable(output.scene.to_dict()), sort_keys=False),
         "statistics": _json(statistics),

@@ -87,6 +87,10 @@ class PCRRTOptions(PushingPlannerOptions):
     clear_blockers: bool = setting(True)
     """When a push of the goal object runs into another object, push that object out of the
     way and push on, within the same action."""
+    face_push: bool = setting(False)
+    """The closed-loop pushes turn the hand to face the push, its flat face across the push
+    line (a line contact, the stable push of Lynch & Mason 1996), instead of keeping the
+    hand's yaw. Measured: docs/experiments.md."""
 
     def __post_init__(self) -> None:
         super().__post_init__()

@@ -88,10 +88,29 @@ class PlanOutput:
     """Seconds spent shortcutting."""
     robustness: float | None = None
     """Share of the perturbed rollouts the plan reached the goal in (None: not measured)."""
+    min_robustness: float = 0.0
+    """The request's min_robustness (0: robustness not asked for)."""
 
     @property
     def solved(self) -> bool:
         return self.result.solved
+
+    @property
+    def fragile(self) -> bool:
+        """A solved plan answered although its robustness stayed below min_robustness (robust
+        selection's `accept_best`): it reached the goal in too few perturbed worlds to trust
+        it open loop (docs/design.md, "Fragile plans")."""
+        return (self.solved and self.robustness is not None
+                and self.robustness < self.min_robustness)
+
+    def fragile_note(self) -> str:
+        """'' or the sentence that says the plan is fragile, for every answer a user reads."""
+        if not self.fragile:
+            return ""
+        assert self.robustness is not None
+        return (f"FRAGILE: it reached the goal in {self.robustness:.0%} of the perturbed "
+                f"rollouts, below min_robustness {self.min_robustness:.0%}; executed open loop "
+                f"it may well miss")
 
     @property
     def final_objects(self) -> np.ndarray:
@@ -120,6 +139,8 @@ class PlanOutput:
             "trajectory": trajectory_dict(self.trajectory) if self.trajectory else None,
             "shortcut_time_s": self.shortcut_time,
             "robustness": self.robustness,
+            "min_robustness": self.min_robustness,
+            "fragile": self.fragile,
             "before_shortcut": (self.metrics_before_shortcut.to_dict()
                                 if self.metrics_before_shortcut else None),
         }
@@ -176,15 +197,16 @@ def plan_scene(request: PlanRequest, cancel: threading.Event | None = None,
         candidate = candidates.shortcut(candidates.plan(request.seed), request.seed)
     result = candidate.result
     name = request.planner.name
+    floor = request.robust.min_robustness
     if not result.solved:
-        return PlanOutput(scene, name, result, robustness=score)
+        return PlanOutput(scene, name, result, robustness=score, min_robustness=floor)
     trajectory = time_parameterize(scene.robot, result.arm_path, request.timing)
     states = _states_at_points(result.states, trajectory)
     shortened = request.shortcut.shortcut_time > 0 and request.planner.shortcut
     return PlanOutput(scene, name, result, trajectory, states,
                       PathMetrics.of(scene, result.states),
                       candidate.before if shortened else None, candidate.shortcut_time,
-                      score)
+                      score, floor)
 
 
 @dataclass(frozen=True)

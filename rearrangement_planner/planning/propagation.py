@@ -119,6 +119,9 @@ class PushTarget:
     obj: int
     target: tuple[float, float]
     speed: float
+    facing: bool = False
+    """Turn the hand to face the push (its flat face across the push line, at most
+    FACING_YAW_RATE): a line contact on the object's face rather than a corner (`face_push`)."""
 
 
 def propagate(physics: Physics, state: State, steps: int, dt: float, nullspace: np.ndarray,
@@ -160,26 +163,36 @@ def propagate(physics: Physics, state: State, steps: int, dt: float, nullspace: 
     return Propagation(states, done * dt, stopped, physics.pushing_links(flags))
 
 
+FACING_YAW_RATE = 1.0
+"""rad/s: how fast a facing push turns the hand towards the push direction."""
+
+
 def _policy_array(physics: Physics, push: PushTarget | None) -> np.ndarray:
     """The push for `_propagate_kernel`: (object, target x, y, speed, cylinder (0/1), size x,
-    size y, footprint radius, push band, the rows of R0, the posture's tool rotation); object
-    -1: no push (the velocity is held)."""
+    size y, footprint radius, push band, the rows of R0, the posture's tool rotation, the
+    facing yaw rate (0: the hand keeps its yaw)); object -1: no push (the velocity is
+    held)."""
     posture = physics.robot.config.push_posture.rotation
     if push is None:
         return np.concatenate([[-1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, PUSH_BAND],
-                               posture.ravel()])
+                               posture.ravel(), [0.0]])
     obj = physics.scene.objects[push.obj]
     return np.concatenate([[push.obj, push.target[0], push.target[1], push.speed,
                             float(obj.shape == "cylinder"), obj.size[0], obj.size[1],
-                            obj.footprint_radius, PUSH_BAND], posture.ravel()])
+                            obj.footprint_radius, PUSH_BAND], posture.ravel(),
+                           [FACING_YAW_RATE if push.facing else 0.0]])
 
 
 @njit(cache=True)
-def _push_velocity(tool_x: float, tool_y: float, cx: float, cy: float, yaw: float,
-                   policy: np.ndarray, dt: float, out: np.ndarray) -> bool:
+def _push_velocity(tool_x: float, tool_y: float, tool_yaw: float, cx: float, cy: float,
+                   yaw: float, policy: np.ndarray, dt: float, out: np.ndarray) -> bool:
     """The closed-loop push law (`push_policy` drives it), the object's shape from `policy`
-    (`_policy_array`): writes the tool velocity into out[:2]; False once the object is
-    within 1 cm of the target."""
+    (`_policy_array`): writes the tool velocity into out[:3]; False once the object is
+    within 1 cm of the target. A facing push (policy[18] > 0) also turns the hand, at most
+    policy[18] rad/s, until its flat face lies across the push line (tool yaw = the push's
+    heading, or that plus pi: the hand is symmetric), so that it meets a face along a line
+    rather than at a corner: the stable push of Lynch & Mason 1996, which sticks and does not
+    turn the object whatever its support pressure (test_pushing)."""
     tx, ty, speed, band = policy[1], policy[2], policy[3], policy[8]
     dx, dy = tx - cx, ty - cy
     distance = math.hypot(dx, dy)
@@ -208,7 +221,11 @@ def _push_velocity(tool_x: float, tool_y: float, cx: float, cy: float, yaw: floa
     norm = math.hypot(vx, vy)
     if norm > speed:
         vx, vy = vx * (speed / norm), vy * (speed / norm)
-    out[0], out[1], out[2] = vx, vy, 0.0
+    rate = 0.0
+    if policy[18] > 0.0:
+        error = (math.atan2(uy, ux) - tool_yaw + 0.5 * math.pi) % math.pi - 0.5 * math.pi
+        rate = max(-policy[18], min(policy[18], 0.5 * error / dt))
+    out[0], out[1], out[2] = vx, vy, rate
     return True
 
 
@@ -242,8 +259,8 @@ def _propagate_kernel(q: np.ndarray, objects: np.ndarray, held: np.ndarray,
     velocity = held.copy()
     for i in range(steps):
         if pushed >= 0:
-            x, y, _ = _tool_planar(q, project, policy)
-            if not _push_velocity(x, y, objects[pushed, 0], objects[pushed, 1],
+            x, y, tool_yaw = _tool_planar(q, project, policy)
+            if not _push_velocity(x, y, tool_yaw, objects[pushed, 0], objects[pushed, 1],
                                   objects[pushed, 2], policy, dt, velocity):
                 return i, -_ARRIVED
         q_new = project_kernel(q, velocity, dt, nullspace, project[0], project[1], project[2],

@@ -2,29 +2,34 @@
 King et al., "Robust trajectory selection for rearrangement planning as a multi-armed bandit
 problem", IROS 2015): an open-loop plan is only as good as the share of slightly different worlds in
 which it still works. `robustness` replays a plan's arm path in N perturbed copies of the
-scene (object poses, frictions, masses, the arm's contact shapes grown or shrunk a few mm:
-`model.perturbation`) through the planner's own quasistatic physics and counts the rollouts
-that stay valid and end with the goal object in its goal region. `pipeline.plan_scene` uses it
-to accept a candidate plan only at `min_robustness`, or to keep the best of several
-candidates: the most robust, less `travel_penalty` for each metre its goal object is pushed
+scene (object poses, frictions, masses, how each object's weight rests on the table, the arm's
+contact shapes grown or shrunk a few mm: `model.perturbation`) through the quasistatic physics
+and counts the rollouts that end with the goal object in its goal region and nothing toppled:
+the user's question. A rollout simulates what the planner's rules would refuse: objects that
+meet push each other (`PhysicsOptions.object_contact`), a push may turn an object as fast as
+it does, and a push that would tip an object topples it only if it carries it far enough while
+it tips (`rollout_kernel`; `PhysicsOptions.tip_judgement`). `pipeline.plan_scene` uses it to
+accept a candidate plan only at `min_robustness`, or to keep the best of several candidates:
+the most robust, less `travel_penalty` for each metre its goal object is pushed
 (`goal_travel`).
 """
 
 from __future__ import annotations
 
 import dataclasses
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 
 from rearrangement_planner.model.perturbation import Perturbation
 from rearrangement_planner.model.scene import Scene
 from rearrangement_planner.model.settings import Settings, setting
 from rearrangement_planner.model.state import State
 from rearrangement_planner.physics.options import PhysicsOptions
-from rearrangement_planner.physics.step import Physics
-from rearrangement_planner.planning.propagation import replay
+from rearrangement_planner.physics.step import Physics, step_kernel
 
 
 @dataclass(frozen=True)
@@ -53,8 +58,8 @@ class RobustOptions(Settings):
     at all."""
 
 
-ROLLOUT_PERTURBATION = Perturbation(pressure=(1.0, 1.0), centre_offset=0.0)
-"""The rollouts' perturbed worlds: every object's support pressure nominal."""
+ROLLOUT_PERTURBATION = Perturbation()
+"""The rollouts' perturbed worlds (the same draws as the MuJoCo check's perturbed executions)."""
 
 FIRST_PLAN = RobustOptions(min_robustness=0.0)
 """A request answered by the first plan found, unchecked."""
@@ -64,16 +69,65 @@ ROLLOUT_PENETRATION_TOLERANCE = 0.01
 
 
 def rollout_reaches(scene: Scene, arm_path: np.ndarray, physics_options: PhysicsOptions) -> bool:
-    """Whether `arm_path` (the first configuration the start), replayed in `scene`, stays
-    valid from start to end and leaves the goal object inside its goal region."""
+    """Whether `arm_path` (the first configuration the start), replayed in `scene`, leaves the
+    goal object inside its goal region with nothing toppled (`rollout`)."""
+    return rollout(scene, arm_path, physics_options) == ""
+
+
+def rollout(scene: Scene, arm_path: np.ndarray, physics_options: PhysicsOptions) -> str:
+    """Replay `arm_path` (the first configuration the start) in `scene` with the rollout's
+    physics (`rollout_options`): '' when the goal object ends inside its goal region and
+    nothing toppled, else why not ('toppled', 'missed', or the step's invalid reason:
+    an object pushed off the table, the arm pressing on one from above, a jam...)."""
     physics = Physics(scene, physics_options)
-    start = State(np.asarray(arm_path[0], dtype=float), scene.object_poses)
-    if physics.check_state(start) is not None:
-        return False
-    states, problem = replay(physics, start, arm_path)
-    if problem:
-        return False
-    return scene.goal.reached(states[-1].objects[scene.goal_index, :2])
+    arm = np.array(arm_path, dtype=float)
+    start = State(arm[0], scene.object_poses)
+    problem = physics.check_state(start)
+    if problem is not None:
+        return problem[0].value
+    objects = np.empty((len(arm), *start.objects.shape))
+    objects[0] = start.objects
+    code = rollout_kernel(arm, objects, physics.arrays, physics.flag_count)
+    if code == TOPPLED:
+        return "toppled"
+    if code > 0:
+        return physics.reason(code).value
+    return "" if scene.goal.reached(objects[-1, scene.goal_index, :2]) else "missed"
+
+
+TOPPLED = -1
+"""`rollout_kernel`'s code for an object carried far enough while it tips to fall over."""
+
+
+@njit(cache=True)
+def rollout_kernel(arm: np.ndarray, objects: np.ndarray, world: tuple, flags: int) -> int:
+    """Physics steps from arm[i - 1] to arm[i], objects[i - 1] -> objects[i], with the tip
+    judgement (`PhysicsOptions.tip_judgement`): an object whose pushes keep tipping it
+    accumulates the distance it is carried; it topples (TOPPLED) once that reaches the
+    travel its step reports (`physics.step._tip_travel`); a step that moves it without
+    tipping it, or leaves it alone, lets it fall back upright (the count starts again).
+    Returns 0, TOPPLED or the first invalid step's code."""
+    M = objects.shape[1]
+    info = np.zeros(4 + flags, dtype=np.int64)
+    value = np.zeros(1 + M)
+    carried = np.zeros(M)
+    for i in range(1, arm.shape[0]):
+        info[:] = 0
+        value[:] = 0.0
+        code = step_kernel(arm[i - 1], arm[i], objects[i - 1], world[0], world[1], world[2],
+                           world[3], world[4], world[5], world[6], world[7], world[8],
+                           world[9], world[10], world[11], world[12], objects[i], info, value)
+        if code != 0:
+            return code
+        for m in range(M):
+            if value[1 + m] > 0.0:
+                carried[m] += math.hypot(objects[i, m, 0] - objects[i - 1, m, 0],
+                                         objects[i, m, 1] - objects[i - 1, m, 1])
+                if carried[m] >= value[1 + m]:
+                    return TOPPLED
+            else:
+                carried[m] = 0.0
+    return 0
 
 
 def goal_travel(scene: Scene, states: Sequence[State]) -> float:
@@ -93,15 +147,19 @@ def candidate_rank(score: float, travel: float, travel_penalty: float) -> float:
 
 
 def rollout_options(options: PhysicsOptions) -> PhysicsOptions:
-    """The physics options a rollout judges a plan with, from the planner's.
+    """The physics options a rollout judges a plan with, from the planner's: the world as it
+    is, not the planner's rules for choosing pushes.
 
     A perturbed object meets the arm a few mm from where the plan had it: the arm then ends a
     step up to a few mm inside it, which the planner's 3 mm residual check would call an
     invalid step although the object is simply pushed. Rollouts judge the goal, not that. The
     turn limit chooses which pushes the planner may plan with; a perturbed world that turns an
-    object a little faster does not fail the plan."""
+    object a little faster does not fail the plan. Objects that meet push each other, and a
+    push that would tip an object is judged by whether it topples it (`rollout_kernel`), not
+    refused."""
     return dataclasses.replace(options, penetration_tolerance=max(
-        options.penetration_tolerance, ROLLOUT_PENETRATION_TOLERANCE), max_turn=0.0)
+        options.penetration_tolerance, ROLLOUT_PENETRATION_TOLERANCE), max_turn=0.0,
+        tipping=False, tip_judgement=True, object_contact=True)
 
 
 def robustness(scene: Scene, states: Sequence[State], rollouts: int, seed: int,

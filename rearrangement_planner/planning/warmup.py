@@ -54,6 +54,7 @@ def _exercise() -> None:
         replay,
     )
     from rearrangement_planner.planning.push_policy import push_policy_prop
+    from rearrangement_planner.planning.robustness import rollout, rollout_options
     from rearrangement_planner.planning.tree import Tree
 
     scene = load_scene("easy_push")
@@ -71,6 +72,7 @@ def _exercise() -> None:
     push = Action(np.array([0.0, 0.1, 0.0]), 0.5, np.zeros(scene.robot.nq))
     constrained_prop(physics, start, push, 0.05, stops)
     replay(physics, start, [start.q, start.q], until=stops)
+    rollout(scene, np.array([start.q, start.q]), rollout_options(physics.options))
     tree = Tree(start, np.zeros(2))
     tree.nearest(np.zeros(2), start.objects, 1.0, np.ones(len(scene.objects)))
     push_policy_prop(physics, start, scene.goal_index, np.array([0.5, -0.1]), 2, 0.05, 0.1,

@@ -369,7 +369,7 @@ class PlannerNode(Node):
             self._trajectory_pub.publish(msg)
             with self._lock:
                 self._last_trajectory = (job.plan_id, msg)
-            if params["auto_execute"]:
+            if params["auto_execute"] and (not output.fragile or params["execute_fragile"]):
                 self._command_pub.publish(msg)
         recording, failure = record(job, output, params, frame, inputs, self.get_logger())
         if failure is not None:
@@ -382,14 +382,15 @@ class PlannerNode(Node):
         final = PlannerStatus(FINAL_STATES.get(outcome, "failed"), summary, outcome,
                               job.plan_id, r.iterations if r else 0, r.tree_size if r else 0,
                               r.best_goal_distance if r else math.inf,
-                              time.monotonic() - job.started)
+                              time.monotonic() - job.started,
+                              output is not None and output.fragile)
         with self._lock:
             self._job = None
             self._status = final
             self._publish_status(final)
         job.outcome, job.summary = outcome, summary
         line = f"{summary} (done {time.monotonic() - job.submitted:.2f} s after the request)"
-        if outcome == Outcome.SUCCEEDED.value:
+        if outcome == Outcome.SUCCEEDED.value and not final.fragile:
             self.get_logger().info(line)
         else:
             self.get_logger().warning(line)

@@ -87,7 +87,9 @@ _NODE_LAST: tuple[ParameterSpec, ...] = (
                   "(<plan id>.mcap); '~' is expanded."),
     ParameterSpec("record", True, "Record every plan (success or failure) to MCAP."),
     ParameterSpec("auto_execute", False, "Publish every successful plan on joint_trajectory "
-                  "right away."),
+                  "right away (a fragile one only with execute_fragile)."),
+    ParameterSpec("execute_fragile", False, "With auto_execute, publish a fragile plan too (one "
+                  "whose robustness stayed below min_robustness; its answer says FRAGILE)."),
     ParameterSpec("plan_on_goal", False, "Start planning when a goal arrives on ~/goal."),
 )
 

@@ -229,7 +229,8 @@ def planning_status(job: Job, progress: Progress | None, message: str) -> Planne
 def summary_line(plan_id: str, outcome: str, message: str, output: PlanOutput | None,
                  recording: str, rollouts: int) -> str:
     """The one-line answer of ~/plan (and the final ~/status message): "plan ID: OUTCOME in
-    T s, N iterations, mcap PATH", then "; why" unless it succeeded, then the robustness."""
+    T s, N iterations, mcap PATH", then "; why" unless it succeeded, then the robustness, and
+    for a fragile plan the sentence that says so (`PlanOutput.fragile_note`)."""
     r = output.result if output is not None else None
     plan_time, iterations = (r.plan_time, r.iterations) if r else (0.0, 0)
     summary = (f"plan {plan_id}: {outcome} in {plan_time:.2f} s, {iterations} iterations, "
@@ -238,6 +239,8 @@ def summary_line(plan_id: str, outcome: str, message: str, output: PlanOutput | 
         summary += f"; {message}"
     if output is not None and output.robustness is not None:
         summary += f"; robustness {output.robustness:.0%} of {rollouts} perturbed rollouts"
+    if output is not None and output.fragile:
+        summary += f"; {output.fragile_note()}"
     return summary
 
 

@@ -36,11 +36,16 @@ class PlannerStatus:
     inf before any state has been evaluated."""
     elapsed: float = 0.0
     """Wall-clock time (s) since the plan started."""
+    fragile: bool = False
+    """The last plan succeeded but is fragile: its robustness stayed below min_robustness
+    (`PlanOutput.fragile`)."""
 
     def __post_init__(self) -> None:
         if self.state not in STATES:
             raise ValueError(f"state {self.state!r} is not a planner state; use one of "
                              f"{', '.join(STATES)}")
+        if not isinstance(self.fragile, bool):
+            raise ValueError(f"fragile must be a bool, got {self.fragile!r}")
         for name in ("message", "outcome", "plan_id"):
             if not isinstance(getattr(self, name), str):
                 raise ValueError(f"{name} must be a str, got {getattr(self, name)!r}")

@@ -188,6 +188,8 @@ def main(argv: list[str] | None = None) -> int:
     if not args.quiet:
         print(f"\r{result.outcome.value}: {result.message} "
               f"({time.monotonic() - started:.1f} s)", file=sys.stderr)
+    if output.fragile:      # said even with --quiet: the plan is not to be trusted open loop
+        print(f"rearrangement-plan: {output.fragile_note()}", file=sys.stderr)
     record = output.to_dict()
     executed = None
     check_failed = False
@@ -218,7 +220,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.record is not None:
         _record(output, request, args)
     if not args.quiet:
-        summary = {k: record[k] for k in ("solved", "plan_time_s", "iterations",
+        summary = {k: record[k] for k in ("solved", "fragile", "plan_time_s", "iterations",
                                           "goal_distance_m")}
         print(json.dumps(summary), file=sys.stderr)
     if check_failed:

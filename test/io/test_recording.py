@@ -55,8 +55,8 @@ TYPES = {
 }
 QOS = {TOPICS["joint_state"]: ("best_effort", "volatile", 5),
        TOPICS["trajectory"]: ("reliable", "transient_local", 1)}   # others: reliable, volatile, 10
-METADATA_KEYS = {"plan_id", "planner", "seed", "outcome", "message", "parameters", "scene",
-                 "statistics"}
+METADATA_KEYS = {"plan_id", "planner", "seed", "outcome", "message", "fragile", "parameters",
+                 "scene", "statistics"}
 
 
 @pytest.fixture(scope="module")
@@ -254,6 +254,7 @@ def test_metadata_record_holds_parameters_scene_and_statistics(which, request):
     assert int(data["seed"]) == output.result.seed == 0
     assert data["outcome"] == output.result.outcome.value
     assert data["message"] == output.result.message
+    assert data["fragile"] == "false"           # not robust-selected: never fragile
     parameters = json.loads(data["parameters"], parse_constant=pytest.fail)
     if which == "solved":
         assert parameters == {**PARAMETERS, "max_iterations": "inf",

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from rearrangement_planner.model.resources import scenes_dir
-from rearrangement_planner.physics.step import Physics
+from rearrangement_planner.physics.step import Invalid, Physics
 from rearrangement_planner.physics.validation import load_scene
 from rearrangement_planner.planning import PCRRT, Outcome, PCRRTOptions, StopReason
 from rearrangement_planner.planning.propagation import replay
@@ -145,6 +145,34 @@ def test_push_policy_moves_the_object_towards_its_target(easy):
     states, problem = replay(physics, start, [start.q] + [s.q for s in result.states])
     assert problem == ""
     np.testing.assert_array_equal(states[-1].objects, result.states[-1].objects)
+
+
+def test_a_facing_push_turns_the_hand_across_the_push_line(easy):
+    """face_push: the hand starts 0.3 rad off the push heading. A facing push turns it until
+    its flat face lies across the push line and carries the box to the target along a line
+    contact; a plain push keeps its yaw, meets the box with a corner and turns it faster than
+    the turn limit allows, so it stops there."""
+    from rearrangement_planner.model.state import State
+    from rearrangement_planner.planning.manifold import ik_on_manifold, tool_planar_pose
+    from rearrangement_planner.planning.push_policy import push_policy_prop
+
+    physics = Physics(easy)
+    g = easy.goal_index
+    centre, goal = easy.object_poses[g, :2], np.asarray(easy.goal.position)
+    u = (goal - centre) / np.linalg.norm(goal - centre)
+    heading = float(np.arctan2(u[1], u[0]))
+    tool = centre - u * 0.12
+    q = ik_on_manifold(easy.robot, tool[0], tool[1], heading + 0.3, 0.0, easy.robot.home,
+                       rng=np.random.default_rng(0))
+    start = State(q, easy.object_poses)
+    ends = {facing: push_policy_prop(physics, start, g, goal, 60, 0.1, 0.1, np.zeros(7),
+                                     facing=facing) for facing in (False, True)}
+    off = {facing: abs((tool_planar_pose(easy.robot, r.states[-1].q)[2] - heading + np.pi / 2)
+                       % np.pi - np.pi / 2) for facing, r in ends.items()}
+    assert off[True] < 0.05 and off[False] > 0.25, off
+    assert ends[True].stopped is None                      # arrived: within 1 cm of it
+    assert np.linalg.norm(ends[True].states[-1].objects[g, :2] - goal) < 0.015
+    assert ends[False].stopped is Invalid.TURNING
 
 
 @pytest.mark.parametrize("push_bias", [0.0, 1.0])

@@ -59,7 +59,7 @@ def test_a_plan_ending_on_the_goal_edge_is_fragile_and_one_ending_inside_is_robu
     inside = _push_until(easy, 0.02)
     fragile = robustness(easy, edge, rollouts=20, seed=0, physics_options=FREE)
     robust = robustness(easy, inside, rollouts=20, seed=0, physics_options=FREE)
-    assert fragile < 0.8 <= robust, (fragile, robust)
+    assert fragile < 0.7 < 0.85 <= robust, (fragile, robust)     # 0.65 and 0.9
     assert robustness(easy, edge, rollouts=20, seed=0, physics_options=FREE) == fragile
     nothing = Perturbation(friction=0.0, mass=0.0, pose_noise=0.0, yaw_noise=0.0,
                            contact_offset=0.0)
@@ -68,18 +68,27 @@ def test_a_plan_ending_on_the_goal_edge_is_fragile_and_one_ending_inside_is_robu
 
 
 def test_rollouts_judge_the_goal_not_the_planners_choice_of_pushes(easy):
-    """The turn limit restricts which pushes a plan may use; a perturbed world that turns the
-    box faster still counts if the box reaches the goal (judged with the turn limit, none of
-    these 20 rollouts would count). With the tipping check, each rollout judges tipping with
-    its own drawn friction (some tip)."""
+    """The turn limit and the tipping rule restrict which pushes a plan may use; a rollout
+    asks the user's question instead (does the goal object end in its region with nothing
+    toppled?), so the planner's rules do not change its verdict. The box is 12 cm tall and
+    pushed 7 cm up: in the worlds whose drawn support friction tips it and that carry it far
+    enough, it topples (2 of these 20; MuJoCo toppled 4 of 20 other draws)."""
+    from rearrangement_planner.planning.robustness import (
+        ROLLOUT_PERTURBATION,
+        rollout,
+        rollout_options,
+    )
+
     inside = _push_until(easy, 0.02)
     plain = robustness(easy, inside, rollouts=20, seed=0, physics_options=FREE)
-    restricted = PhysicsOptions(tipping=False, max_turn=5.0)
-    assert plain == 1.0
-    assert robustness(easy, inside, rollouts=20, seed=0, physics_options=restricted) == plain
-    tipping = robustness(easy, inside, rollouts=20, seed=0,
-                         physics_options=PhysicsOptions(tipping=True))
-    assert 0.0 < tipping < 1.0
+    for rules in (PhysicsOptions(tipping=False, max_turn=5.0), PhysicsOptions(tipping=True)):
+        assert robustness(easy, inside, rollouts=20, seed=0, physics_options=rules) == plain
+    rng = np.random.default_rng(0)
+    arm = np.array([s.q for s in inside])
+    verdicts = [rollout(ROLLOUT_PERTURBATION.apply(easy, rng), arm, rollout_options(FREE))
+                for _ in range(20)]
+    assert verdicts.count("toppled") == 2 and verdicts.count("") == 18
+    assert plain == verdicts.count("") / 20
 
 
 def test_the_pipeline_accepts_only_robust_enough_plans(easy):
@@ -141,7 +150,7 @@ def test_with_accept_best_the_most_robust_candidate_answers_when_none_is_robust_
     answers."""
     options = PCRRTOptions(time_limit=60.0)
     scores = [score for _, score, _ in three_candidates]
-    assert 0 < int(np.argmax(scores)) and max(scores) < 1.0, scores    # 0.4, 0.1, 0.8
+    assert 0 < int(np.argmax(scores)) and max(scores) < 1.0, scores    # 0.7, 0.7, 0.9
     expected = three_candidates[int(np.argmax(scores))]
     best = plan_scene(PlanRequest.first_plan(easy, "pc-rrt", options, seed=6, robust=RobustOptions(
         min_robustness=1.0, rollouts=10, candidates=3, travel_penalty=0.0, accept_best=True)))
@@ -153,12 +162,12 @@ def test_with_accept_best_the_most_robust_candidate_answers_when_none_is_robust_
                                                                      rollouts=10, candidates=3,
                                                                      accept_best=False)))
     assert not refused.solved and refused.robustness == max(scores)
-    assert "the most robust reached the goal in 80% of 10" in refused.result.message
+    assert "the most robust reached the goal in 90% of 10" in refused.result.message
 
 
 def test_candidates_are_ranked_by_robustness_less_the_travel_penalty(easy, three_candidates):
     """The rank is robustness - travel_penalty x the goal object's push path (m). The three
-    candidates score 0.4, 0.1 and 0.8 and push the box 0.19, 0.36 and 0.27 m: the default 0.5
+    candidates score 0.7, 0.7 and 0.9 and push the box 0.19, 0.36 and 0.27 m: the default 0.5
     still picks the third, a penalty of 10 per metre the first, the shortest push."""
     options = PCRRTOptions(time_limit=60.0)
     picks = {}
@@ -235,15 +244,58 @@ def test_the_rollouts_judge_the_shortcut_plan_and_count_in_its_plan_time(easy, m
 
 
 def test_rollouts_leave_out_the_planners_restrictions():
-    """The turn limit, which chooses the pushes the planner may use, is off in a rollout; the
-    tipping check and the world's own options stay, the residual tolerance grows."""
+    """The turn limit and the tipping rule, which choose the pushes the planner may use, are
+    off in a rollout: objects meet and push each other, tipping is judged, not refused; the
+    world's own options stay, the residual tolerance grows."""
     from rearrangement_planner.planning.robustness import rollout_options
 
     planner = PhysicsOptions(tipping=True, max_turn=5.0, max_substep=0.003)
     rollout = rollout_options(planner)
-    assert rollout.max_turn == 0.0
-    assert rollout.tipping and rollout.max_substep == 0.003
+    assert rollout.max_turn == 0.0 and not rollout.tipping and rollout.tip_judgement
+    assert rollout.object_contact and rollout.max_substep == 0.003
     assert rollout.penetration_tolerance > planner.penetration_tolerance
+
+
+def test_a_tipping_push_topples_only_when_it_carries_the_object_far_enough(panda):
+    """The tip judgement (`rollout_kernel`): a 16 cm box pushed 7 cm up on a grippy table
+    tips; carried 6 cm it falls (toppled), carried 2 cm it falls back upright and the rollout
+    goes on: as in MuJoCo, which topples it at 6 cm and tilts it 4 degrees at 2 cm
+    (docs/experiments.md). Objects that meet push each other instead of failing the
+    rollout."""
+    from rearrangement_planner.physics.validation import parse_scene
+    from rearrangement_planner.planning.robustness import rollout
+
+    q0 = default_push_configuration(panda, 0.0)
+    tool = panda.tool_pose(q0)[:3, 3]
+
+    def scene(objects):
+        return parse_scene({"start_configuration": q0.tolist(),
+                            "table": {"center": [0.55, 0.0], "size": [0.8, 1.2],
+                                      "height": 0.0},
+                            "objects": objects,
+                            "goal": {"object": "tall", "position": [0.7, 0.0],
+                                     "radius": 0.5}}, robot=panda)
+
+    def push(distance: float) -> np.ndarray:
+        """The tool straight along +x by `distance` m, IK every 2 mm."""
+        path, q = [q0], q0
+        for x in np.arange(0.002, distance + 1e-9, 0.002):
+            q = ik_on_manifold(panda, tool[0] + x, tool[1], 0.0, 0.0, q)
+            path.append(q)
+        return np.array(path)
+
+    tall = {"name": "tall", "shape": "box", "size": [0.06, 0.06, 0.16], "mass": 0.4,
+            "support_friction": 0.6, "pusher_friction": 0.3,
+            "pose": [tool[0] + 0.041, tool[1], 0.0]}     # 1 mm ahead of the finger tips
+    world = scene([tall])
+    options = PhysicsOptions(tipping=False, tip_judgement=True)
+    assert rollout(world, push(0.06), options) == "toppled"
+    assert rollout(world, push(0.02), options) == ""
+    low = {**tall, "size": [0.06, 0.06, 0.1], "support_friction": 0.3}
+    behind = {**low, "name": "behind", "pose": [tool[0] + 0.11, tool[1], 0.0]}
+    row = scene([{**low, "name": "tall"}, behind])
+    assert rollout(row, push(0.12), dataclasses.replace(options, object_contact=True)) == ""
+    assert rollout(row, push(0.12), options) == "object_object_overlap"
 
 
 def test_a_cancel_ends_the_selection_not_only_the_candidate(panda, cancel_after, monkeypatch):

@@ -249,7 +249,7 @@ def random_status(rng: np.random.Generator) -> PlannerStatus:
         plan_id=str(rng.choice(["", "7", "20240101-120000-3"])),
         iterations=int(rng.integers(0, 10**7)), tree_size=int(rng.integers(0, 10**6)),
         best_goal_distance=float(rng.choice([math.inf, 0.0, rng.uniform(0, 2)])),
-        elapsed=float(rng.uniform(0, 100)))
+        elapsed=float(rng.uniform(0, 100)), fragile=bool(rng.random() < 0.3))
 
 
 def test_status_round_trip():
@@ -264,7 +264,7 @@ def test_status_round_trip():
         assert status.message in diagnostic.message
         assert {kv.key for kv in diagnostic.values} == {
             "state", "message", "outcome", "plan_id", "iterations", "tree_size",
-            "best_goal_distance", "elapsed"}
+            "best_goal_distance", "elapsed", "fragile"}
         assert diagnostics_to_status(msg) == status
         assert diagnostics_to_status(msg, name="planner") == status
 
@@ -278,6 +278,20 @@ def test_status_levels(state, level):
     [diagnostic] = status_to_diagnostics(PlannerStatus(state, "why")).status
     assert diagnostic.level == level
     assert diagnostic.message == f"{state}: why"
+
+
+def test_a_fragile_success_is_a_warning_and_a_bad_flag_names_its_field():
+    [diagnostic] = status_to_diagnostics(PlannerStatus("succeeded", "FRAGILE",
+                                                       fragile=True)).status
+    assert diagnostic.level == DiagnosticStatus.WARN
+    values = {kv.key: kv.value for kv in diagnostic.values}
+    assert values["fragile"] == "True"
+    diagnostic.values = [KeyValue(key=k, value="yes" if k == "fragile" else v)
+                         for k, v in values.items()]
+    with pytest.raises(InputError) as caught:
+        diagnostics_to_status(DiagnosticArray(status=[diagnostic]))
+    assert caught.value.field == "status.status[0].values[fragile]"
+    assert "need True or False" in str(caught.value)
 
 
 @pytest.mark.parametrize("kwargs", [

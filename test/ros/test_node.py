@@ -75,6 +75,7 @@ class Client:
         self.goal_pub = n.create_publisher(PoseStamped, f"{NS}/goal", 10)
         self.lock = threading.Lock()
         self.statuses: list[tuple[float, object]] = []
+        self.last_level = b"\x00"
         self.commands: list[JointTrajectory] = []
         n.create_subscription(DiagnosticArray, f"{NS}/status", self._on_status, 50)
         n.create_subscription(JointTrajectory, "/joint_trajectory", self._on_command, 10)
@@ -92,6 +93,7 @@ class Client:
     def _on_status(self, msg: DiagnosticArray) -> None:
         with self.lock:
             self.statuses.append((time.monotonic(), diagnostics_to_status(msg)))
+            self.last_level = msg.status[0].level
 
     def _on_command(self, msg: JointTrajectory) -> None:
         with self.lock:
@@ -218,7 +220,8 @@ def test_parameters_declared_once_with_descriptions_and_yaml_defaults(ros):
     assert len(names) == len(set(names))
     for required in ("scene", "robot_description", "object_ids", "goal_object", "goal_radius",
                      "planning_frame", "seed", "time_limit", "planner", "shortcut_time",
-                     "max_tool_speed", "record_dir", "record", "auto_execute", "plan_on_goal",
+                     "max_tool_speed", "record_dir", "record", "auto_execute", "execute_fragile",
+                     "plan_on_goal",
                      "state_timeout", "max_iterations", "k_actions", "dt", "max_speed",
                      "max_yaw_rate", "min_duration", "max_duration", "nullspace_speed",
                      "sampler", "goal_bias", "arm_weight", "object_weight", "goal_weight",
@@ -567,3 +570,42 @@ def test_robustness_is_in_the_answer_the_status_and_the_recording(ros):
         metadata = {m.name: m.metadata for m in make_reader(f).iter_metadata()}
     statistics = json.loads(metadata["rearrangement_plan"]["statistics"])
     assert 0.1 <= statistics["robustness"] <= 1.0
+
+
+def test_a_fragile_plan_is_said_to_be_fragile_and_not_executed_unless_asked(ros, monkeypatch):
+    """A plan whose robustness stays below min_robustness (robust selection's accept_best)
+    is answered, but the answer, the status (level WARN, fragile) and the recording say
+    FRAGILE, and auto_execute does not send it unless execute_fragile is set."""
+    from diagnostic_msgs.msg import DiagnosticStatus
+    from mcap.reader import make_reader
+
+    from rearrangement_planner.planning import pipeline
+
+    monkeypatch.setattr(pipeline.Candidates, "judge", lambda self, candidate, seed: 0.25)
+    client = ros["client"]
+    client.wait_inputs_flowing()
+    client.set(min_robustness=1.0, rollouts=5, candidates=1, auto_execute=True)
+    try:
+        with client.lock:
+            client.commands.clear()
+        t0 = time.monotonic()
+        response = client.call("plan")
+        assert response.success, response.message
+        assert "; robustness 25% of 5 perturbed rollouts; FRAGILE: " in response.message
+        status = client.wait_status(t0, lambda s: s.state == "succeeded")
+        assert status.fragile and "FRAGILE" in status.message
+        assert client.last_level == DiagnosticStatus.WARN
+        time.sleep(0.5)
+        with client.lock:
+            assert client.commands == []           # not sent to the controller
+        with open(parse_summary(response.message)[4], "rb") as f:
+            metadata = {m.name: m.metadata for m in make_reader(f).iter_metadata()}
+        assert metadata["rearrangement_plan"]["fragile"] == "true"
+        assert json.loads(metadata["rearrangement_plan"]["statistics"])["fragile"] is True
+        client.set(execute_fragile=True)
+        response = client.call("plan")
+        assert "FRAGILE" in response.message
+        assert wait_until(lambda: client.commands, 5.0)   # asked for: sent
+    finally:
+        client.set(min_robustness=0.0, rollouts=10, candidates=3, auto_execute=False,
+                   execute_fragile=False)

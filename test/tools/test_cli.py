@@ -224,10 +224,10 @@ def test_trials_need_check_execution(capsys):
         in capsys.readouterr().err
 
 
-def test_accept_best_answers_with_the_most_robust_candidate(tmp_path):
-    """No candidate of seed 6 on easy_push reaches the goal in every perturbed rollout (0.4
-    and 0.1 of 10, test_robustness): the request fails with --no-accept-best; by default the
-    most robust answers."""
+def test_accept_best_answers_with_the_most_robust_candidate(tmp_path, capsys):
+    """No candidate of seed 6 on easy_push reaches the goal in every perturbed rollout
+    (test_robustness): the request fails with --no-accept-best; by default the most robust
+    answers, and is reported fragile."""
     args = [str(scenes_dir() / "easy_push.yaml"), "--seed", "6", "--trees", "1", "--shortcut",
             "0", "--time-limit", "60", "--min-robustness", "1", "--rollouts", "10",
             "--candidates", "2", "--quiet"]
@@ -237,7 +237,10 @@ def test_accept_best_answers_with_the_most_robust_candidate(tmp_path):
     assert not refused["solved"] and "no plan reached min_robustness 1" in refused["message"]
     assert main([*args, "--accept-best", "--json", str(out)]) == 0
     accepted = json.loads(out.read_text())
-    assert accepted["solved"] and accepted["robustness"] == refused["robustness"] == 0.4
+    assert accepted["solved"] and accepted["robustness"] == refused["robustness"] < 1.0
+    # the answer is fragile, and says so (JSON, and a line on stderr even with --quiet)
+    assert accepted["fragile"] is True and accepted["min_robustness"] == 1.0
+    assert "rearrangement-plan: FRAGILE: it reached the goal in " in capsys.readouterr().err
 
 
 def test_a_setting_the_planner_does_not_read_is_refused(capsys):
