@@ -678,6 +678,35 @@ def object_twist_about_kernel(c: float, cx: float, cy: float, P: np.ndarray, N: 
 
 
 @njit(cache=True)
+def _multibody_rows(centres: np.ndarray, P: np.ndarray, N: np.ndarray, body: np.ndarray,
+                    other: np.ndarray, V: np.ndarray, gaps: np.ndarray
+                    ) -> tuple[np.ndarray, np.ndarray]:
+    """G (3K x 3B) and q (4K,) of `build_multibody_lcp_kernel`: per contact k the rows
+    d^T J for d = n_k, +t_k, -t_k (+J for body[k], -J for other[k]) and their q."""
+    K, B = P.shape[0], centres.shape[0]
+    G = np.zeros((3 * K, 3 * B))
+    q = np.zeros(4 * K)
+    for k in range(K):
+        nx, ny = N[k, 0], N[k, 1]
+        tx, ty = -ny, nx
+        for row, dx, dy in ((k, nx, ny), (K + 2 * k, tx, ty), (K + 2 * k + 1, -tx, -ty)):
+            a = body[k]
+            G[row, 3 * a] = dx
+            G[row, 3 * a + 1] = dy
+            G[row, 3 * a + 2] = (P[k, 0] - centres[a, 0]) * dy - (P[k, 1] - centres[a, 1]) * dx
+            b = other[k]
+            if b >= 0:
+                G[row, 3 * b] -= dx
+                G[row, 3 * b + 1] -= dy
+                G[row, 3 * b + 2] -= ((P[k, 0] - centres[b, 0]) * dy
+                                      - (P[k, 1] - centres[b, 1]) * dx)
+            else:
+                q[row] = -(dx * V[k, 0] + dy * V[k, 1])
+        q[k] += gaps[k]
+    return G, q
+
+
+@njit(cache=True)
 def build_multibody_lcp_kernel(centres: np.ndarray, cs: np.ndarray, weights: np.ndarray,
                                P: np.ndarray, N: np.ndarray, body: np.ndarray,
                                other: np.ndarray, V: np.ndarray, gaps: np.ndarray,
@@ -707,25 +736,7 @@ def build_multibody_lcp_kernel(centres: np.ndarray, cs: np.ndarray, weights: np.
     normal row). The twists are twist_map @ z[:3K] (3B: v_x, v_y, omega per object, about its
     centre of friction, world frame)."""
     K, B = P.shape[0], centres.shape[0]
-    G = np.zeros((3 * K, 3 * B))
-    q = np.zeros(4 * K)
-    for k in range(K):
-        nx, ny = N[k, 0], N[k, 1]
-        tx, ty = -ny, nx
-        for row, dx, dy in ((k, nx, ny), (K + 2 * k, tx, ty), (K + 2 * k + 1, -tx, -ty)):
-            a = body[k]
-            G[row, 3 * a] = dx
-            G[row, 3 * a + 1] = dy
-            G[row, 3 * a + 2] = (P[k, 0] - centres[a, 0]) * dy - (P[k, 1] - centres[a, 1]) * dx
-            b = other[k]
-            if b >= 0:
-                G[row, 3 * b] -= dx
-                G[row, 3 * b + 1] -= dy
-                G[row, 3 * b + 2] -= ((P[k, 0] - centres[b, 0]) * dy
-                                      - (P[k, 1] - centres[b, 1]) * dx)
-            else:
-                q[row] = -(dx * V[k, 0] + dy * V[k, 1])
-        q[k] += gaps[k]
+    G, q = _multibody_rows(centres, P, N, body, other, V, gaps)
     GA = G.copy()
     for b in range(B):
         GA[:, 3 * b] *= weights[b]

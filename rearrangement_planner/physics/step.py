@@ -670,25 +670,62 @@ def _resolve_object_contacts(objects: np.ndarray, new_objects: np.ndarray,
                              value: np.ndarray) -> int:
     """Objects that meet push each other (`PhysicsOptions.object_contact`; module docstring,
     step 5b). When the pushes of step 5 leave a moved object overlapping another, the group of
-    objects in contact (within `_CONTACT_MARGIN` substeps of each other at the substep's
-    start, transitively) is moved by one complementarity problem over all of them
-    (`pushing.multibody_twists_kernel`): the arm's contacts on any of them, and their
-    contacts with each other (`kernels.planar_contacts`). Replaces the group's poses in
-    new_objects; the rest keep theirs. Returns _VALID or the invalid code."""
+    objects in contact (`_contact_group`) is moved by one complementarity problem over all of
+    them (`pushing.multibody_twists_kernel`): the arm's contacts on any of them, and their
+    contacts with each other (`_group_contacts`). Replaces the group's poses in new_objects;
+    the rest keep theirs. Returns _VALID or the invalid code."""
+    group = _contact_group(objects, new_objects, changed, obj_kind, obj_size, options)
+    members = np.flatnonzero(group)
+    if members.shape[0] == 0:
+        return _VALID
+    for m in members:
+        if obj_props[m, OBJ_STATIC] > 0.0:      # a static object is an obstacle: no contact
+            for peer in members:
+                if peer != m:
+                    info[1], info[2] = peer, m
+                    return _OBJECT_OVERLAP
+    K = 0
+    for i in range(count):
+        if group[c_obj[i]]:
+            K += 1
+    K += _object_pair_contacts(members, objects, obj_kind, obj_size, options, None)
+    B = members.shape[0]
+    P, N, V = np.zeros((K, 2)), np.zeros((K, 2)), np.zeros((K, 2))
+    body, other = np.empty(K, dtype=np.int64), np.full(K, -1, dtype=np.int64)
+    gaps, mus, heights = np.zeros(K), np.empty(K), np.full(B, -math.inf)
+    centres, cs, weights = np.empty((B, 2)), np.empty(B), np.empty(B)
+    _group_contacts(members, objects, count, c_shape, c_obj, c_point, c_normal, c_depth,
+                    poses_a, poses_b, obj_kind, obj_size, obj_props, table, options, P, N, V,
+                    body, other, gaps, mus, heights, centres, cs, weights)
+    twists = np.empty((B, 3))
+    code = pushing.multibody_twists_kernel(centres, cs, weights, P, N, body, other, V, gaps,
+                                           mus, max(100, 80 * K), twists)
+    if code == pushing.JAMMED:
+        info[1] = members[0]
+        return _JAMMING
+    return _move_group(members, twists, centres, heights, objects, new_objects, obj_kind,
+                       obj_size, obj_props, options, changed, moved, near, info, value)
+
+
+@njit(cache=True)
+def _contact_group(objects: np.ndarray, new_objects: np.ndarray, changed: np.ndarray,
+                   obj_kind: np.ndarray, obj_size: np.ndarray, options: np.ndarray
+                   ) -> np.ndarray:
+    """(M,) the objects of one contact problem: those a moved object overlaps after the
+    pushes of step 5 (beyond the overlap tolerance), and every object within
+    `_CONTACT_MARGIN` substeps of one of them at the substep's start, transitively. Empty
+    when nothing overlaps."""
     M = objects.shape[0]
-    tol = options[OPT_OVERLAP]
     group = np.zeros(M, dtype=np.bool_)
     for i in range(M):
         for j in range(i + 1, M):
             if (changed[i] or changed[j]) and kernels.prism_penetration(
                     obj_kind[i], obj_size[i], new_objects[i, 0], new_objects[i, 1],
                     new_objects[i, 2], obj_kind[j], obj_size[j], new_objects[j, 0],
-                    new_objects[j, 1], new_objects[j, 2]) > tol:
+                    new_objects[j, 1], new_objects[j, 2]) > options[OPT_OVERLAP]:
                 group[i] = group[j] = True
-    if not group.any():
-        return _VALID
     margin = _CONTACT_MARGIN * options[OPT_MAX_SUBSTEP]
-    grown = True
+    grown = group.any()
     while grown:                     # every object within the margin of the group joins it
         grown = False
         for j in range(M):
@@ -701,39 +738,60 @@ def _resolve_object_contacts(objects: np.ndarray, new_objects: np.ndarray,
                         objects[j, 1], objects[j, 2]) > -margin:
                     group[j] = grown = True
                     break
-    members = np.flatnonzero(group)
-    for m in members:
-        if obj_props[m, OBJ_STATIC] > 0.0:      # a static object is an obstacle: no contact
-            for peer in members:
-                if peer != m:
-                    info[1], info[2] = peer, m
-                    return _OBJECT_OVERLAP
-    index = np.full(M, -1, dtype=np.int64)
-    for b in range(members.shape[0]):
-        index[members[b]] = b
-    # Contacts: the arm's on every member, then the members' with each other.
-    K = 0
-    for i in range(count):
-        if group[c_obj[i]]:
-            K += 1
+    return group
+
+
+@njit(cache=True)
+def _object_pair_contacts(members: np.ndarray, objects: np.ndarray, obj_kind: np.ndarray,
+                          obj_size: np.ndarray, options: np.ndarray,
+                          out: tuple | None) -> int:
+    """The contacts between the members (`kernels.planar_contacts` within the margin), at
+    the substep's start: counted, and when `out` = (first row, P, N, body, other, gaps, mus,
+    heights, obj_props) is given, written from its first row on (normal into the second
+    object of a pair; friction MuJoCo's max of the two mu_c; the force at half the lower
+    object's height, both standing on the table). Returns how many."""
+    margin = _CONTACT_MARGIN * options[OPT_MAX_SUBSTEP]
     pts, nrm, gps = np.empty((2, 2)), np.empty((2, 2)), np.empty(2)
-    pairs = 0
+    total = 0
     for a in range(members.shape[0]):
         for b in range(a + 1, members.shape[0]):
             i, j = members[a], members[b]
-            pairs += kernels.planar_contacts(
+            n = kernels.planar_contacts(
                 obj_kind[i], obj_size[i], objects[i, 0], objects[i, 1], objects[i, 2],
                 obj_kind[j], obj_size[j], objects[j, 0], objects[j, 1], objects[j, 2],
                 margin, pts, nrm, gps)
-    K += pairs
-    B = members.shape[0]
-    P, N, V = np.zeros((K, 2)), np.zeros((K, 2)), np.zeros((K, 2))
-    body, other = np.empty(K, dtype=np.int64), np.full(K, -1, dtype=np.int64)
-    gaps, mus = np.zeros(K), np.empty(K)
-    heights = np.full(B, -math.inf)
-    centres, cs, weights = np.empty((B, 2)), np.empty(B), np.empty(B)
+            if out is not None:
+                row, P, N, body, other, gaps, mus, heights, props = out
+                level = 0.5 * min(obj_size[i, 2], obj_size[j, 2])
+                for r in range(n):
+                    k = row + total + r
+                    P[k, 0], P[k, 1], N[k, 0], N[k, 1] = pts[r, 0], pts[r, 1], nrm[r, 0], \
+                        nrm[r, 1]
+                    body[k], other[k], gaps[k] = b, a, gps[r]
+                    mus[k] = max(props[i, OBJ_PUSHER_MU], props[j, OBJ_PUSHER_MU])
+                    heights[a] = max(heights[a], level)
+                    heights[b] = max(heights[b], level)
+            total += n
+    return total
+
+
+@njit(cache=True)
+def _group_contacts(members: np.ndarray, objects: np.ndarray, count: int,
+                    c_shape: np.ndarray, c_obj: np.ndarray, c_point: np.ndarray,
+                    c_normal: np.ndarray, c_depth: np.ndarray, poses_a: np.ndarray,
+                    poses_b: np.ndarray, obj_kind: np.ndarray, obj_size: np.ndarray,
+                    obj_props: np.ndarray, table: np.ndarray, options: np.ndarray,
+                    P: np.ndarray, N: np.ndarray, V: np.ndarray, body: np.ndarray,
+                    other: np.ndarray, gaps: np.ndarray, mus: np.ndarray,
+                    heights: np.ndarray, centres: np.ndarray, cs: np.ndarray,
+                    weights: np.ndarray) -> None:
+    """The group's contact problem in the world frame (`pushing.build_multibody_lcp_kernel`
+    says what each array is): per member its centre of friction, c and support-load weight
+    (1 / (mu_s m), the largest 1), and the arm's contacts on it (`_object_frame_contacts`,
+    turned into the world frame; heights the highest, above the table); then the members'
+    contacts with each other (`_object_pair_contacts`)."""
     row = 0
-    for b in range(B):
+    for b in range(members.shape[0]):
         m = members[b]
         cos, sin = math.cos(objects[m, 2]), math.sin(objects[m, 2])
         cx, cy = obj_props[m, OBJ_COF_X], obj_props[m, OBJ_COF_Y]
@@ -760,38 +818,26 @@ def _resolve_object_contacts(objects: np.ndarray, new_objects: np.ndarray,
             body[row], mus[row] = b, obj_props[m, OBJ_PUSHER_MU]
             row += 1
     weights /= weights.max()
-    for a in range(B):
-        for b in range(a + 1, B):
-            i, j = members[a], members[b]
-            n = kernels.planar_contacts(
-                obj_kind[i], obj_size[i], objects[i, 0], objects[i, 1], objects[i, 2],
-                obj_kind[j], obj_size[j], objects[j, 0], objects[j, 1], objects[j, 2],
-                margin, pts, nrm, gps)
-            # Both stand on the table: the force acts at half the lower one's height.
-            level = 0.5 * min(obj_size[i, 2], obj_size[j, 2])
-            for r in range(n):
-                P[row, 0], P[row, 1] = pts[r, 0], pts[r, 1]
-                N[row, 0], N[row, 1] = nrm[r, 0], nrm[r, 1]
-                body[row], other[row], gaps[row] = b, a, gps[r]
-                # MuJoCo's rule for two geoms' friction, and the objects' geoms carry mu_c
-                mus[row] = max(obj_props[i, OBJ_PUSHER_MU], obj_props[j, OBJ_PUSHER_MU])
-                heights[a] = max(heights[a], level)
-                heights[b] = max(heights[b], level)
-                row += 1
-    twists = np.empty((B, 3))
-    code = pushing.multibody_twists_kernel(centres, cs, weights, P, N, body, other, V, gaps,
-                                           mus, max(100, 80 * K), twists)
-    if code == pushing.JAMMED:
-        info[1] = members[0]
-        return _JAMMING
+    _object_pair_contacts(members, objects, obj_kind, obj_size, options,
+                          (row, P, N, body, other, gaps, mus, heights, obj_props))
+
+
+@njit(cache=True)
+def _move_group(members: np.ndarray, twists: np.ndarray, centres: np.ndarray,
+                heights: np.ndarray, objects: np.ndarray, new_objects: np.ndarray,
+                obj_kind: np.ndarray, obj_size: np.ndarray, obj_props: np.ndarray,
+                options: np.ndarray, changed: np.ndarray, moved: np.ndarray,
+                near: np.ndarray, info: np.ndarray, value: np.ndarray) -> int:
+    """Each member moved by its twist about its centre of friction (world frame): the
+    origin's displacement v_o = v_c + w x (o - c), turned into the object frame, checked by
+    the pushing model's rules (`_object_rules`) and applied on SE(2)."""
     twist = np.empty(3)
-    for b in range(B):
+    for b in range(members.shape[0]):
         m = members[b]
         new_objects[m] = objects[m]
         vx, vy, w = twists[b, 0], twists[b, 1], twists[b, 2]
         if vx == 0.0 and vy == 0.0 and w == 0.0:
             continue
-        # the origin's displacement (v_o = v_c + w x (o - c)), into the object frame
         ox = vx - w * (objects[m, 1] - centres[b, 1])
         oy = vy + w * (objects[m, 0] - centres[b, 0])
         cos, sin = math.cos(objects[m, 2]), math.sin(objects[m, 2])

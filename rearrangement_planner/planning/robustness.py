@@ -167,12 +167,20 @@ def robustness(scene: Scene, states: Sequence[State], rollouts: int, seed: int,
                physics_options: PhysicsOptions | None = None) -> float:
     """The share (0..1) of `rollouts` perturbed worlds, drawn from `seed`, in which the plan
     `states` (its arm path) reaches the goal."""
+    return arm_path_robustness(scene, np.array([s.q for s in states]), rollouts, seed,
+                               perturbation, physics_options)
+
+
+def arm_path_robustness(scene: Scene, arm_path: np.ndarray, rollouts: int, seed: int,
+                        perturbation: Perturbation | None = None,
+                        physics_options: PhysicsOptions | None = None) -> float:
+    """`robustness` of a plan given by its arm path alone, (T, nq), the first configuration
+    the start (a recorded plan: `rearrangement-bench calibrate`)."""
     if rollouts < 1:
         raise ValueError(f"rollouts must be >= 1, got {rollouts}")
     rng = np.random.default_rng(seed)
     perturbation = perturbation or ROLLOUT_PERTURBATION
     options = rollout_options(physics_options or PhysicsOptions())
-    arm_path = np.array([s.q for s in states])
     reached = sum(rollout_reaches(perturbation.apply(scene, rng), arm_path, options)
                   for _ in range(rollouts))
     return reached / rollouts

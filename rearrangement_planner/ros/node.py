@@ -382,8 +382,7 @@ class PlannerNode(Node):
         final = PlannerStatus(FINAL_STATES.get(outcome, "failed"), summary, outcome,
                               job.plan_id, r.iterations if r else 0, r.tree_size if r else 0,
                               r.best_goal_distance if r else math.inf,
-                              time.monotonic() - job.started,
-                              output is not None and output.fragile)
+                              time.monotonic() - job.started, bool(output and output.fragile))
         with self._lock:
             self._job = None
             self._status = final

@@ -12,6 +12,7 @@
                                    [--time-limit S] [--set NAME=VALUE ...]
                                    [--address HOST:PORT] [--workers N] [--out DIR]
     rearrangement-bench states [--weights NPZ] [--out PNG]
+    rearrangement-bench calibrate [--out DIR] [--rollouts N] [--perturb NAME=VALUE ...]
 
 `run` (the default) is the benchmark of King et al. 2015, §V (`benchmark.py`): each planner on each
 of the 35 scenes of config/benchmark/scenes with each seed, each trial the product's default plan
@@ -38,6 +39,11 @@ chosen plans reached the goal (docs/benchmark.md).
 
 `states` draws the learned generator's manipulation states (Fig. 2a of Haustein et al. 2018)
 from the default robot's shipped weights or --weights.
+
+`calibrate` scores the plans of a finished run (trials.csv and plans/ in --out) again with
+perturbed rollouts, under the shipped perturbation or one changed by --perturb, and prints how
+well the score predicts the plans' perturbed MuJoCo executions (Brier score, reliability bins):
+the instrument for tuning the perturbation set.
 """
 
 from __future__ import annotations
@@ -66,7 +72,7 @@ from rearrangement_planner.planning.robustness import RobustOptions
 from rearrangement_planner.tools import benchmark, ompl_log
 from rearrangement_planner.tools.engine import EngineError
 
-COMMANDS = ("run", "generate", "physics", "scenes", "candidates", "states")
+COMMANDS = ("run", "generate", "physics", "scenes", "candidates", "states", "calibrate")
 
 PHYSICS_DOC = """`rearrangement-bench physics` measures the throughput of the quasistatic physics
 step on the default scene's arm and table: the arm, folded low so that forearm and
@@ -228,6 +234,21 @@ def build_parser() -> argparse.ArgumentParser:
     _add_engine_options(scenes, "runs")
     scenes.add_argument("--jsonl", type=Path, help="also append the lines to this file")
     _add_candidates_parser(sub)
+    cal = sub.add_parser(
+        "calibrate", help="score a run's plans again under a perturbation set and say how "
+                          "well the score predicts their perturbed MuJoCo executions",
+        description="Read trials.csv and the plans of a finished `run` in --out, score every "
+                    "solved plan again with perturbed rollouts (the shipped perturbation, or "
+                    "the one the options describe) and print its calibration as JSON: the "
+                    "Brier score and the reliability diagram's bins (docs/benchmark.md).")
+    cal.add_argument("--out", type=Path, default=Path("out/benchmark"), metavar="DIR",
+                     help="the run's folder (default out/benchmark)")
+    cal.add_argument("--rollouts", type=int, default=RobustOptions().rollouts, metavar="N",
+                     help=f"rollouts per plan (default {RobustOptions().rollouts})")
+    cal.add_argument("--perturb", action="append", default=[], metavar="NAME=VALUE",
+                     help="change a field of the perturbation (model/perturbation.py "
+                          "Perturbation: friction, mass, pose_noise, yaw_noise, "
+                          "contact_offset, centre_offset; pressure=LOW,HIGH); repeatable")
     states = sub.add_parser(
         "states", help="Fig. 2a of Haustein et al. 2018: the learned generator's manipulation "
                        "states around an object")
@@ -353,6 +374,8 @@ def main(argv: list[str] | None = None) -> int:
             return candidates_command(args)
         if args.command == "states":
             return states_command(args)
+        if args.command == "calibrate":
+            return calibrate_command(args)
         return physics_command(args)
     except benchmark.BenchmarkError as exc:
         print(f"rearrangement-bench: {exc}", file=sys.stderr)
@@ -383,6 +406,39 @@ def physics_command(args: argparse.Namespace) -> int:
     print(text)
     if args.json:
         args.json.write_text(text + "\n")
+    return 0
+
+
+def calibrate_command(args: argparse.Namespace) -> int:
+    import dataclasses
+
+    from rearrangement_planner.model.perturbation import Perturbation
+
+    if not 1 <= args.rollouts <= 1000:
+        raise benchmark.BenchmarkError("--rollouts", f"must be between 1 and 1000, got "
+                                                     f"{args.rollouts}")
+    if not (args.out / "trials.csv").is_file():
+        raise benchmark.BenchmarkError("--out", f"{args.out} holds no trials.csv of a run")
+    fields = {f.name for f in dataclasses.fields(Perturbation)}
+    values: dict[str, Any] = {}
+    for item in args.perturb:
+        name, _, text = item.partition("=")
+        if name not in fields:
+            raise benchmark.BenchmarkError("--perturb", f"{item!r}: no field {name!r}; fields "
+                                                        f"are {', '.join(sorted(fields))}")
+        try:
+            values[name] = tuple(float(v) for v in text.split(",")) if name == "pressure" \
+                else float(text)
+        except ValueError:
+            raise benchmark.BenchmarkError("--perturb", f"{item!r}: not a number") from None
+    try:
+        perturbation = Perturbation(**values)
+    except (TypeError, ValueError) as exc:
+        raise benchmark.BenchmarkError("--perturb", str(exc)) from None
+    rows = benchmark.rescore(args.out, args.rollouts, perturbation)
+    result = {"perturbation": dataclasses.asdict(perturbation), "rollouts": args.rollouts,
+              **benchmark.calibration(rows)}
+    print(json.dumps(result, indent=2))
     return 0
 
 

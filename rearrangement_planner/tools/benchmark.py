@@ -604,10 +604,34 @@ def run_trial(trial: Trial, settings: dict[str, Any]) -> dict:
     row["non_goal_objects_moved"] = str(len(moved)) if result.solved else ""
     row.update(_executed(output, trial.seed, trial.perturbed))
     row["robustness"] = _num(output.robustness)
+    if result.solved and output.trajectory is not None:
+        row[PLAN_KEY] = {"arm_path": np.array([s.q for s in result.states]),
+                         "times": output.trajectory.times,
+                         "positions": output.trajectory.positions}
     row["trial_wall_s"] = _num(time.monotonic() - t0, 3)
     row["ray_node"] = ""                       # the engine's to fill in
     row["robot"] = scene.robot.name
     return row
+
+
+PLAN_KEY = "_plan"
+"""The row key (not a column) that carries a solved trial's plan to the driver, which saves it
+as plans/<scene>__<planner>__<seed>.npz beside trials.csv (`save_plan`): the planned arm path
+and the timed trajectory, so that its rollouts and executions can be replayed later."""
+
+
+def plan_file(folder: Path, row: dict) -> Path:
+    """Where `save_plan` keeps the plan of trial `row` in `folder`."""
+    label = row["planner"].replace(":", "_").replace("=", "-").replace(",", "_")
+    return folder / f"{row['scene']}__{label}__{row['seed']}.npz"
+
+
+def save_plan(folder: Path, row: dict, plan: dict[str, np.ndarray]) -> Path:
+    """Write a trial's plan (`PLAN_KEY`) into `folder`; returns the file."""
+    folder.mkdir(parents=True, exist_ok=True)
+    path = plan_file(folder, row)
+    np.savez_compressed(path, **plan)
+    return path
 
 
 def _executed(output, seed: int, perturbed_executions: int) -> dict[str, str]:
@@ -816,6 +840,9 @@ def run_trials(trials: Sequence[Trial], csv_path: Path, workers: int | None,
                       f"retries it):\n{done_job.error}", file=stream, flush=True)
                 continue
             row = {**done_job.result, "ray_node": done_job.node}
+            plan = row.pop(PLAN_KEY, None)
+            if plan is not None:
+                save_plan(csv_path.parent / "plans", row, plan)
             writer.write(row)
             finished += 1
             progress.advance(row["solved"] == "1",
@@ -1005,6 +1032,29 @@ def calibration(rows: Sequence[dict]) -> dict[str, Any]:
             if b["mean_score"] is not None and b["reached_share"] is not None]
     return {"plans": len(scored), "brier": _rounded(float(np.mean(squared))) if squared
             else None, "largest_bin_gap": _rounded(max(gaps)) if gaps else None, "bins": bins}
+
+
+def rescore(out: Path, rollouts: int, perturbation: Any = None) -> list[dict]:
+    """The solved trials of the run in `out` (trials.csv and the plans beside it, `save_plan`)
+    with their robustness scored again: `rollouts` perturbed rollouts of each plan's arm path
+    (seeded by its trial's seed) in worlds drawn by `perturbation` (None: the shipped one), in
+    the planner's default physics. With the plans' perturbed MuJoCo executions, which stay as
+    they were, `calibration` then says how honest that perturbation set makes the score: the
+    instrument for tuning it (docs/benchmark.md, "Calibration")."""
+    from rearrangement_planner.physics.validation import load_scene
+    from rearrangement_planner.planning.robustness import arm_path_robustness
+
+    rows = []
+    for row in read_trials(out / "trials.csv"):
+        path = plan_file(out / "plans", row)
+        if row["solved"] != "1" or not row["perturbed_trials"] or not path.is_file():
+            continue
+        scene_set = scene_set_of(row["scene"]) or FIXED
+        scene = load_scene(scene_set.directory() / f"{row['scene']}.yaml")
+        arm_path = np.load(path)["arm_path"]
+        score = arm_path_robustness(scene, arm_path, rollouts, int(row["seed"]), perturbation)
+        rows.append({**row, "robustness": repr(score)})
+    return rows
 
 
 def _executed_summary(solved: Sequence[dict]) -> dict[str, Any]:

@@ -430,6 +430,10 @@ def test_tiny_protocol_writes_csv_json_and_plots_and_resumes(tmp_path, capsys):
             assert r["perturbed_trials"] == "1" and r["perturbed_reached"] in ("0", "1")
             assert r["executed_object_contacts"] == "0"     # one object touches none
             assert r["robustness"] == ""                    # first plans are not scored
+            # the plan is kept beside the CSV, to be replayed later
+            plan = np.load(out / "plans" / f"{r['scene']}__{r['planner']}__0.npz")
+            assert plan["positions"].shape[1] == 7 and len(plan["times"]) \
+                == len(plan["positions"]) and plan["arm_path"].shape[1] == 7
         else:
             assert r["executed_ideal"] == r["executed_servo"] == ""
             assert r["pushing_links"] == "" and r["non_goal_objects_moved"] == ""
@@ -445,6 +449,16 @@ def test_tiny_protocol_writes_csv_json_and_plots_and_resumes(tmp_path, capsys):
         perturbed = planner["executed"]["perturbed"]
         assert perturbed["executions"] == planner["solved"] == perturbed["plans"]
         assert planner["calibration"]["plans"] == 0      # no scores without robust selection
+    # calibrate: the run's plans scored again, against their perturbed executions
+    capsys.readouterr()
+    assert bench.main(["calibrate", "--out", str(out), "--rollouts", "3",
+                       "--perturb", "pressure=1,1.5"]) == 0
+    calibrated = json.loads(capsys.readouterr().out)
+    assert calibrated["plans"] == sum(r["solved"] == "1" for r in rows)
+    assert calibrated["perturbation"]["pressure"] == [1.0, 1.5]
+    assert sum(b["executions"] for b in calibrated["bins"]) == calibrated["plans"]
+    assert bench.main(["calibrate", "--out", str(out), "--perturb", "pressure=2,1"]) == 2
+    assert "--perturb: pressure must be a range" in capsys.readouterr().err
     for name in ("success_vs_budget", "plan_time", "shortcut", "by_objects", "end_to_end",
                  "reliability"):
         png = (out / f"{name}.png").read_bytes()
