@@ -725,7 +725,7 @@ def _contact_group(objects: np.ndarray, new_objects: np.ndarray, changed: np.nda
                     new_objects[j, 1], new_objects[j, 2]) > options[OPT_OVERLAP]:
                 group[i] = group[j] = True
     margin = _CONTACT_MARGIN * options[OPT_MAX_SUBSTEP]
-    grown = group.any()
+    grown = bool(group.any())
     while grown:                     # every object within the margin of the group joins it
         grown = False
         for j in range(M):

@@ -574,11 +574,12 @@ def run_trial(trial: Trial, settings: dict[str, Any]) -> dict:
     scene = request.scene
     output = plan_scene(request)
     result = output.result
-    row = {"scene": trial.scene, "objects": str(trial.objects), "planner": trial.planner,
-           "seed": str(trial.seed), "time_limit": repr(trial.time_limit),
-           "solved": str(int(result.solved)), "outcome": result.outcome.value,
-           "plan_time_s": _num(result.plan_time, 3), "iterations": str(result.iterations),
-           "tree_size": str(result.tree_size), "propagation_steps": str(result.propagation_steps)}
+    row: dict[str, Any] = {
+        "scene": trial.scene, "objects": str(trial.objects), "planner": trial.planner,
+        "seed": str(trial.seed), "time_limit": repr(trial.time_limit),
+        "solved": str(int(result.solved)), "outcome": result.outcome.value,
+        "plan_time_s": _num(result.plan_time, 3), "iterations": str(result.iterations),
+        "tree_size": str(result.tree_size), "propagation_steps": str(result.propagation_steps)}
     before = after = None
     links: set[str] = set()
     moved: list[str] = []
@@ -626,11 +627,12 @@ def plan_file(folder: Path, row: dict) -> Path:
     return folder / f"{row['scene']}__{label}__{row['seed']}.npz"
 
 
-def save_plan(folder: Path, row: dict, plan: dict[str, np.ndarray]) -> Path:
+def save_plan(folder: Path, row: dict, plan: dict[str, Any]) -> Path:
     """Write a trial's plan (`PLAN_KEY`) into `folder`; returns the file."""
     folder.mkdir(parents=True, exist_ok=True)
     path = plan_file(folder, row)
-    np.savez_compressed(path, **plan)
+    np.savez_compressed(path, arm_path=plan["arm_path"], times=plan["times"],
+                        positions=plan["positions"])
     return path
 
 
