@@ -41,6 +41,9 @@ class Perturbation:
     centre_offset: float = 0.25
 
     def __post_init__(self) -> None:
+        if len(self.pressure) != 2:
+            raise ValueError(f"pressure must be a range (low, high) of c scales, got "
+                             f"{self.pressure}")
         lo, hi = (float(v) for v in self.pressure)
         if not 0.0 < lo <= hi or not math.isfinite(hi):
             raise ValueError(f"pressure must be a range 0 < low <= high of c scales, got "

@@ -37,7 +37,7 @@ class PhysicsOptions(Settings):
     is invalid, as in King et al. 2015 (§III-A). Results: docs/experiments.md."""
     tip_judgement: bool = internal(False)
     """Judge rather than refuse a push that would tip its object: the step reports, per
-    object, how far the pusher must carry it while it tips to topple it (`step.tip_travel`),
+    object, how far the pusher must carry it while it tips to topple it (`step._tip_travel`),
     and the robustness rollouts count a topple when a push goes on that far
     (`planning.robustness`). With `tipping` on, such a push is refused whatever this says."""
     contact_tolerance: float = internal(0.002)

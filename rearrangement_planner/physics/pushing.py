@@ -881,8 +881,8 @@ def object_twist(c: float, points: np.ndarray | Sequence[Sequence[float]],
         return single_contact_twist(c, P[0], Nrm[0], Vp[0], float(mus[0]))
     twist, f_n, f_t = np.empty(3), np.empty(K), np.empty(K)
     modes = np.empty(K, dtype=np.int64)
-    code = object_twist_about_kernel(float(c), cx, cy, P, np.ascontiguousarray(Nrm), Vp, mus,
-                                     20 * 4 * K, twist, f_n, f_t, modes)
+    code = object_twist_about_kernel(float(c), cx, cy, P.copy(), np.ascontiguousarray(Nrm),
+                                     Vp, mus, 20 * 4 * K, twist, f_n, f_t, modes)
     return _push_result(code, twist, f_n, f_t, modes)
 
 

@@ -599,7 +599,7 @@ def _object_rules(m: int, twist: np.ndarray, height: float, obj_kind: np.ndarray
     """The pushing model's rules for object m moving by `twist` (object frame) under a push
     `height` m above the table (module docstring, step 5): the turn limit and tipping refuse
     the push; with the tip judgement on, a tipping push is not refused but reported in
-    value[1 + m] as the travel that topples the object (`tip_travel`)."""
+    value[1 + m] as the travel that topples the object (`_tip_travel`)."""
     turn = options[OPT_MAX_TURN]
     if turn > 0.0 and abs(twist[2]) > turn * math.hypot(twist[0], twist[1]) \
             + TURN_SLACK:
@@ -675,15 +675,23 @@ def _resolve_object_contacts(objects: np.ndarray, new_objects: np.ndarray,
     contacts with each other (`_group_contacts`). Replaces the group's poses in new_objects;
     the rest keep theirs. Returns _VALID or the invalid code."""
     group = _contact_group(objects, new_objects, changed, obj_kind, obj_size, options)
+    for m in range(group.shape[0]):
+        # A static object (the Static RRT's) is an obstacle, not a body of the problem: one a
+        # moved object overlaps is invalid, one merely near stays out (the checks after the
+        # step refuse an overlap with it).
+        if group[m] and obj_props[m, OBJ_STATIC] > 0.0:
+            group[m] = False
+            for peer in range(group.shape[0]):
+                if changed[peer] and peer != m and kernels.prism_penetration(
+                        obj_kind[m], obj_size[m], new_objects[m, 0], new_objects[m, 1],
+                        new_objects[m, 2], obj_kind[peer], obj_size[peer],
+                        new_objects[peer, 0], new_objects[peer, 1],
+                        new_objects[peer, 2]) > options[OPT_OVERLAP]:
+                    info[1], info[2] = peer, m
+                    return _OBJECT_OVERLAP
     members = np.flatnonzero(group)
     if members.shape[0] == 0:
         return _VALID
-    for m in members:
-        if obj_props[m, OBJ_STATIC] > 0.0:      # a static object is an obstacle: no contact
-            for peer in members:
-                if peer != m:
-                    info[1], info[2] = peer, m
-                    return _OBJECT_OVERLAP
     K = 0
     for i in range(count):
         if group[c_obj[i]]:
@@ -700,9 +708,18 @@ def _resolve_object_contacts(objects: np.ndarray, new_objects: np.ndarray,
     twists = np.empty((B, 3))
     code = pushing.multibody_twists_kernel(centres, cs, weights, P, N, body, other, V, gaps,
                                            mus, max(100, 80 * K), twists)
-    if code == pushing.JAMMED:
+    if code == pushing.JAMMED:       # name a member the arm touches, and the links on it
+        pushing_shapes = info[4:4 + poses_b.shape[0]]
+        pushing_shapes[:] = 0
         info[1] = members[0]
+        for i in range(count):
+            if group[c_obj[i]]:
+                info[1] = c_obj[i]
+                pushing_shapes[c_shape[i]] = 1
         return _JAMMING
+    if value.shape[0] > 1:           # the group's motion replaces its members' own pushes
+        for m in members:
+            value[1 + m] = 0.0
     return _move_group(members, twists, centres, heights, objects, new_objects, obj_kind,
                        obj_size, obj_props, options, changed, moved, near, info, value)
 

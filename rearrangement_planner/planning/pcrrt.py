@@ -90,7 +90,8 @@ class PCRRTOptions(PushingPlannerOptions):
     face_push: bool = setting(False)
     """The closed-loop pushes turn the hand to face the push, its flat face across the push
     line (a line contact, the stable push of Lynch & Mason 1996), instead of keeping the
-    hand's yaw. Measured: docs/experiments.md."""
+    hand's yaw; the turn has its own bound (`propagation.FACING_YAW_RATE`, 1 rad/s), not
+    max_yaw_rate, which bounds the random actions. Measured: docs/experiments.md."""
 
     def __post_init__(self) -> None:
         super().__post_init__()

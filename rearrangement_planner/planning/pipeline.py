@@ -108,9 +108,10 @@ class PlanOutput:
         if not self.fragile:
             return ""
         assert self.robustness is not None
-        return (f"FRAGILE: it reached the goal in {self.robustness:.0%} of the perturbed "
-                f"rollouts, below min_robustness {self.min_robustness:.0%}; executed open loop "
-                f"it may well miss")
+        share = math.floor(100 * self.robustness)       # rounded down: never "100% < 100%"
+        return (f"FRAGILE: it reached the goal in {share}% of the perturbed rollouts, below "
+                f"min_robustness {self.min_robustness:.0%}; executed open loop it may well "
+                f"miss")
 
     @property
     def final_objects(self) -> np.ndarray:

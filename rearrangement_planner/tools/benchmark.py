@@ -608,7 +608,8 @@ def run_trial(trial: Trial, settings: dict[str, Any]) -> dict:
     if result.solved and output.trajectory is not None:
         row[PLAN_KEY] = {"arm_path": np.array([s.q for s in result.states]),
                          "times": output.trajectory.times,
-                         "positions": output.trajectory.positions}
+                         "positions": output.trajectory.positions,
+                         "scene_path": trial.path, "robot": trial.robot}
     row["trial_wall_s"] = _num(time.monotonic() - t0, 3)
     row["ray_node"] = ""                       # the engine's to fill in
     row["robot"] = scene.robot.name
@@ -617,8 +618,9 @@ def run_trial(trial: Trial, settings: dict[str, Any]) -> dict:
 
 PLAN_KEY = "_plan"
 """The row key (not a column) that carries a solved trial's plan to the driver, which saves it
-as plans/<scene>__<planner>__<seed>.npz beside trials.csv (`save_plan`): the planned arm path
-and the timed trajectory, so that its rollouts and executions can be replayed later."""
+as plans/<scene>__<planner>__<seed>.npz beside trials.csv (`save_plan`): the planned arm path,
+the timed trajectory, the scene file and the arm it was planned with (`Trial.path`,
+`Trial.robot`), so that its rollouts and executions can be replayed later."""
 
 
 def plan_file(folder: Path, row: dict) -> Path:
@@ -632,7 +634,8 @@ def save_plan(folder: Path, row: dict, plan: dict[str, Any]) -> Path:
     folder.mkdir(parents=True, exist_ok=True)
     path = plan_file(folder, row)
     np.savez_compressed(path, arm_path=plan["arm_path"], times=plan["times"],
-                        positions=plan["positions"])
+                        positions=plan["positions"], scene_path=np.array(plan["scene_path"]),
+                        robot=np.array(plan["robot"]))
     return path
 
 
@@ -1043,7 +1046,6 @@ def rescore(out: Path, rollouts: int, perturbation: Any = None) -> list[dict]:
     the planner's default physics. With the plans' perturbed MuJoCo executions, which stay as
     they were, `calibration` then says how honest that perturbation set makes the score: the
     instrument for tuning it (docs/benchmark.md, "Calibration")."""
-    from rearrangement_planner.physics.validation import load_scene
     from rearrangement_planner.planning.robustness import arm_path_robustness
 
     rows = []
@@ -1051,9 +1053,9 @@ def rescore(out: Path, rollouts: int, perturbation: Any = None) -> list[dict]:
         path = plan_file(out / "plans", row)
         if row["solved"] != "1" or not row["perturbed_trials"] or not path.is_file():
             continue
-        scene_set = scene_set_of(row["scene"]) or FIXED
-        scene = load_scene(scene_set.directory() / f"{row['scene']}.yaml")
-        arm_path = np.load(path)["arm_path"]
+        plan = np.load(path)
+        scene = load_trial_scene(str(plan["scene_path"]), str(plan["robot"]))
+        arm_path = plan["arm_path"]
         score = arm_path_robustness(scene, arm_path, rollouts, int(row["seed"]), perturbation)
         rows.append({**row, "robustness": repr(score)})
     return rows

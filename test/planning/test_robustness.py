@@ -249,10 +249,12 @@ def test_rollouts_leave_out_the_planners_restrictions():
     world's own options stay, the residual tolerance grows."""
     from rearrangement_planner.planning.robustness import rollout_options
 
-    planner = PhysicsOptions(tipping=True, max_turn=5.0, max_substep=0.003)
+    planner = PhysicsOptions(tipping=True, max_turn=5.0, max_substep=0.003,
+                             static_objects=frozenset({"box1"}))      # the Static RRT's rule
     rollout = rollout_options(planner)
     assert rollout.max_turn == 0.0 and not rollout.tipping and rollout.tip_judgement
     assert rollout.object_contact and rollout.max_substep == 0.003
+    assert rollout.static_objects == frozenset()
     assert rollout.penetration_tolerance > planner.penetration_tolerance
 
 
@@ -317,3 +319,20 @@ def test_a_cancel_ends_the_selection_not_only_the_candidate(panda, cancel_after,
     assert running and latency < 0.5
     assert output.result.outcome.name == "CANCELLED" and not output.solved
     assert planned == [3]
+
+
+def test_a_fragile_plan_says_so_and_never_rounds_up_to_its_floor(easy):
+    """PlanOutput.fragile: solved, scored, below min_robustness; the note rounds the share
+    down, so that 999 of 1000 rollouts never reads as 100% below 100%."""
+    from rearrangement_planner.planning import Outcome, PlanResult
+    from rearrangement_planner.planning.pipeline import PlanOutput
+
+    solved = PlanResult(Outcome.SUCCEEDED, "reached", 0, states=(easy.initial_state(),))
+    almost = PlanOutput(easy, "pc-rrt", solved, robustness=0.999, min_robustness=1.0)
+    assert almost.fragile and "reached the goal in 99% of" in almost.fragile_note()
+    assert almost.to_dict()["fragile"] is True
+    for robust in (PlanOutput(easy, "pc-rrt", solved, robustness=0.8, min_robustness=0.8),
+                   PlanOutput(easy, "pc-rrt", solved),                   # not scored
+                   PlanOutput(easy, "pc-rrt", dataclasses.replace(
+                       solved, outcome=Outcome.TIMEOUT), robustness=0.1, min_robustness=1.0)):
+        assert not robust.fragile and robust.fragile_note() == ""
