@@ -718,8 +718,8 @@ def _resolve_object_contacts(objects: np.ndarray, new_objects: np.ndarray,
                 pushing_shapes[c_shape[i]] = 1
         return _JAMMING
     if value.shape[0] > 1:           # the group's motion replaces its members' own pushes
-        for m in members:
-            value[1 + m] = 0.0
+        for b in range(members.shape[0]):
+            value[1 + members[b]] = 0.0
     return _move_group(members, twists, centres, heights, objects, new_objects, obj_kind,
                        obj_size, obj_props, options, changed, moved, near, info, value)
 
