@@ -29,7 +29,7 @@ class PhysicsOptions(Settings):
     travels (1 rad over 20 cm at the default 5). How fast an off-centre push turns an object is
     what the quasistatic model predicts worst, and a mispredicted turn sends every later push
     elsewhere. 0 = no limit, as in King et al. 2015. Measured: docs/experiments.md."""
-    object_contact: bool = setting(False)
+    object_contact: bool = setting(True)
     """Objects that meet push each other (one complementarity problem over every object in
     contact, `pushing.build_multibody_lcp_kernel`), as in Haustein et al.'s Box2D model and
     Pang & Tedrake's quasistatic simulator, so that a plan may push a row of objects and the

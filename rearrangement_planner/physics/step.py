@@ -675,20 +675,8 @@ def _resolve_object_contacts(objects: np.ndarray, new_objects: np.ndarray,
     contacts with each other (`_group_contacts`). Replaces the group's poses in new_objects;
     the rest keep theirs. Returns _VALID or the invalid code."""
     group = _contact_group(objects, new_objects, changed, obj_kind, obj_size, options)
-    for m in range(group.shape[0]):
-        # A static object (the Static RRT's) is an obstacle, not a body of the problem: one a
-        # moved object overlaps is invalid, one merely near stays out (the checks after the
-        # step refuse an overlap with it).
-        if group[m] and obj_props[m, OBJ_STATIC] > 0.0:
-            group[m] = False
-            for peer in range(group.shape[0]):
-                if changed[peer] and peer != m and kernels.prism_penetration(
-                        obj_kind[m], obj_size[m], new_objects[m, 0], new_objects[m, 1],
-                        new_objects[m, 2], obj_kind[peer], obj_size[peer],
-                        new_objects[peer, 0], new_objects[peer, 1],
-                        new_objects[peer, 2]) > options[OPT_OVERLAP]:
-                    info[1], info[2] = peer, m
-                    return _OBJECT_OVERLAP
+    if _drop_static(group, new_objects, changed, obj_kind, obj_size, obj_props, options, info):
+        return _OBJECT_OVERLAP
     members = np.flatnonzero(group)
     if members.shape[0] == 0:
         return _VALID
@@ -722,6 +710,27 @@ def _resolve_object_contacts(objects: np.ndarray, new_objects: np.ndarray,
             value[1 + members[b]] = 0.0
     return _move_group(members, twists, centres, heights, objects, new_objects, obj_kind,
                        obj_size, obj_props, options, changed, moved, near, info, value)
+
+
+@njit(cache=True)
+def _drop_static(group: np.ndarray, new_objects: np.ndarray, changed: np.ndarray,
+                 obj_kind: np.ndarray, obj_size: np.ndarray, obj_props: np.ndarray,
+                 options: np.ndarray, info: np.ndarray) -> bool:
+    """A static object (the Static RRT's) is an obstacle, not a body of the group's problem:
+    takes it out of group. True, with the pair in info, when a moved object overlaps it; one
+    merely near stays out (the checks after the step refuse an overlap with it)."""
+    for m in range(group.shape[0]):
+        if group[m] and obj_props[m, OBJ_STATIC] > 0.0:
+            group[m] = False
+            for peer in range(group.shape[0]):
+                if changed[peer] and peer != m and kernels.prism_penetration(
+                        obj_kind[m], obj_size[m], new_objects[m, 0], new_objects[m, 1],
+                        new_objects[m, 2], obj_kind[peer], obj_size[peer],
+                        new_objects[peer, 0], new_objects[peer, 1],
+                        new_objects[peer, 2]) > options[OPT_OVERLAP]:
+                    info[1], info[2] = peer, m
+                    return True
+    return False
 
 
 @njit(cache=True)

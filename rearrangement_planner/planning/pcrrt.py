@@ -84,10 +84,7 @@ class PCRRTOptions(PushingPlannerOptions):
     greedy_goal: bool = setting(True)
     """On every new best goal distance, push the goal object from that node straight for the
     goal (a greedy extension, like the Connect step of RRT-Connect)."""
-    clear_blockers: bool = setting(True)
-    """When a push of the goal object runs into another object, push that object out of the
-    way and push on, within the same action."""
-    face_push: bool = setting(False)
+    face_push: bool = setting(True)
     """The closed-loop pushes turn the hand to face the push, its flat face across the push
     line (a line contact, the stable push of Lynch & Mason 1996), instead of keeping the
     hand's yaw; the turn has its own bound (`propagation.FACING_YAW_RATE`, 1 rad/s), not

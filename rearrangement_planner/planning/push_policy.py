@@ -6,9 +6,8 @@
   - *push bias*: in a share of the iterations one of the k actions is a push of one object
     towards its position in the sample (`sample_push`);
   - *greedy goal push*: from every new best node, a push of the goal object straight for the
-    goal centre (`goal_push`, like the Connect step of RRT-Connect);
-  - *clearing*: a push of the goal object that ends against another object pushes that object
-    sideways out of the way and pushes on, within the same action (`clear_blockers`).
+    goal centre (`goal_push`, like the Connect step of RRT-Connect). A push of the goal object
+    that meets another object pushes it along (`PhysicsOptions.object_contact`).
 
 The push itself is in the spirit of the pushing policy of Haustein et al. (002, §IV) but
 analytic: bring the tool behind the object on the line through the object and the target
@@ -25,8 +24,7 @@ import numpy as np
 
 from rearrangement_planner.model.scene import MovableObject
 from rearrangement_planner.model.state import State
-from rearrangement_planner.physics.step import Invalid, Physics
-from rearrangement_planner.planning.interface import StopReason
+from rearrangement_planner.physics.step import Physics
 from rearrangement_planner.planning.propagation import (
     Propagation,
     PushTarget,
@@ -37,9 +35,6 @@ from rearrangement_planner.planning.propagation import (
 GREEDY_STEPS = 3
 """The greedy goal push may take this many times `push_steps` (it has to go round the goal
 object and then push it all the way)."""
-CLEAR_ROUNDS = 2
-"""How many blockers one clearing action may push aside."""
-_ENDS_ACTION = (StopReason.GOAL, StopReason.CANCEL, StopReason.TIMEOUT)
 
 
 class PushSettings(Protocol):
@@ -55,8 +50,6 @@ class PushSettings(Protocol):
     def push_goal_share(self) -> float: ...
     @property
     def push_steps(self) -> int: ...
-    @property
-    def clear_blockers(self) -> bool: ...
     @property
     def face_push(self) -> bool: ...
 
@@ -111,18 +104,14 @@ class PushPolicy:
             others = self.pushable[self.pushable != g]
             obj = int(others[rng.integers(others.size)])
         nullspace = self._nullspace(rng)
-        result = self.push(x_near, obj, sample_objects[obj, :2], opts.push_steps, nullspace,
-                           stop)
-        if obj != g:
-            return result
-        return self._when_blocked(x_near, result, sample_objects[g, :2], nullspace, rng, stop)
+        return self.push(x_near, obj, sample_objects[obj, :2], opts.push_steps, nullspace,
+                         stop)
 
     def goal_push(self, x: State, rng: np.random.Generator, stop: Stops) -> Propagation:
         """The greedy extension: push the goal object from x towards the goal centre."""
         nullspace = self._nullspace(rng)
-        result = self.push(x, self.scene.goal_index, self.goal_xy,
-                           GREEDY_STEPS * self.options.push_steps, nullspace, stop)
-        return self._when_blocked(x, result, self.goal_xy, nullspace, rng, stop)
+        return self.push(x, self.scene.goal_index, self.goal_xy,
+                         GREEDY_STEPS * self.options.push_steps, nullspace, stop)
 
     def push(self, x: State, obj: int, where: np.ndarray, steps: int, nullspace: np.ndarray,
              stop: Stops) -> Propagation:
@@ -134,70 +123,3 @@ class PushPolicy:
     def _nullspace(self, rng: np.random.Generator) -> np.ndarray:
         speed = self.options.nullspace_speed
         return rng.uniform(-speed, speed, self.physics.robot.nq)
-
-    def _when_blocked(self, x: State, result: Propagation, target: np.ndarray,
-                      nullspace: np.ndarray, rng: np.random.Generator,
-                      stop: Stops) -> Propagation:
-        """A push of the goal object towards `target` that ended against another object goes
-        on by clearing it away (`clear_blockers`)."""
-        if result.stopped is not Invalid.OBJECT_OVERLAP or not self.options.clear_blockers:
-            return result
-        return self.clear_and_push(x, result, target, nullspace, rng, stop)
-
-    def _blocker(self, x: State) -> int:
-        """The object nearest to the goal object's footprint (the one a blocked push hit)."""
-        g = self.scene.goal_index
-        centre = x.objects[g, :2]
-        gaps = [float(np.hypot(*(x.objects[i, :2] - centre))) - o.footprint_radius
-                if i != g else math.inf for i, o in enumerate(self.scene.objects)]
-        return int(np.argmin(gaps))
-
-    def clear_and_push(self, x_near: State, blocked: Propagation, target: np.ndarray,
-                        nullspace: np.ndarray, rng: np.random.Generator,
-                        stop: Stops) -> Propagation:
-        """The goal object's push towards `target` ran into another object B: push B sideways
-        out of the corridor the goal object sweeps on its way to `target` (to a random point
-        just clear of it), then push the goal object on; up to CLEAR_ROUNDS blockers. The
-        action ends at the goal, on cancel or timeout, or when B cannot be pushed at all."""
-        g, steps = self.scene.goal_index, self.options.push_steps
-        states, links = list(blocked.states), set(blocked.pushing_links)
-        x = states[-1] if states else x_near
-        stopped = blocked.stopped
-        for _ in range(CLEAR_ROUNDS):
-            to_target = target - x.objects[g, :2]
-            distance = float(np.hypot(*to_target))
-            if distance < 0.01:
-                break
-            u = to_target / distance
-            perp = np.array([-u[1], u[0]])
-            b, aside = self._aside(x, u, perp, rng)
-            for obj, where, must_move in ((b, aside, True), (g, target, False)):
-                part = self.push(x, obj, where, steps, nullspace, stop)
-                states.extend(part.states)
-                links |= part.pushing_links
-                x = states[-1] if states else x_near
-                stopped = part.stopped
-                if stopped in _ENDS_ACTION or (must_move and stopped is not None
-                                               and not part.states):
-                    return _joined(states, stopped, links, self.options.dt)
-            if stopped is not Invalid.OBJECT_OVERLAP:
-                break
-        return _joined(states, stopped, links, self.options.dt)
-
-    def _aside(self, x: State, u: np.ndarray, perp: np.ndarray,
-               rng: np.random.Generator) -> tuple[int, np.ndarray]:
-        """The blocker and a random point just clear of the goal object's corridor along u."""
-        objects, g = self.scene.objects, self.scene.goal_index
-        b = self._blocker(x)
-        across = float((x.objects[b, :2] - x.objects[g, :2]) @ perp)
-        side = math.copysign(1.0, across) if abs(across) > 1e-3 else rng.choice([-1.0, 1.0])
-        clear = objects[g].footprint_radius + objects[b].footprint_radius \
-            + rng.uniform(0.01, 0.05)
-        return b, x.objects[b, :2] + perp * side * (clear - abs(across)) \
-            + u * rng.uniform(-0.03, 0.03)
-
-
-def _joined(states: list[State], stopped: Invalid | StopReason | None, links: set[str],
-            dt: float) -> Propagation:
-    return Propagation(tuple(states), len(states) * dt, stopped, frozenset(links))
-

@@ -203,45 +203,6 @@ def test_greedy_goal_push_runs_only_when_switched_on(easy, monkeypatch, greedy):
         assert calls == []
 
 
-def test_clear_blockers_pushes_the_blocking_object_out_of_the_line(panda):
-    """The goal object's push ran into `blocker`: `clear_and_push` pushes the blocker (not the
-    bystander) away from the line to the goal, and the whole action replays through the
-    physics."""
-    from rearrangement_planner.physics.options import PhysicsOptions
-    from rearrangement_planner.physics.step import Invalid, Physics
-    from rearrangement_planner.physics.validation import parse_scene
-    from rearrangement_planner.planning.approach import approach_path
-    from rearrangement_planner.planning.propagation import Propagation
-    from rearrangement_planner.planning.push_policy import PushPolicy
-
-    data = load_scene("default", robot=panda).to_dict()
-    data.pop("obstacles", None)
-    data["objects"] = [
-        {"name": "target", "shape": "box", "size": [0.06, 0.06, 0.12], "pose": [0.5, 0.13, 0.0]},
-        {"name": "blocker", "shape": "cylinder", "radius": 0.035, "height": 0.12,
-         "pose": [0.51, 0.06, 0.0]},
-        {"name": "bystander", "shape": "cylinder", "radius": 0.03, "height": 0.12,
-         "pose": [0.3, -0.3, 0.0]}]
-    data["goal"] = {"object": "target", "position": [0.5, -0.2], "radius": 0.06}
-    scene = parse_scene(data, robot=panda)
-    # The blocker, pushed aside, turns: no turn limit here.
-    planner = PCRRT(scene, physics=Physics(scene, PhysicsOptions(max_turn=0.0)))
-    start = approach_path(planner.physics, scene.initial_state(), np.random.default_rng(0))[0][-1]
-    blocked = Propagation((), 0.0, Invalid.OBJECT_OVERLAP, frozenset())
-    stop = planner.stop_check(lambda: False, math.inf)
-    policy = PushPolicy(planner.physics, planner.options, np.arange(3))
-    for seed in range(3):
-        result = policy.clear_and_push(start, blocked, np.array([0.5, -0.2]), np.zeros(7),
-                                         np.random.default_rng(seed), stop)
-        end = result.states[-1].objects
-        assert abs(end[1, 0] - 0.5) > abs(start.objects[1, 0] - 0.5) + 0.005, end[1]
-        np.testing.assert_array_equal(end[2], start.objects[2])
-        arm = np.array([start.q, *(s.q for s in result.states)])
-        replayed, problem = replay(planner.physics, start, arm)
-        assert problem == ""
-        np.testing.assert_allclose(replayed[-1].objects, end, atol=1e-12)
-
-
 def test_a_state_on_the_goal_boundary_is_refused_by_the_margin(easy):
     """docs/design.md goal margin: with goal_margin the goal object must end well inside its
     region; a state whose centre is on the region's edge ends no plan."""
@@ -284,10 +245,12 @@ def test_the_tipping_setting_keeps_plans_from_toppling_the_goal_object(panda):
                          "objects": [post], "goal": {"object": "post",
                                                       "position": list(easy.goal.position),
                                                       "radius": easy.goal.radius}}, robot=panda)
+    # (the hand keeping its yaw: facing pushes do not find this thin post within 300
+    # iterations of seeds 1-3)
+    options = PCRRTOptions(time_limit=60.0, max_iterations=300, face_push=False)
     for tipping, solved in ((False, True), (True, False)):
-        request = PlanRequest.first_plan(scene, "pc-rrt", PCRRTOptions(time_limit=60.0,
-                                                                       max_iterations=300),
-                                         seed=1, physics=PhysicsOptions(tipping=tipping))
+        request = PlanRequest.first_plan(scene, "pc-rrt", options, seed=1,
+                                         physics=PhysicsOptions(tipping=tipping))
         output = plan_scene(request)
         assert output.solved is solved, (tipping, output.result.message)
 

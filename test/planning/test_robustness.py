@@ -124,11 +124,11 @@ def test_goal_travel_is_the_goal_objects_path_on_the_table(easy):
 
 @pytest.fixture(scope="module")
 def three_candidates(easy):
-    """The three candidates a robust search of easy_push with seed 6 plans (each the plan its
+    """The three candidates a robust search of easy_push with seed 3 plans (each the plan its
     own seed gives, scored the same way, 10 rollouts): (plan, robustness, goal travel m)."""
     options = PCRRTOptions(time_limit=60.0)
     world = PhysicsOptions()
-    seeds = [6] + [tree_seed(6, CANDIDATE_SEED_OFFSET + k) for k in (1, 2)]
+    seeds = [3] + [tree_seed(3, CANDIDATE_SEED_OFFSET + k) for k in (1, 2)]
     candidates = []
     for seed in seeds:
         plan = plan_scene(PlanRequest.first_plan(easy, "pc-rrt", options, seed=seed))
@@ -150,36 +150,36 @@ def test_with_accept_best_the_most_robust_candidate_answers_when_none_is_robust_
     answers."""
     options = PCRRTOptions(time_limit=60.0)
     scores = [score for _, score, _ in three_candidates]
-    assert 0 < int(np.argmax(scores)) and max(scores) < 1.0, scores    # 0.7, 0.7, 0.9
+    assert 0 < int(np.argmax(scores)) and max(scores) < 1.0, scores    # 0.6, 0.8, 0.4
     expected = three_candidates[int(np.argmax(scores))]
-    best = plan_scene(PlanRequest.first_plan(easy, "pc-rrt", options, seed=6, robust=RobustOptions(
+    best = plan_scene(PlanRequest.first_plan(easy, "pc-rrt", options, seed=3, robust=RobustOptions(
         min_robustness=1.0, rollouts=10, candidates=3, travel_penalty=0.0, accept_best=True)))
     assert best.solved and best.robustness == expected[1], (best.robustness, scores)
-    assert best.result.seed == 6           # the request's seed, which reproduces the choice
+    assert best.result.seed == 3           # the request's seed, which reproduces the choice
     assert _same_path(best, expected[0])
-    refused = plan_scene(PlanRequest.first_plan(easy, "pc-rrt", options, seed=6,
+    refused = plan_scene(PlanRequest.first_plan(easy, "pc-rrt", options, seed=3,
                                                 robust=RobustOptions(min_robustness=1.0,
                                                                      rollouts=10, candidates=3,
                                                                      accept_best=False)))
     assert not refused.solved and refused.robustness == max(scores)
-    assert "the most robust reached the goal in 90% of 10" in refused.result.message
+    assert "the most robust reached the goal in 80% of 10" in refused.result.message
 
 
 def test_candidates_are_ranked_by_robustness_less_the_travel_penalty(easy, three_candidates):
     """The rank is robustness - travel_penalty x the goal object's push path (m). The three
-    candidates score 0.7, 0.7 and 0.9 and push the box 0.19, 0.36 and 0.27 m: the default 0.5
-    still picks the third, a penalty of 10 per metre the first, the shortest push."""
+    candidates score 0.6, 0.8 and 0.4 and push the box 0.25, 0.29 and 0.36 m: the default 0.5
+    still picks the second, a penalty of 10 per metre the first, the shortest push."""
     options = PCRRTOptions(time_limit=60.0)
     picks = {}
     for penalty in (0.0, 0.5, 10.0):
         ranks = [score - penalty * travel for _, score, travel in three_candidates]
         picks[penalty] = int(np.argmax(ranks))
-        chosen = plan_scene(PlanRequest.first_plan(easy, "pc-rrt", options, seed=6,
+        chosen = plan_scene(PlanRequest.first_plan(easy, "pc-rrt", options, seed=3,
                                                    robust=RobustOptions(
             min_robustness=1.0, rollouts=10, candidates=3, travel_penalty=penalty)))
         expected = three_candidates[picks[penalty]]
         assert chosen.robustness == expected[1] and _same_path(chosen, expected[0]), penalty
-    assert picks == {0.0: 2, 0.5: 2, 10.0: 0}, picks
+    assert picks == {0.0: 1, 0.5: 1, 10.0: 0}, picks
 
 
 def test_a_grown_arm_meets_objects_sooner_but_keeps_its_table_clearance(easy):
@@ -290,14 +290,15 @@ def test_a_tipping_push_topples_only_when_it_carries_the_object_far_enough(panda
             "support_friction": 0.6, "pusher_friction": 0.3,
             "pose": [tool[0] + 0.041, tool[1], 0.0]}     # 1 mm ahead of the finger tips
     world = scene([tall])
-    options = PhysicsOptions(tipping=False, tip_judgement=True)
+    options = PhysicsOptions(tipping=False, tip_judgement=True, object_contact=False)
     assert rollout(world, push(0.06), options) == "toppled"
     assert rollout(world, push(0.02), options) == ""
     low = {**tall, "size": [0.06, 0.06, 0.1], "support_friction": 0.3}
     behind = {**low, "name": "behind", "pose": [tool[0] + 0.11, tool[1], 0.0]}
     row = scene([{**low, "name": "tall"}, behind])
     assert rollout(row, push(0.12), dataclasses.replace(options, object_contact=True)) == ""
-    assert rollout(row, push(0.12), options) == "object_object_overlap"
+    assert rollout(row, push(0.12), dataclasses.replace(options, object_contact=False)) \
+        == "object_object_overlap"
 
 
 def test_a_cancel_ends_the_selection_not_only_the_candidate(panda, cancel_after, monkeypatch):
