@@ -16,7 +16,7 @@ from rearrangement_planner.planning.propagation import replay
 from rearrangement_planner.planning.request import PlanRequest
 from rearrangement_planner.planning.shortcut import ShortcutOptions
 
-STATIC_SEED = 1   # a seed for which the Static RRT solves the default scene quickly
+STATIC_SEED = 4   # a seed for which the Static RRT solves the default scene quickly
 
 
 @pytest.fixture(scope="module")
@@ -116,8 +116,8 @@ def test_static_rrt_shortcuts_never_move_a_non_goal_object(panda):
 
 
 def test_static_rrt_is_reproducible(easy):
-    a = StaticRRT(easy, PCRRTOptions(time_limit=30.0)).plan(seed=3)
-    b = StaticRRT(easy, PCRRTOptions(time_limit=30.0)).plan(seed=3)
+    a = StaticRRT(easy, PCRRTOptions(time_limit=30.0)).plan(seed=2)
+    b = StaticRRT(easy, PCRRTOptions(time_limit=30.0)).plan(seed=2)
     assert a.solved and np.array_equal(a.arm_path, b.arm_path)
 
 

@@ -139,12 +139,32 @@ def three_candidates(easy):
     return candidates
 
 
+_SEARCHES: dict[int, object] = {}
+
+
+@pytest.fixture
+def remembered_searches(monkeypatch):
+    """The ranking tests choose among the same three searches under different options: each
+    seed's search runs once (for real, inside the pipeline) and is remembered for the next
+    request of this module, so that the tests spend their time on the selection."""
+    from rearrangement_planner.planning.pipeline import Candidates
+
+    search = Candidates.plan
+
+    def plan(self, seed, time_limit=None):
+        if seed not in _SEARCHES:
+            _SEARCHES[seed] = search(self, seed, time_limit)
+        return _SEARCHES[seed]
+
+    monkeypatch.setattr(Candidates, "plan", plan)
+
+
 def _same_path(a, b) -> bool:
     return [s.q.tolist() for s in a.result.states] == [s.q.tolist() for s in b.result.states]
 
 
 def test_with_accept_best_the_most_robust_candidate_answers_when_none_is_robust_enough(
-        easy, three_candidates):
+        easy, three_candidates, remembered_searches):
     """min_robustness 1 is out of reach of all three candidates: without accept_best the
     request fails, with it (and no travel penalty) the most robust candidate, the third,
     answers."""
@@ -165,7 +185,8 @@ def test_with_accept_best_the_most_robust_candidate_answers_when_none_is_robust_
     assert "the most robust reached the goal in 80% of 10" in refused.result.message
 
 
-def test_candidates_are_ranked_by_robustness_less_the_travel_penalty(easy, three_candidates):
+def test_candidates_are_ranked_by_robustness_less_the_travel_penalty(easy, three_candidates,
+                                                                   remembered_searches):
     """The rank is robustness - travel_penalty x the goal object's push path (m). The three
     candidates score 0.6, 0.8 and 0.4 and push the box 0.25, 0.29 and 0.36 m: the default 0.5
     still picks the second, a penalty of 10 per metre the first, the shortest push."""
