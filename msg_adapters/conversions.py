@@ -15,6 +15,7 @@ rotation about the frame's z axis.
 from __future__ import annotations
 
 import math
+import sys
 from collections.abc import Sequence
 from fractions import Fraction
 
@@ -46,6 +47,14 @@ def _header(frame_id: str, stamp: Time | None) -> Header:
 
 def _finite(*values: float) -> bool:
     return all(math.isfinite(v) for v in values)
+
+
+def _listing(names: Sequence[str], limit: int = 10) -> str:
+    """At most `limit` of `names`, each cut to 40 characters: an error names the input, it does
+    not copy it."""
+    shown = ", ".join(n if len(n) <= 40 else f"{n[:40]}..." for n in names[:limit])
+    more = f" and {len(names) - limit} more" if len(names) > limit else ""
+    return f"{shown}{more}" if names else "none"
 
 
 def _wrap(angle: float) -> float:
@@ -107,7 +116,7 @@ def joint_state_to_configuration(msg: JointState, joint_names: Sequence[str]) ->
         raise InputError("joint_states.name",
                          f"planning joint{'s' if len(missing) > 1 else ''} "
                          f"{', '.join(repr(n) for n in missing)} missing; the planning joints "
-                         f"are {', '.join(joint_names)} (got {', '.join(names) or 'none'})")
+                         f"are {', '.join(joint_names)} (got {_listing(names)})")
     q = np.array([positions[index[name]] for name in joint_names], dtype=float)
     for name, value in zip(joint_names, q, strict=True):
         if not math.isfinite(value):
@@ -154,7 +163,11 @@ def pose_array_to_objects(msg: PoseArray, object_ids: Sequence[str], planning_fr
             raise InputError(f"{field}.orientation",
                              f"of object '{object_id}' is ({o.x}, {o.y}, {o.z}, {o.w}); "
                              f"quaternions must be finite numbers")
-        norm = math.sqrt(o.x * o.x + o.y * o.y + o.z * o.z + o.w * o.w)
+        norm = math.hypot(o.x, o.y, o.z, o.w)       # no overflow for huge components
+        if not math.isfinite(norm):
+            raise InputError(f"{field}.orientation",
+                             f"of object '{object_id}' is too large to normalise (norm beyond "
+                             f"{sys.float_info.max:.3g}); give a unit quaternion")
         if norm <= _MIN_QUATERNION_NORM:
             raise InputError(f"{field}.orientation",
                              f"of object '{object_id}' is a zero quaternion (norm {norm:.3g}); "

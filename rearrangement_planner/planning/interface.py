@@ -34,6 +34,9 @@ class Outcome(str, Enum):
     START_INVALID = "START_INVALID"
     GOAL_INVALID = "GOAL_INVALID"
     TIMEOUT = "TIMEOUT"
+    """The time limit passed before a plan was found."""
+    PLANNING_FAILED = "PLANNING_FAILED"
+    """The iteration budget (`max_iterations`) ran out before a plan was found."""
     CANCELLED = "CANCELLED"
     INVALID_INPUT = "INVALID_INPUT"
     INTERNAL = "INTERNAL"
@@ -60,7 +63,7 @@ class PlannerOptions(Settings):
     time_limit: float = setting(60.0, low=0.001, high=86400.0)
     """Planning budget, s; running out is a TIMEOUT failure, never an approximate plan."""
     max_iterations: int = setting(1_000_000, low=1, high=2**31 - 1)
-    """Iteration budget (a TIMEOUT when exhausted)."""
+    """Iteration budget (PLANNING_FAILED when exhausted)."""
     goal_bias: float = setting(0.2, low=0.0, high=1.0)
     """Probability of sampling the goal object inside the goal region."""
     goal_margin: float = setting(0.05, low=0.0, high=0.5)

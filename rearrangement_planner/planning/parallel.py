@@ -329,11 +329,11 @@ def _outcome(results: list[PlanResult], seed: int, trees: int, elapsed: float) -
     own = results[0]
     if own.outcome in (Outcome.START_INVALID, Outcome.INVALID_INPUT):
         return dataclasses.replace(own, plan_time=elapsed)
-    timeouts = [r for r in results if r.outcome is Outcome.TIMEOUT]
-    message = timeouts[0].message if timeouts else own.message
+    budgets = [r for r in results if r.outcome in (Outcome.TIMEOUT, Outcome.PLANNING_FAILED)]
+    ended = budgets[0] if budgets else own
     return dataclasses.replace(
-        own, outcome=Outcome.TIMEOUT if timeouts else own.outcome,
-        message=f"{message} ({trees} trees, {sum(r.iterations for r in results)} iterations "
+        own, outcome=ended.outcome,
+        message=f"{ended.message} ({trees} trees, {sum(r.iterations for r in results)} iterations "
                 f"in all)",
         iterations=sum(r.iterations for r in results),
         tree_size=sum(r.tree_size for r in results), propagation_steps=total_steps,

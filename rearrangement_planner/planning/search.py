@@ -50,9 +50,12 @@ class Search:
         opts = self.options
         if self.cancelled():
             return self.failure(Outcome.CANCELLED, "cancelled")
-        if now - self.t0 > opts.time_limit or self.iterations >= opts.max_iterations:
+        if now - self.t0 > opts.time_limit:
             return self.failure(Outcome.TIMEOUT, f"no plan within {opts.time_limit:g} s / "
                                                  f"{self.iterations} iterations")
+        if self.iterations >= opts.max_iterations:
+            return self.failure(Outcome.PLANNING_FAILED,
+                                f"no plan within max_iterations {opts.max_iterations}")
         if self.progress is not None and now - self.last_report >= opts.progress_period:
             self.progress(Progress(self.iterations, self.tree.n, self.best, now - self.t0))
             self.last_report = now

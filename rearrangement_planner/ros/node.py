@@ -26,9 +26,9 @@ import queue
 import threading
 import time
 import traceback
+from functools import partial
 from typing import Any
 
-import numpy as np
 import rclpy
 from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray
@@ -43,15 +43,14 @@ from rclpy.qos import (
     ReliabilityPolicy,
     qos_profile_sensor_data,
 )
+from rclpy.signals import SignalHandlerOptions
 from sensor_msgs.msg import JointState
-from std_srvs.srv import Trigger
 from trajectory_msgs.msg import JointTrajectory
 from visualization_msgs.msg import MarkerArray
 
 from msg_adapters import (
     joint_state_to_configuration,
     plan_markers,
-    pose_array_to_objects,
     pose_stamped_to_goal,
     status_to_diagnostics,
     trajectory_to_msg,
@@ -60,28 +59,33 @@ from rearrangement_planner.model.errors import RearrangementError
 from rearrangement_planner.model.resources import NODE_NAME
 from rearrangement_planner.planning.interface import Outcome, Progress
 from rearrangement_planner.planning.warmup import warm_up
+from rearrangement_planner.ros.action import PlanActionServer, execute
 from rearrangement_planner.ros.parameters import PARAMETERS, declare_parameters, read_parameters
 from rearrangement_planner.ros.plan_request import (
     FINAL_STATES,
     Input,
     Job,
     configured_scene,
-    object_ids,
+    objects_from_msg,
     planning_status,
     record,
     result_markers,
     run_plan,
     summary_line,
 )
+from rearrangement_planner.ros.services import TriggerServices
 from rearrangement_planner.ros.status import PlannerStatus
 
 EXECUTOR_THREADS = 6
 STATUS_RATE = 4.0
 """Hz of the `~/status` progress messages while planning (docs/design.md asks for >= 2 Hz)."""
-CANCEL_WAIT = 1.0
-"""Seconds `~/cancel` waits for the planner to stop before answering."""
 INPUT_ERROR_REPEAT = 1.0
-"""Seconds before the same input error is published on `~/status` again (flood guard)."""
+"""Seconds before a rejection of the same input topic (or the same problem) is published on
+`~/status` and logged again (flood guard: a stream of varied bad messages is one line a
+second)."""
+REPORT_CHARS = 400
+"""Longest problem report; a rejection names the field and the problem, it does not echo an
+input of any size."""
 
 
 # --------------------------------------------------------------------------------------------
@@ -114,7 +118,7 @@ class PlannerNode(Node):
         self._job: Job | None = None
         self._progress: Progress | None = None
         self._status = PlannerStatus("idle", f"ready: scene {self._scene.source}")
-        self._input_error = ("", 0.0)
+        self._input_error: dict[str, float] = {}
         self._last_trajectory: tuple[str, JointTrajectory] | None = None
         self._counter = 0
         self._stopping = False
@@ -140,9 +144,8 @@ class PlannerNode(Node):
             callback_group=inputs)
         self._goal_sub = self.create_subscription(
             PoseStamped, "~/goal", self._on_goal, 10, callback_group=inputs)
-        self.create_service(Trigger, "~/plan", self._on_plan, callback_group=plan)
-        self.create_service(Trigger, "~/cancel", self._on_cancel, callback_group=control)
-        self.create_service(Trigger, "~/execute", self._on_execute, callback_group=control)
+        self._plan_action = PlanActionServer(self, plan)
+        self._triggers = TriggerServices(self, plan, control)
         self.create_timer(1.0 / STATUS_RATE, self._on_status_timer, callback_group=control)
 
         self._worker = threading.Thread(target=self._work, name="planner_worker", daemon=True)
@@ -168,6 +171,7 @@ class PlannerNode(Node):
 
     def destroy_node(self) -> None:
         self.stop()
+        self._plan_action.destroy()
         super().destroy_node()
 
     # -- small helpers --------------------------------------------------------------------------
@@ -178,8 +182,14 @@ class PlannerNode(Node):
     def _planning_frame(self) -> str:
         return self.get_parameter("planning_frame").value or self._robot.config.base_frame
 
+    def _publish(self, publisher: Any, msg: Any) -> None:
+        """Publish unless the node's context has shut down (Ctrl-C while a plan runs: the
+        worker finishes its job quietly)."""
+        if self.context.ok():
+            publisher.publish(msg)
+
     def _publish_status(self, status: PlannerStatus) -> None:
-        self._status_pub.publish(status_to_diagnostics(status, self._stamp()))
+        self._publish(self._status_pub, status_to_diagnostics(status, self._stamp()))
 
     def _planning_status(self, job: Job, message: str) -> PlannerStatus:
         return planning_status(job, self._progress, message)
@@ -192,15 +202,14 @@ class PlannerNode(Node):
                       "goal": self._goal}
         return {k: (v.msg if v is not None else None) for k, v in latest.items()}
 
-    def _report(self, message: str) -> None:
-        """Log a problem and put it on ~/status (state unchanged); the same message at most
-        once per INPUT_ERROR_REPEAT s."""
-        now = time.monotonic()
+    def report(self, message: str, source: str = "") -> None:
+        """Log a problem and put it on ~/status (state unchanged), cut to REPORT_CHARS; at most
+        once per INPUT_ERROR_REPEAT s per `source` (an input topic), or per message text."""
+        now, key, message = time.monotonic(), source or message, _cut(message)
         with self._lock:
-            last, when = self._input_error
-            if message == last and now - when < INPUT_ERROR_REPEAT:
+            if now - self._input_error.get(key, -math.inf) < INPUT_ERROR_REPEAT:
                 return
-            self._input_error = (message, now)
+            self._input_error[key] = now
             job = self._job
             status = (self._planning_status(job, message) if job is not None
                       else dataclasses.replace(self._status, message=message))
@@ -214,22 +223,19 @@ class PlannerNode(Node):
         try:
             q = joint_state_to_configuration(msg, self._robot.joint_names)
         except Exception as exc:  # noqa: BLE001 - bad input never stops the node
-            self._report(f"rejected joint_states: {_describe(exc)}")
+            self.report(f"rejected joint_states: {_describe(exc)}", "joint_states")
             return
         with self._lock:
             self._joint = Input(q, msg, received)
 
     def _on_object_poses(self, msg: PoseArray) -> None:
         received = time.monotonic()
+        params = {name: self.get_parameter(name).value
+                  for name in ("object_ids", "planning_frame", "max_object_tilt")}
         try:
-            ids = object_ids(list(self.get_parameter("object_ids").value), self._scene)
-            poses = pose_array_to_objects(msg, ids, self._planning_frame(),
-                                          self.get_parameter("max_object_tilt").value)
-            objects = np.empty_like(poses)
-            for pose, name in zip(poses, ids, strict=True):
-                objects[self._scene.object_index(name)] = pose
+            objects = objects_from_msg(msg, params, self._scene)
         except Exception as exc:  # noqa: BLE001
-            self._report(f"rejected object_poses: {_describe(exc)}")
+            self.report(f"rejected object_poses: {_describe(exc)}", "object_poses")
             return
         with self._lock:
             self._objects = Input(objects, msg, received)
@@ -239,19 +245,20 @@ class PlannerNode(Node):
         try:
             xy = pose_stamped_to_goal(msg, self._planning_frame())
         except Exception as exc:  # noqa: BLE001
-            self._report(f"rejected goal: {_describe(exc)}")
+            self.report(f"rejected goal: {_describe(exc)}", "goal")
             return
         with self._lock:
             self._goal = Input(xy, msg, received)
         if self.get_parameter("plan_on_goal").value:
-            job = self._submit("~/goal")
+            job = self.submit("~/goal")
             if isinstance(job, str):
-                self._report(f"goal received, not planning: {job}")
+                self.report(f"goal received, not planning: {job}")
 
     # -- requests -------------------------------------------------------------------------------
 
-    def _submit(self, source: str) -> Job | str:
-        """A new job for the worker, or why not (busy)."""
+    def submit(self, source: str, goal: Any = None, queued: bool = True) -> Job | str:
+        """A new job for the worker, or why not (busy); `goal`: the action goal it serves;
+        not `queued`: reserved (the node is busy with it) until `enqueue`."""
         with self._lock:
             if self._stopping:
                 return "refused: the node is shutting down"
@@ -262,60 +269,12 @@ class PlannerNode(Node):
                         f"call {self.resolve_service_name('~/cancel')}")
             self._counter += 1
             job = Job(f"{time.strftime('%Y%m%d-%H%M%S')}-{self._counter:03d}", source)
+            job.goal = goal
             self._job = job
             self._progress = None
-        self._queue.put(job)
+        if queued:
+            self._queue.put(job)
         return job
-
-    def _on_plan(self, request: Trigger.Request, response: Trigger.Response
-                 ) -> Trigger.Response:
-        job = self._submit("~/plan")
-        if isinstance(job, str):
-            response.success, response.message = False, job
-            return response
-        job.done.wait()
-        response.success = job.outcome == Outcome.SUCCEEDED.value
-        response.message = job.summary
-        return response
-
-    def _on_cancel(self, request: Trigger.Request, response: Trigger.Response
-                   ) -> Trigger.Response:
-        with self._lock:
-            job = self._job
-        if job is None or job.planned.is_set():
-            response.success = False
-            response.message = ("no plan is running" if job is None else
-                                f"plan {job.plan_id} has already stopped planning")
-            return response
-        t0 = time.monotonic()
-        job.cancel.set()
-        stopped = job.planned.wait(CANCEL_WAIT)
-        waited = time.monotonic() - t0
-        response.success = stopped
-        response.message = (f"plan {job.plan_id}: planning stopped {waited * 1e3:.0f} ms after "
-                            f"the cancel" if stopped else
-                            f"plan {job.plan_id}: cancel requested, planning has not stopped "
-                            f"after {waited:.1f} s")
-        self.get_logger().info(response.message)
-        return response
-
-    def _on_execute(self, request: Trigger.Request, response: Trigger.Response
-                    ) -> Trigger.Response:
-        with self._lock:
-            last = self._last_trajectory
-        if last is None:
-            response.success = False
-            response.message = "no successful plan to execute yet; call ~/plan first"
-            return response
-        plan_id, msg = last
-        self._command_pub.publish(msg)
-        duration = msg.points[-1].time_from_start
-        response.success = True
-        response.message = (f"plan {plan_id} sent to {self._command_pub.topic_name} "
-                            f"({len(msg.points)} points, "
-                            f"{duration.sec + duration.nanosec * 1e-9:.1f} s)")
-        self.get_logger().info(response.message)
-        return response
 
     def _on_status_timer(self) -> None:
         with self._lock:
@@ -348,41 +307,61 @@ class PlannerNode(Node):
                 job.done.set()
 
     def _run(self, job: Job) -> None:
-        """Plan, then publish the trajectory, record, publish markers and the final status."""
+        """Plan, publish the trajectory, execute when the goal asks, record, publish markers
+        and the final status."""
         job.started = time.monotonic()
+        job.phase = "planning"
         with self._lock:
             self._publish_status(self._planning_status(
                 job, f"plan {job.plan_id} started ({job.source})"))
-        params = read_parameters(self, PARAMETERS)
-        frame = params["planning_frame"] or self._robot.config.base_frame
+        job.params = read_parameters(self, PARAMETERS)
+        job.frame = frame = job.params["planning_frame"] or self._robot.config.base_frame
         with self._lock:
             latest = {"joint_states": self._joint, "object_poses": self._objects,
                       "goal": self._goal}
         topics = {"joint_states": self._joint_sub.topic_name,
                   "object_poses": self._objects_sub.topic_name}
         outcome, message, scene, output, inputs = run_plan(
-            job, params, self._scene, latest, topics, self._on_progress, self.get_logger())
+            job, job.params, self._scene, latest, topics, self._on_progress, self.get_logger())
+        params = job.params      # with the goal's changes
+        job.output = output
         job.planned.set()
 
+        fragile = bool(output and output.fragile)
+        sendable = not fragile or params["execute_fragile"]
+        executed = False
         if output is not None and output.trajectory is not None:
             msg = trajectory_to_msg(output.trajectory)
-            self._trajectory_pub.publish(msg)
+            job.trajectory = msg
+            self._publish(self._trajectory_pub, msg)
             with self._lock:
                 self._last_trajectory = (job.plan_id, msg)
-            if params["auto_execute"] and (not output.fragile or params["execute_fragile"]):
-                self._command_pub.publish(msg)
+            if job.goal is not None and job.goal.execute and sendable:
+                job.phase = "executing"
+                outcome, message = execute(job, msg, params["execution_timeout"],
+                                           partial(self._publish, self._command_pub),
+                                           self._joint_input)
+                executed = True
+            elif job.goal is None and params["auto_execute"] and sendable:
+                self._publish(self._command_pub, msg)
+        job.phase = "recording"
         recording, failure = record(job, output, params, frame, inputs, self.get_logger())
+        job.recording = recording
         if failure is not None:
-            self._report(failure)
-        self._markers_pub.publish(result_markers(scene, output, frame, self._stamp()))
+            self.report(failure)
+        self._publish(self._markers_pub, result_markers(scene, output, frame, self._stamp()))
 
         r = output.result if output is not None else None    # None: NO_STATE, nothing ran
         summary = summary_line(job.plan_id, outcome, message, output, recording,
                                params["rollouts"])
+        if executed and outcome == Outcome.SUCCEEDED.value:
+            summary += f"; {message}"
+        if job.goal is not None and job.goal.execute and fragile and not sendable:
+            summary += "; not executed (parameter execute_fragile is false)"
         final = PlannerStatus(FINAL_STATES.get(outcome, "failed"), summary, outcome,
                               job.plan_id, r.iterations if r else 0, r.tree_size if r else 0,
                               r.best_goal_distance if r else math.inf,
-                              time.monotonic() - job.started, bool(output and output.fragile))
+                              time.monotonic() - job.started, fragile)
         with self._lock:
             self._job = None
             self._status = final
@@ -394,10 +373,38 @@ class PlannerNode(Node):
         else:
             self.get_logger().warning(line)
 
+    def enqueue(self, job: Job) -> None:
+        """Hand a job reserved by `submit(..., queued=False)` to the worker."""
+        self._queue.put(job)
+
+    def running(self) -> tuple[Job | None, Progress | None]:
+        """The job that runs now (None when idle) and its planner's last progress."""
+        with self._lock:
+            return self._job, self._progress
+
+    def last_trajectory(self) -> tuple[str, JointTrajectory] | None:
+        """The plan id and trajectory of the last solved plan (None before the first)."""
+        with self._lock:
+            return self._last_trajectory
+
+    def send(self, msg: JointTrajectory) -> None:
+        """Send `msg` to the arm's controller (joint_trajectory)."""
+        self._publish(self._command_pub, msg)
+
+    def _joint_input(self) -> Input | None:
+        with self._lock:
+            return self._joint
+
     def _on_progress(self, progress: Progress) -> None:
         with self._lock:
             self._progress = progress
 
+
+
+def _cut(message: str) -> str:
+    if len(message) <= REPORT_CHARS:
+        return message
+    return f"{message[:REPORT_CHARS]} ... ({len(message) - REPORT_CHARS} more characters)"
 
 
 def _describe(exc: Exception) -> str:
@@ -408,7 +415,9 @@ def _describe(exc: Exception) -> str:
 
 def main(args: list[str] | None = None) -> int:
     """`planner_node`: init, spin on a MultiThreadedExecutor, clean up."""
-    rclpy.init(args=args)
+    # No rclpy signal handler: Ctrl-C arrives as KeyboardInterrupt while the context is still
+    # valid, so a running plan is cancelled and its worker joined before anything is destroyed.
+    rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
     node = None
     executor = MultiThreadedExecutor(num_threads=EXECUTOR_THREADS)
     try:

@@ -91,6 +91,9 @@ _NODE_LAST: tuple[ParameterSpec, ...] = (
     ParameterSpec("execute_fragile", False, "With auto_execute, publish a fragile plan too (one "
                   "whose robustness stayed below min_robustness; its answer says FRAGILE)."),
     ParameterSpec("plan_on_goal", False, "Start planning when a goal arrives on ~/goal."),
+    ParameterSpec("execution_timeout", 0.0, "How long an action goal with execute waits for "
+                  "joint_states to reach the sent trajectory's last point, s (EXECUTION_FAILED "
+                  "after); 0 = the trajectory's duration plus 10 s.", 0.0, 86400.0),
 )
 
 PARAMETERS: tuple[ParameterSpec, ...] = (

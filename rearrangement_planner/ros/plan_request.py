@@ -14,9 +14,10 @@ from typing import Any
 
 import numpy as np
 from builtin_interfaces.msg import Time
+from geometry_msgs.msg import PoseArray
 from visualization_msgs.msg import MarkerArray
 
-from msg_adapters import plan_markers
+from msg_adapters import joint_state_to_configuration, plan_markers, pose_array_to_objects
 from rearrangement_planner.io.plan_record import record_plan
 from rearrangement_planner.io.recording import RecordingError
 from rearrangement_planner.model.errors import InputError, SceneError
@@ -34,10 +35,8 @@ from rearrangement_planner.planning.interface import (
 from rearrangement_planner.planning.pipeline import PlanOutput, plan_scene
 from rearrangement_planner.planning.registry import planner_spec
 from rearrangement_planner.planning.request import PlanRequest, request_settings
+from rearrangement_planner.ros.action import NO_STATE, goal_parameters, goal_point_pose
 from rearrangement_planner.ros.status import PlannerStatus
-
-NO_STATE = "NO_STATE"
-"""The node's own outcome (docs/design.md): no joint state / object poses yet, or stale ones."""
 
 
 def node_request(params: dict[str, Any], scene: Scene) -> PlanRequest:
@@ -80,6 +79,17 @@ class Job:
         self.started: float | None = None
         self.outcome = ""
         self.summary = ""
+        self.goal: Any = None
+        """The action goal (rearrangement_interfaces/PlanRearrangement), None for ~/plan."""
+        self.phase = "waiting"
+        """What the job does now: waiting, planning, recording, executing (the feedback)."""
+        self.output: PlanOutput | None = None
+        self.recording = ""
+        self.trajectory: Any = None
+        """The JointTrajectory of a solved plan."""
+        self.frame = ""
+        self.params: dict[str, Any] = {}
+        """The parameters the job plans with (the node's, changed by its goal)."""
 
 
 class Rejected(Exception):
@@ -115,6 +125,45 @@ def object_ids(ids: list[str], scene: Scene) -> list[str]:
         raise InputError("parameter object_ids",
                          f"is {ids}; list every scene object once ({', '.join(names)})")
     return ids
+
+
+def objects_from_msg(msg: PoseArray, params: dict[str, Any], scene: Scene) -> np.ndarray:
+    """The planar poses (M, 3) in scene order of a PoseArray in the order of parameter
+    object_ids. InputError names the field at fault."""
+    ids = object_ids(list(params["object_ids"]), scene)
+    frame = params["planning_frame"] or scene.robot.config.base_frame
+    poses = pose_array_to_objects(msg, ids, frame, params["max_object_tilt"])
+    objects = np.empty_like(poses)
+    for pose, name in zip(poses, ids, strict=True):
+        objects[scene.object_index(name)] = pose
+    return objects
+
+
+def goal_inputs(goal: Any, params: dict[str, Any], scene: Scene,
+                latest: dict[str, Input | None]) -> tuple[dict[str, Any], dict[str, Input | None]]:
+    """The parameters and inputs of an action goal (`ros.action`): its settings over the
+    parameters, and its start state and goal point, where it gives them, over the latest
+    messages. InputError names the goal field at fault."""
+    params = goal_parameters(goal, params)
+    latest = dict(latest)
+    now = time.monotonic()
+    if goal.start_joint_state.name:
+        try:
+            q = joint_state_to_configuration(goal.start_joint_state, scene.robot.joint_names)
+        except InputError as exc:
+            raise InputError(f"goal.start_{exc.field}", exc.problem) from None
+        latest["joint_states"] = Input(q, goal.start_joint_state, now)
+    if goal.start_object_poses.poses:
+        try:
+            objects = objects_from_msg(goal.start_object_poses, params, scene)
+        except InputError as exc:
+            raise InputError(f"goal.start_{exc.field}", exc.problem) from None
+        latest["object_poses"] = Input(objects, goal.start_object_poses, now)
+    frame = params["planning_frame"] or scene.robot.config.base_frame
+    pose = goal_point_pose(goal, frame)
+    if pose is not None:
+        latest["goal"] = Input(np.array([pose.pose.position.x, pose.pose.position.y]), pose, now)
+    return params, latest
 
 
 def fresh_inputs(latest: dict[str, Input | None], topics: dict[str, str],
@@ -165,6 +214,9 @@ def run_plan(job: Job, params: dict[str, Any], configured: Scene,
     inputs: dict[str, Input | None] = {}
     scene, output = configured, None
     try:
+        if job.goal is not None:
+            params, latest = goal_inputs(job.goal, params, configured, latest)
+            job.params = params
         request = node_request(params, configured)
         inputs = fresh_inputs(latest, topics, params["state_timeout"])
         scene, physics = planning_scene(configured, inputs, params, request.physics)

@@ -431,6 +431,29 @@ def test_tilt_just_within_the_limit_is_accepted():
     assert angle_error(yaw, 0.3) < 0.002
 
 
+def test_huge_quaternions_are_read_without_overflow():
+    """A quaternion is normalised with an overflow-safe norm: (0, 0, 1e200, 1e200) is a 90 degree
+    yaw (the squared norm used to overflow to inf and read as yaw 0), a 90 degree tilt of the
+    same size is refused, and one too large to normalise is refused, never misread."""
+    [_, (_, _, yaw)] = objects(object_poses(orientation=(0.0, 0.0, 1e200, 1e200)))
+    assert yaw == pytest.approx(math.pi / 2, abs=1e-12)
+    with pytest.raises(InputError, match="tilted by 1.571 rad"):
+        objects(object_poses(orientation=(1e200, 0.0, 0.0, 1e200)))
+    with pytest.raises(InputError, match="too large to normalise") as info:
+        objects(object_poses(orientation=(1e308, 1e308, 1e308, 1e308)))
+    assert info.value.field == "object_poses.poses[1].orientation"
+
+
+def test_a_rejection_names_the_input_without_copying_it(panda):
+    """100,000 joint names: the error names what is missing and a few names, not all."""
+    names = [f"joint_{i:06d}" for i in range(100_000)]
+    with pytest.raises(InputError) as info:
+        joint_state_to_configuration(JointState(name=names, position=[0.0] * len(names)),
+                                     panda.joint_names)
+    assert info.value.field == "joint_states.name" and "and 99990 more" in str(info.value)
+    assert len(str(info.value)) < 600
+
+
 # --------------------------------------------------------------------------------------------
 # Markers
 # --------------------------------------------------------------------------------------------

@@ -22,8 +22,10 @@ import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 import rclpy  # noqa: E402
 import yaml  # noqa: E402
+from action_msgs.msg import GoalStatus  # noqa: E402
 from diagnostic_msgs.msg import DiagnosticArray  # noqa: E402
 from geometry_msgs.msg import PoseArray, PoseStamped, Quaternion  # noqa: E402
+from rclpy.action import ActionClient  # noqa: E402
 from rclpy.context import Context  # noqa: E402
 from rclpy.executors import MultiThreadedExecutor, SingleThreadedExecutor  # noqa: E402
 from rclpy.node import Node  # noqa: E402
@@ -42,6 +44,8 @@ from msg_adapters import (  # noqa: E402
     msg_to_trajectory,
     objects_to_pose_array,
 )
+from rearrangement_interfaces.action import PlanRearrangement  # noqa: E402
+from rearrangement_interfaces.msg import ErrorCode  # noqa: E402
 from rearrangement_planner.model.resources import NODE_NAME, config_dir  # noqa: E402
 from rearrangement_planner.model.state import State  # noqa: E402
 from rearrangement_planner.physics.step import Physics  # noqa: E402
@@ -49,7 +53,11 @@ from rearrangement_planner.physics.validation import load_scene  # noqa: E402
 from rearrangement_planner.planning.propagation import replay  # noqa: E402
 from rearrangement_planner.planning.request import request_settings  # noqa: E402
 from rearrangement_planner.ros import plan_request as plan_request_module  # noqa: E402
-from rearrangement_planner.ros.node import EXECUTOR_THREADS, PlannerNode  # noqa: E402
+from rearrangement_planner.ros.node import (  # noqa: E402
+    EXECUTOR_THREADS,
+    REPORT_CHARS,
+    PlannerNode,
+)
 from rearrangement_planner.ros.parameters import DEFAULTS, PARAMETERS  # noqa: E402
 from rearrangement_planner.ros.replay import wait_until  # noqa: E402
 
@@ -77,10 +85,13 @@ class Client:
         self.statuses: list[tuple[float, object]] = []
         self.last_level = b"\x00"
         self.commands: list[JointTrajectory] = []
+        self.controller = False
+        """Act as the arm's controller: a command moves the published joint state to its end."""
         n.create_subscription(DiagnosticArray, f"{NS}/status", self._on_status, 50)
         n.create_subscription(JointTrajectory, "/joint_trajectory", self._on_command, 10)
         self.clients = {name: n.create_client(Trigger, f"{NS}/{name}")
                         for name in ("plan", "cancel", "execute")}
+        self.action = ActionClient(n, PlanRearrangement, f"{NS}/plan_rearrangement")
         self.parameters = AsyncParameterClient(n, NODE_NAME)
         n.create_timer(0.05, self._publish_inputs)
 
@@ -98,6 +109,9 @@ class Client:
     def _on_command(self, msg: JointTrajectory) -> None:
         with self.lock:
             self.commands.append(msg)
+            if self.controller and msg.points:
+                self.joint_state = JointState(name=list(msg.joint_names),
+                                              position=list(msg.points[-1].positions))
 
     # -- calls ----------------------------------------------------------------------------------
 
@@ -110,6 +124,24 @@ class Client:
         future = self.call_async(service)
         assert wait_until(future.done, timeout), f"{NS}/{service} did not answer in {timeout} s"
         return future.result()
+
+    def send_goal(self, goal: PlanRearrangement.Goal, feedback: list | None = None):
+        """Send `goal`; its goal handle once the node has accepted or refused it."""
+        assert self.action.wait_for_server(timeout_sec=10.0), f"{NS}/plan_rearrangement"
+        future = self.action.send_goal_async(
+            goal, feedback_callback=(lambda m: feedback.append((time.monotonic(), m.feedback)))
+            if feedback is not None else None)
+        assert wait_until(future.done, 10.0), "the goal was neither accepted nor refused"
+        return future.result()
+
+    def run_goal(self, goal: PlanRearrangement.Goal, feedback: list | None = None,
+                 timeout: float = 60.0):
+        """Send `goal` and wait for its (status, result)."""
+        handle = self.send_goal(goal, feedback)
+        assert handle.accepted
+        future = handle.get_result_async()
+        assert wait_until(future.done, timeout), f"no result in {timeout} s"
+        return future.result().status, future.result().result
 
     def set(self, **values) -> None:
         """Set planner_node parameters; every set must succeed."""
@@ -489,6 +521,33 @@ def test_bad_inputs_are_reported_and_the_node_keeps_serving(ros):
     assert response.success, response.message
 
 
+def test_a_flood_of_varied_bad_inputs_is_one_short_report_a_second(ros):
+    """A JointState of 100,000 names is rejected with a report of a few hundred characters, and
+    200 different bad messages in a burst give one report per second, not 200."""
+    client = ros["client"]
+    good = client.good_joint_state
+    try:
+        client.joint_state = None                  # the test publishes by hand
+        t0 = time.monotonic()
+        huge = JointState(name=[f"joint_{i:06d}" for i in range(100_000)],
+                          position=[0.0] * 100_000)
+        client.joint_pub.publish(huge)
+        status = client.wait_status(t0, lambda s: "rejected joint_states" in s.message)
+        assert "joint_states.name" in status.message
+        assert len(status.message) <= REPORT_CHARS + 60, len(status.message)
+        time.sleep(1.1)
+        t1 = time.monotonic()
+        for i in range(200):
+            client.joint_pub.publish(JointState(name=[*good.name[:6], f"extra_{i}"],
+                                                position=[*good.position[:6], float(i)]))
+        time.sleep(1.5)
+        reports = [s for _, s in client.statuses_since(t1) if "rejected joint_states" in s.message]
+        assert 1 <= len(reports) <= 3, len(reports)
+    finally:
+        client.joint_state = good
+    client.wait_inputs_flowing()
+
+
 def test_unwritable_record_dir_keeps_the_plan_and_reports(ros, tmp_path):
     client = ros["client"]
     blocker = tmp_path / "a_file"
@@ -609,3 +668,161 @@ def test_a_fragile_plan_is_said_to_be_fragile_and_not_executed_unless_asked(ros,
     finally:
         client.set(min_robustness=0.0, rollouts=10, candidates=3, auto_execute=False,
                    execute_fragile=False)
+
+
+# --------------------------------------------------------------------------------------------
+# The action ~/plan_rearrangement (rearrangement_interfaces/action/PlanRearrangement.action)
+# --------------------------------------------------------------------------------------------
+
+ROBUST = ["min_robustness=0.5", "rollouts=5", "candidates=1"]
+"""Settings of a goal that plans easy_push (seed 1) to a success in about a second."""
+
+
+def _far_goal(**fields) -> PlanRearrangement.Goal:
+    """A goal no plan reaches in seconds: a 1 cm region in the table's far corner."""
+    goal = PlanRearrangement.Goal(use_goal_point=True, goal_radius=0.01,
+                                  settings=["goal_margin=0.0", *ROBUST], **fields)
+    goal.goal_point.x, goal.goal_point.y = 0.93, 0.58
+    return goal
+
+
+def test_action_plans_with_feedback_and_a_typed_result(ros):
+    client, scene = ros["client"], ros["scene"]
+    client.wait_inputs_flowing()
+    feedback: list = []
+    status, result = client.run_goal(PlanRearrangement.Goal(settings=ROBUST), feedback)
+    assert status == GoalStatus.STATUS_SUCCEEDED, result.message
+    assert result.error_code.val == ErrorCode.SUCCESS
+    assert parse_summary(result.message)[1] == "SUCCEEDED"
+    check_controller_contract(result.trajectory, scene.robot.joint_names)
+    poses = result.predicted_object_poses
+    assert len(poses) == len(result.trajectory.points)
+    assert all(p.header.frame_id == FRAME and len(p.poses) == 1 for p in poses)
+    start, end = poses[0].poses[0].position, poses[-1].poses[-1].position
+    assert (start.x, start.y) == pytest.approx(tuple(scene.object_poses[0, :2]), abs=1e-6)
+    assert np.hypot(end.x - scene.goal.position[0], end.y - scene.goal.position[1]) \
+        < scene.goal.radius
+    assert 0.5 <= result.robustness <= 1.0
+    assert Path(result.mcap_path).name == f"{result.plan_id}.mcap"
+    assert Path(result.mcap_path).is_file()
+    assert feedback and {f.phase for _, f in feedback} <= {"planning", "recording"}
+    assert [f.elapsed for _, f in feedback] == sorted(f.elapsed for _, f in feedback)
+
+
+def test_action_executes_and_waits_for_the_arm(ros):
+    """goal.execute sends the plan to joint_trajectory and answers once joint_states reach its
+    end; an arm that never gets there is EXECUTION_FAILED after execution_timeout."""
+    client = ros["client"]
+    client.wait_inputs_flowing()
+    try:
+        with client.lock:
+            client.controller = True
+            client.commands.clear()
+        status, result = client.run_goal(PlanRearrangement.Goal(settings=ROBUST, execute=True))
+        assert status == GoalStatus.STATUS_SUCCEEDED, result.message
+        assert "executed: the arm reached the plan's end" in result.message
+        with client.lock:
+            assert len(client.commands) == 1
+            assert client.commands[0].points[-1].positions == \
+                result.trajectory.points[-1].positions
+            client.controller = False
+            client.joint_state = client.good_joint_state
+        client.set(execution_timeout=1.0)
+        client.wait_inputs_flowing()
+        status, result = client.run_goal(PlanRearrangement.Goal(settings=ROBUST, execute=True))
+        assert status == GoalStatus.STATUS_ABORTED
+        assert result.error_code.val == ErrorCode.EXECUTION_FAILED, result.message
+        assert "did not reach the trajectory's last point within 1.0 s" in result.message
+        assert len(result.trajectory.points) > 1             # the plan is still answered
+    finally:
+        client.set(execution_timeout=0.0)
+        with client.lock:
+            client.controller = False
+            client.joint_state = client.good_joint_state
+
+
+def test_action_refuses_a_second_goal_and_cancels_through_the_protocol(ros):
+    client = ros["client"]
+    client.wait_inputs_flowing()
+    feedback: list = []
+    handle = client.send_goal(_far_goal(time_limit=20.0), feedback)
+    assert handle.accepted
+    assert wait_until(lambda: any(f.iterations > 0 for _, f in feedback), 10.0)
+    second = client.send_goal(PlanRearrangement.Goal(settings=ROBUST))
+    assert not second.accepted                                  # one goal at a time
+    refused = client.call("plan", timeout=5.0)                   # nor a ~/plan call
+    assert not refused.success and "busy" in refused.message
+    time.sleep(1.0)
+    span = feedback[-1][0] - feedback[0][0]
+    assert span > 0.8 and (len(feedback) - 1) / span >= 2.0, (len(feedback), span)
+    t_cancel = time.monotonic()
+    cancel = handle.cancel_goal_async()
+    assert wait_until(cancel.done, 5.0) and len(cancel.result().goals_canceling) == 1
+    result_future = handle.get_result_async()
+    assert wait_until(result_future.done, 10.0)
+    print(f"\naction result {time.monotonic() - t_cancel:.2f} s after the cancel")
+    assert result_future.result().status == GoalStatus.STATUS_CANCELED
+    result = result_future.result().result
+    assert result.error_code.val == ErrorCode.PREEMPTED
+    assert parse_summary(result.message)[1] == "CANCELLED"
+    assert len(result.trajectory.points) == 0
+
+
+@pytest.mark.parametrize(("goal", "code", "words"), [
+    (_far_goal(time_limit=0.5), ErrorCode.TIMED_OUT, "TIMEOUT"),
+    (PlanRearrangement.Goal(settings=["max_iterations=1", *ROBUST]), ErrorCode.PLANNING_FAILED,
+     "no plan within max_iterations 1"),
+    (PlanRearrangement.Goal(goal_object="nope"), ErrorCode.GOAL_INVALID, "no object named 'nope'"),
+    (PlanRearrangement.Goal(settings=["k_actions=0"]), ErrorCode.INVALID_INPUT, "k_actions"),
+    (PlanRearrangement.Goal(settings=["warp=9"]), ErrorCode.INVALID_INPUT, "goal.settings[0]"),
+    (PlanRearrangement.Goal(planner="a-star"), ErrorCode.INVALID_INPUT, "goal.planner"),
+    (PlanRearrangement.Goal(time_limit=-1.0), ErrorCode.INVALID_INPUT, "goal.time_limit"),
+    (PlanRearrangement.Goal(replan_attempts=2), ErrorCode.INVALID_INPUT,
+     "goal.replan_attempts"),
+    (PlanRearrangement.Goal(start_object_poses=objects_to_pose_array(np.array([[5.0, 0, 0]]),
+                                                                      FRAME)),
+     ErrorCode.START_STATE_INVALID, "start invalid"),
+    (PlanRearrangement.Goal(start_joint_state=JointState(name=["panda_joint1"], position=[0.0])),
+     ErrorCode.INVALID_INPUT, "goal.start_joint_states"),
+], ids=["timed-out", "planning-failed", "goal-invalid", "setting-range", "setting-unknown",
+        "planner-unknown", "time-limit", "replan", "start-invalid", "start-joints"])
+def test_action_error_codes(ros, goal, code, words):
+    client = ros["client"]
+    client.wait_inputs_flowing()
+    status, result = client.run_goal(goal)
+    assert status == GoalStatus.STATUS_ABORTED
+    assert result.error_code.val == code and words in result.message, result.message
+    assert ros["planner"]._worker.is_alive()
+
+
+def test_action_answers_fragile_and_internal(ros, monkeypatch):
+    """FRAGILE_PLAN: a plan below min_robustness comes back with its trajectory, not executed;
+    INTERNAL: a defect is an error code, and the node keeps serving."""
+    from rearrangement_planner.planning import pipeline
+
+    client = ros["client"]
+    client.wait_inputs_flowing()
+    monkeypatch.setattr(pipeline.Candidates, "judge", lambda self, candidate, seed: 0.25)
+    with client.lock:
+        client.commands.clear()
+    status, result = client.run_goal(PlanRearrangement.Goal(
+        settings=["min_robustness=1.0", "rollouts=5", "candidates=1"], execute=True))
+    assert status == GoalStatus.STATUS_ABORTED
+    assert result.error_code.val == ErrorCode.FRAGILE_PLAN, result.message
+    assert "FRAGILE" in result.message and "not executed" in result.message
+    assert result.robustness == 0.25 and len(result.trajectory.points) > 1
+    time.sleep(0.3)
+    with client.lock:
+        assert client.commands == []
+    monkeypatch.undo()
+
+    def broken(*args, **kwargs):
+        raise RuntimeError("simulated planner bug")
+
+    monkeypatch.setattr(plan_request_module, "plan_scene", broken)
+    status, result = client.run_goal(PlanRearrangement.Goal())
+    assert result.error_code.val == ErrorCode.INTERNAL and "simulated planner bug" in \
+        result.message
+    monkeypatch.undo()
+    status, result = client.run_goal(PlanRearrangement.Goal(settings=ROBUST))
+    assert result.error_code.val == ErrorCode.SUCCESS, result.message

@@ -29,3 +29,68 @@ def test_a_bad_scene_stops_the_node_with_one_fatal_line(tmp_path, content, expec
     fatal = [line for line in run.stderr.splitlines() if "[FATAL]" in line]
     assert run.returncode == 1 and "Traceback" not in run.stderr, run.stderr
     assert len(fatal) == 1 and "cannot start:" in fatal[0] and expected in fatal[0], run.stderr
+
+
+def test_ctrl_c_while_a_goal_plans_is_quiet(tmp_path):
+    """SIGINT mid-plan cancels the plan, joins the worker and exits 0, with no traceback (the
+    worker used to publish on a context that the signal had already shut down)."""
+    import signal
+    import threading
+    import time
+
+    import rclpy
+    from geometry_msgs.msg import PoseArray
+    from rclpy.action import ActionClient
+    from rclpy.context import Context
+    from rclpy.executors import SingleThreadedExecutor
+    from rclpy.node import Node
+    from sensor_msgs.msg import JointState
+
+    from msg_adapters import configuration_to_joint_state, objects_to_pose_array
+    from rearrangement_interfaces.action import PlanRearrangement
+    from rearrangement_planner.physics.validation import load_scene
+    from rearrangement_planner.ros.replay import wait_until
+
+    domain = 210 + os.getpid() % 20
+    env = {**os.environ, "ROS_DOMAIN_ID": str(domain),
+           "ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST"}
+    node = subprocess.Popen([sys.executable, "-m", "rearrangement_planner.ros.node",
+                             "--ros-args", "-p", "scene:=easy_push", "-p", "state_timeout:=5.0",
+                             "-p", "record:=false"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
+    context = Context()
+    rclpy.init(context=context, domain_id=domain)
+    client = Node("ctrl_c_client", context=context)
+    executor = SingleThreadedExecutor(context=context)
+    executor.add_node(client)
+    scene = load_scene("easy_push")
+    joints = client.create_publisher(JointState, "/joint_states", 10)
+    objects = client.create_publisher(PoseArray, "/rearrangement_planner/object_poses", 10)
+    joint_msg = configuration_to_joint_state(scene.start_configuration, scene.robot.joint_names)
+    objects_msg = objects_to_pose_array(scene.object_poses, "world")
+    client.create_timer(0.05, lambda: (joints.publish(joint_msg), objects.publish(objects_msg)))
+    action = ActionClient(client, PlanRearrangement, "/rearrangement_planner/plan_rearrangement")
+    spinner = threading.Thread(target=executor.spin, daemon=True)
+    spinner.start()
+    try:
+        assert action.wait_for_server(timeout_sec=120.0), "the node did not come up"
+        time.sleep(0.5)
+        goal = PlanRearrangement.Goal(use_goal_point=True, goal_radius=0.01, time_limit=60.0,
+                                      settings=["goal_margin=0.0"])
+        goal.goal_point.x, goal.goal_point.y = 0.93, 0.58
+        feedback: list = []
+        sent = action.send_goal_async(goal, feedback_callback=lambda m: feedback.append(
+            m.feedback))
+        assert wait_until(sent.done, 10.0) and sent.result().accepted
+        assert wait_until(lambda: any(f.iterations > 0 for f in feedback), 30.0)
+        node.send_signal(signal.SIGINT)
+        _, stderr = node.communicate(timeout=60)
+    finally:
+        if node.poll() is None:
+            node.kill()
+        executor.shutdown()
+        client.destroy_node()
+        rclpy.shutdown(context=context)
+        spinner.join(timeout=5.0)
+    assert node.returncode == 0, stderr
+    assert "Traceback" not in stderr and "Exception in thread" not in stderr, stderr

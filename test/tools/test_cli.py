@@ -257,4 +257,6 @@ def test_set_reaches_the_planner(tmp_path):
     out = tmp_path / "plan.json"
     code = main([str(scenes_dir() / "easy_push.yaml"), "--set", "max_iterations=1",
                  "--min-robustness", "0", "--json", str(out), "--quiet"])
-    assert code == 1 and json.loads(out.read_text())["solved"] is False
+    record = json.loads(out.read_text())
+    assert code == 1 and record["solved"] is False
+    assert record["outcome"] == "PLANNING_FAILED"          # the budget that ran out, named
