@@ -189,7 +189,7 @@ def planning_scene(configured_scene: Scene, inputs: dict[str, Input | None],
     physics the plan runs in (the scene is not re-parsed: only the state and goal change)."""
     joints, objects, received = (inputs["joint_states"], inputs["object_poses"],
                                  inputs["goal"])
-    assert joints is not None and objects is not None    # `_snapshot` raised otherwise
+    assert joints is not None and objects is not None    # `fresh_inputs` raised otherwise
     configured = configured_scene.goal
     goal = Goal(params["goal_object"] or configured.object,
                 received.value if received is not None else configured.position,
