@@ -1,8 +1,8 @@
 """The folder tree is the architecture (docs/design.md "Layering"): dependencies point one way,
-model -> physics -> planning -> execution -> io -> tools, with the ROS layer (`ros/`, `msg_adapters/`) on
-top; nothing outside `ros/` and `msg_adapters/` imports rclpy, ROS message packages or
-msg_adapters; no import cycles (counting imports inside functions and under TYPE_CHECKING);
-no private names imported across modules."""
+model -> physics -> planning -> execution -> io -> tools, with the ROS layer (`ros/`,
+`msg_adapters/`) on top; nothing outside `ros/` and `msg_adapters/` imports rclpy, ROS message
+packages or msg_adapters; no import cycles (counting imports inside functions and under
+TYPE_CHECKING); no private names imported across modules."""
 
 from __future__ import annotations
 

@@ -57,6 +57,9 @@ ERROR_CODES: dict[str, int] = {
     Outcome.INTERNAL.value: ErrorCode.INTERNAL,
 }
 """The error code of each outcome (a fragile success is FRAGILE_PLAN: `error_code`)."""
+ERROR_NAMES: dict[int, str] = {getattr(ErrorCode, name): name for name in dir(ErrorCode)
+                               if name.isupper() and isinstance(getattr(ErrorCode, name), int)}
+"""The name of each error code value ('SUCCESS', 'TIMED_OUT', ...)."""
 
 
 def error_code(outcome: str, fragile: bool) -> int:
@@ -141,6 +144,9 @@ def job_result(job: Any, stamp: Time) -> PlanRearrangement.Result:
     if output is not None and output.robustness is not None:
         result.robustness = float(output.robustness)
     result.plan_id = job.plan_id
+    if output is not None:
+        result.plan_time = float(output.result.plan_time)
+        result.iterations = int(output.result.iterations)
     result.mcap_path = "" if job.recording.startswith("not recorded") else job.recording
     return result
 

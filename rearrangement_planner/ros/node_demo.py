@@ -2,12 +2,13 @@
 
 Starts `world_sim` (the simulated arm, objects and trajectory controller) and `planner_node`
 on a scene, each a real ROS 2 node on one executor. The planner receives the joint state and
-the object poses from world_sim, as from a robot and a perception system; the demo sends the
-goal (the scene's) on `/rearrangement_planner/goal`, calls `~/plan`, then `~/execute`, which
-sends the trajectory on `/joint_trajectory` to world_sim, which executes it open loop through the
-quasistatic physics, faster than real time (`--time-scale`). Prints the plan summary,
-world_sim's outcome (goal object distance, in the region or not, objects moved), the MCAP of
-the plan and a top view PNG of the execution (the objects' true paths and the tool path).
+the object poses from world_sim, as from a robot and a perception system; the demo sends one
+goal to the action `/rearrangement_planner/plan_rearrangement` (the scene's goal, `execute`):
+the node plans, sends the trajectory on `/joint_trajectory` to world_sim, which executes it open
+loop, faster than real time (`--time-scale`), and answers once the arm has reached its end.
+Prints the plan summary, world_sim's outcome (goal object distance, in the region or not,
+objects moved), the MCAP of the plan and a top view PNG of the execution (the objects' true
+paths and the tool path).
 
 The planner plans for the goal radius minus its `goal_margin` (`--goal-margin`, default the
 node's parameter), world_sim judges the scene's radius: open-loop execution never reproduces
@@ -120,25 +121,20 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def _run(session, world, planner, scene, args, planning_radius: float, plot_path: Path) -> int:
-    from geometry_msgs.msg import PoseStamped
-
-    from msg_adapters import goal_to_pose_stamped
+    from rearrangement_interfaces.action import PlanRearrangement
+    from rearrangement_interfaces.msg import ErrorCode
     from rearrangement_planner.model.resources import NODE_NAME
     from rearrangement_planner.ros.replay import BagError, OutcomeListener, PlannerClient
 
     node = session.node
-    frame = planner.get_parameter("planning_frame").value or scene.robot.config.base_frame
     client = PlannerClient(node, f"/{NODE_NAME}")
     outcomes = OutcomeListener(node, "/world_sim/outcome")
-    goal_pub = node.create_publisher(PoseStamped, "/rearrangement_planner/goal", 10)
     try:
         client.wait_ready()
-        ready = _wait(lambda: goal_pub.get_subscription_count() >= 2             # both nodes
-                      and node.count_subscribers("/joint_states") >= 1
+        ready = _wait(lambda: node.count_subscribers("/joint_states") >= 1
                       and world.command_publisher_count() >= 1, 10.0)
         if not ready:
             raise BagError("world_sim and planner_node did not connect in 10 s")
-        goal_pub.publish(goal_to_pose_stamped(scene.goal.position, frame, scene.table.height))
         time.sleep(0.5)   # a few rounds of world_sim's joint states and object poses
         perturbed = (f", pose noise {args.pose_noise:g} m (seed {args.world_seed}), friction "
                      f"x{args.friction_scale:g}"
@@ -146,23 +142,20 @@ def _run(session, world, planner, scene, args, planning_radius: float, plot_path
         print(f"world_sim: {scene.source}, {len(scene.objects)} objects, {args.engine} physics, "
               f"joint states 50 Hz, object poses 30 Hz, time scale {args.time_scale:g}"
               f"{perturbed}", flush=True)
-        print(f"planning (seed {args.seed}, time limit {args.time_limit:g} s, goal "
-              f"'{scene.goal.object}' within {planning_radius:.3f} m of "
-              f"({scene.goal.position[0]:.2f}, {scene.goal.position[1]:.2f})) ...", flush=True)
-        reply = client.plan(timeout=args.time_limit + 120.0)
-        print(reply.message, flush=True)
-        print(f"recording: {reply.mcap or 'none'}")
-        if not reply.success:
-            return 1
-        duration = reply.trajectory.points[-1].time_from_start
-        seconds = duration.sec + duration.nanosec * 1e-9
+        print(f"goal to /{NODE_NAME}/plan_rearrangement: plan (seed {args.seed}, time limit "
+              f"{args.time_limit:g} s, '{scene.goal.object}' within {planning_radius:.3f} m of "
+              f"({scene.goal.position[0]:.2f}, {scene.goal.position[1]:.2f})) and execute "
+              f"open loop in world_sim at time scale {args.time_scale:g} ...", flush=True)
+        goal = PlanRearrangement.Goal(goal_object=scene.goal.object, use_goal_point=True,
+                                      execute=True)
+        goal.goal_point.x, goal.goal_point.y = (float(v) for v in scene.goal.position)
         seen = outcomes.count()
-        executed = client.execute()
-        print(f"executing open loop: {executed.message}; world_sim at time scale "
-              f"{args.time_scale:g} (~{seconds / args.time_scale:.1f} s)", flush=True)
-        if not executed.success:
+        reply = client.plan(goal, timeout=args.time_limit + 180.0)
+        print(reply.message, flush=True)
+        print(f"error code: {reply.outcome}; recording: {reply.mcap or 'none'}")
+        if reply.result.error_code.val != ErrorCode.SUCCESS:
             return 1
-        outcome = outcomes.wait_next(seen, seconds / args.time_scale * 3 + 30.0)
+        outcome = outcomes.wait_next(seen, 30.0)
         print(f"outcome: {outcome['message']}")
         _plot(world, outcome, plot_path,
               f"{Path(scene.source).stem}: open loop in world_sim ({args.engine}), "
@@ -172,8 +165,6 @@ def _run(session, world, planner, scene, args, planning_radius: float, plot_path
     except BagError as exc:
         print(f"node_demo: {exc}", file=sys.stderr)
         return 1
-    finally:
-        node.destroy_publisher(goal_pub)
 
 
 def _plot(world, outcome: dict, out_path: Path, title: str) -> None:

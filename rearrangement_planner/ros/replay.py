@@ -13,14 +13,14 @@ Pieces, usable on their own (the tests and `make_bags` use them):
   the recorded publisher offered (reliability, durability, history depth), publishing the raw
   CDR bytes at their log times divided by `rate` (as `ros2 bag play --rate`); header stamps are
   left as recorded. `wait_for_subscribers()` first, so that nothing is published into the void.
-- `PlannerClient(node, namespace)`: calls the planner node's `~/plan` and `~/execute` and
-  collects `~/trajectory`; `plan()` returns a `PlanReply` (outcome, plan id, times, the MCAP
-  path from the one-line summary, the trajectory message).
+- `PlannerClient(node, namespace)`: the planner node's action `~/plan_rearrangement` and its
+  `~/execute` service; `plan()` returns a `PlanReply` (error code name, plan id, times, the
+  MCAP path and the trajectory, from the action's result).
 - `Session`: an rclpy context with its own executor thread, for running nodes in-process.
 - `run_bag(bag, session, ...)`: the whole replay of one input bag: a planner node configured
   from the bag's `rearrangement_input` metadata (scene, seed, time limit, goal radius), the bag
-  played into it, `~/plan`, and optionally open-loop execution (`~/execute`) in a `world_sim`
-  started on the bag's ground-truth world; returns a `BagRun`.
+  played into it, a goal of the action, and optionally open-loop execution (`~/execute`) in a
+  `world_sim` started on the bag's ground-truth world; returns a `BagRun`.
 
 - `OutcomeListener(node, topic)`: collects world_sim's `~/outcome` JSON messages.
 
@@ -40,11 +40,11 @@ import argparse
 import importlib
 import json
 import os
-import re
 import sys
 import tempfile
 import threading
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -65,9 +65,6 @@ SETTLE = 0.3
 """Seconds between the end of playback and ~/plan: the node's subscriptions take the last
 messages off their queues meanwhile (a request right after the last publication races them
 and plans from an older state). Keep it below the node's state_timeout (1 s)."""
-SUMMARY = re.compile(r"^plan (\S+): ([A-Z_]+) in ([\d.]+) s, (\d+) iterations, mcap (.+?)"
-                     r"(?:; .*)?$")
-
 
 INPUT_WAIT = 10.0
 """Seconds `run_bag` waits for the planner node to take the bag's last inputs."""
@@ -349,80 +346,75 @@ class BagPlayer:
 @dataclass(frozen=True)
 class PlanReply:
     success: bool
+    """A plan came back (error code SUCCESS, or FRAGILE_PLAN with its trajectory)."""
     message: str
     """The node's one-line summary."""
     plan_id: str = ""
     outcome: str = ""
+    """The error code's name (SUCCESS, TIMED_OUT, ...; rearrangement_interfaces/ErrorCode)."""
     plan_time: float = 0.0
     iterations: int = 0
     mcap: Path | None = None
     """The plan's recording, None when not recorded."""
     trajectory: Any = None
-    """The trajectory_msgs/JointTrajectory received on ~/trajectory (success only)."""
+    """The trajectory_msgs/JointTrajectory of the plan (None unless one came back)."""
     wall_time: float = 0.0
     """Seconds from the request to the answer."""
-
-
-def parse_summary(message: str) -> tuple[str, str, float, int, Path | None]:
-    """(plan id, outcome, plan time, iterations, MCAP path or None) of the node's summary."""
-    match = SUMMARY.match(message)
-    if match is None:
-        raise BagError(f"not a plan summary of planner_node: {message!r}")
-    plan_id, outcome, plan_time, iterations, mcap = match.groups()
-    return (plan_id, outcome, float(plan_time), int(iterations),
-            None if mcap.startswith("not recorded") else Path(mcap))
+    result: Any = None
+    """The action's whole PlanRearrangement result."""
 
 
 class PlannerClient:
-    """The planner node's `~/plan` and `~/execute` and its `~/trajectory`, seen from `node`."""
+    """The planner node seen from `node`: its action `~/plan_rearrangement` (`plan`) and its
+    `~/execute` service (send the last plan to the controller)."""
 
     def __init__(self, node, namespace: str = f"/{NODE_NAME}"):
-        from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+        from rclpy.action import ActionClient
         from std_srvs.srv import Trigger
-        from trajectory_msgs.msg import JointTrajectory
+
+        from rearrangement_interfaces.action import PlanRearrangement
 
         self.namespace = namespace.rstrip("/")
-        self._lock = threading.Lock()
-        self._trajectories: list[Any] = []
-        self._plan = node.create_client(Trigger, f"{self.namespace}/plan")
+        self._action = ActionClient(node, PlanRearrangement,
+                                    f"{self.namespace}/plan_rearrangement")
         self._execute = node.create_client(Trigger, f"{self.namespace}/execute")
-        self._subscription = node.create_subscription(
-            JointTrajectory, f"{self.namespace}/trajectory", self._on_trajectory,
-            QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
-                       durability=DurabilityPolicy.TRANSIENT_LOCAL))
-
-    def _on_trajectory(self, msg) -> None:
-        with self._lock:
-            self._trajectories.append(msg)
 
     def wait_ready(self, timeout: float = 10.0) -> None:
-        if not (self._plan.wait_for_service(timeout_sec=timeout)
-                and self._execute.wait_for_service(timeout_sec=timeout)
-                and wait_until(lambda: self._subscription.get_publisher_count() > 0, timeout)):
-            raise BagError(f"the planner node's services {self.namespace}/plan and "
-                           f"{self.namespace}/execute did not come up in {timeout:g} s")
+        if not (self._action.wait_for_server(timeout_sec=timeout)
+                and self._execute.wait_for_service(timeout_sec=timeout)):
+            raise BagError(f"the planner node's action {self.namespace}/plan_rearrangement and "
+                           f"service {self.namespace}/execute did not come up in {timeout:g} s")
 
-    def plan(self, timeout: float = 120.0) -> PlanReply:
-        """Call ~/plan and wait for the answer (and, on success, the trajectory)."""
-        from std_srvs.srv import Trigger
+    def plan(self, goal: Any = None, timeout: float = 120.0,
+             feedback: Callable[[Any], None] | None = None) -> PlanReply:
+        """Send `goal` (default: an empty PlanRearrangement goal, which plans with the node's
+        parameters and latest inputs) and wait for its result; `feedback` gets each feedback."""
+        from rearrangement_interfaces.action import PlanRearrangement
+        from rearrangement_interfaces.msg import ErrorCode
+        from rearrangement_planner.ros.action import ERROR_NAMES
 
         self.wait_ready()
-        with self._lock:
-            seen = len(self._trajectories)
         t0 = time.monotonic()
-        future = self._plan.call_async(Trigger.Request())
-        if not wait_until(future.done, timeout):
-            raise BagError(f"{self.namespace}/plan did not answer in {timeout:g} s")
-        response = future.result()
-        wall = time.monotonic() - t0
-        plan_id, outcome, plan_time, iterations, mcap = parse_summary(response.message)
-        trajectory = None
-        if response.success:
-            wait_until(lambda: len(self._trajectories) > seen, 10.0)
-            with self._lock:
-                trajectory = self._trajectories[-1] if len(self._trajectories) > seen else None
-        return PlanReply(response.success, response.message, plan_id, outcome, plan_time,
-                         iterations, mcap, trajectory, wall)
+        sent = self._action.send_goal_async(
+            goal if goal is not None else PlanRearrangement.Goal(),
+            feedback_callback=(lambda m: feedback(m.feedback)) if feedback else None)
+        if not wait_until(sent.done, 10.0):
+            raise BagError(f"{self.namespace}/plan_rearrangement did not take the goal in 10 s")
+        handle = sent.result()
+        if not handle.accepted:
+            raise BagError(f"{self.namespace}/plan_rearrangement refused the goal (busy; see "
+                           f"{self.namespace}/status)")
+        answer = handle.get_result_async()
+        if not wait_until(answer.done, timeout):
+            raise BagError(f"{self.namespace}/plan_rearrangement did not answer in {timeout:g} s")
+        result = answer.result().result
+        code = result.error_code.val
+        solved = code in (ErrorCode.SUCCESS, ErrorCode.FRAGILE_PLAN) and \
+            len(result.trajectory.points) > 0
+        return PlanReply(solved, result.message, result.plan_id,
+                         ERROR_NAMES.get(code, str(code)), result.plan_time, result.iterations,
+                         Path(result.mcap_path) if result.mcap_path else None,
+                         result.trajectory if solved else None, time.monotonic() - t0, result)
 
     def execute(self, timeout: float = 10.0):
         """Call ~/execute; the std_srvs/Trigger response."""

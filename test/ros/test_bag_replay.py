@@ -264,7 +264,7 @@ def test_bag_plans_and_executes_open_loop_into_the_goal_region(path, session, tm
     print(f"\n{path.name}: {run.plan.message}\n  {outcome and outcome['message']}\n  "
           f"timings {', '.join(f'{k} {v:.1f} s' for k, v in run.timings.items())}")
     assert run.playback.published == {ns + t: bag.topics[t].count for t in bag.topics}
-    assert run.plan.success and run.plan.outcome == "SUCCEEDED", run.plan.message
+    assert run.plan.success and run.plan.outcome in ("SUCCESS", "FRAGILE_PLAN"), run.plan.message
 
     # The trajectory passes the controller's checks and starts where the bag's arm was.
     world = parse_scene(bag.input_metadata()["world"])
@@ -377,11 +377,11 @@ def test_make_bags_cli_writes_a_bag_and_its_reference_plan(tmp_path, monkeypatch
     plan = read_bag(tmp_path / "plans" / "easy_push_1obj.plan.mcap")
     assert plan.metadata["rearrangement_plan"]["outcome"] == "SUCCEEDED"
     assert plan.last(JOINTS) == read_bag(bag).last(JOINTS)
-    assert "easy_push_1obj.plan.mcap: SUCCEEDED" in capsys.readouterr().out
+    assert "easy_push_1obj.plan.mcap: SUCCESS" in capsys.readouterr().out
 
     assert make_bags.main(["--out", str(tmp_path), "--only", "easy_push_1obj",
                            "--search-seeds", "1"]) == 0
-    assert "easy_push_1obj seed 1: SUCCEEDED" in capsys.readouterr().out
+    assert "easy_push_1obj seed 1: SUCCESS in" in capsys.readouterr().out
     assert make_bags.main(["--only", "no_such_bag"]) == 2
     assert "unknown bags ['no_such_bag']" in capsys.readouterr().err
 
