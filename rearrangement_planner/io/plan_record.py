@@ -28,7 +28,7 @@ import json
 import math
 import os
 import time
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -58,17 +58,18 @@ TOPICS = {
 def record_plan(path: str | os.PathLike[str], output: PlanOutput, *, plan_id: str,
                 parameters: Mapping[str, Any], planning_frame: str,
                 joint_state: Any = None, object_poses: Any = None, goal: Any = None,
-                start_time_ns: int | None = None) -> Path:
+                start_time_ns: int | None = None, extra: Sequence[tuple] = ()) -> Path:
     """Record `output` to the MCAP file `path` and return its path.
 
     The inputs default to the plan's start state (its first state, or the scene's initial
     state for a plan without states) and the scene's goal, stamped at `start_time_ns`.
+    `extra`: more messages to record, each (topic, type, message, log time (ns), QoS name).
     Raises RecordingError if anything cannot be recorded; the plan itself is untouched.
     """
     start = time.time_ns() if start_time_ns is None else int(start_time_ns)
     try:
         recorded = _messages(output, planning_frame, start, joint_state, object_poses,
-                             goal)
+                             goal) + list(extra)
         metadata = plan_metadata(output, plan_id, parameters)
     except RecordingError:
         raise

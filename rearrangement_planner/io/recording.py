@@ -79,9 +79,27 @@ def _prefixes() -> list[Path]:
     return [*prefixes, Path(sys.prefix)]
 
 
+_ACTION_PARTS = ("Goal", "Result", "Feedback")
+"""The messages of an action, in the order of their sections in its .action file."""
+
+
+def _action_part(namespace: str, name: str) -> tuple[str, int] | None:
+    """(action name, section index) of an action's message ("pkg/action/Move_Goal" is section
+    0 of Move.action), or None for a message that is not one."""
+    base, _, part = name.rpartition("_")
+    if namespace != "action" or not base or part not in _ACTION_PARTS:
+        return None
+    return base, _ACTION_PARTS.index(part)
+
+
 def _find_share_file(type_name: str, extension: str) -> Path | None:
-    """<prefix>/share/<pkg>/msg/<Type><extension> in the first prefix that has it."""
+    """<prefix>/share/<pkg>/msg/<Type><extension> in the first prefix that has it (an action's
+    message: <prefix>/share/<pkg>/action/<Action><extension>)."""
     package, namespace, name = _split_type(type_name)
+    part = _action_part(namespace, name)
+    if part is not None:
+        name = part[0]
+        extension = ".action" if extension == ".msg" else extension
     for prefix in _prefixes():
         path = prefix / "share" / package / namespace / f"{name}{extension}"
         if path.is_file():
@@ -91,7 +109,8 @@ def _find_share_file(type_name: str, extension: str) -> Path | None:
 
 @functools.cache
 def _load_spec(type_name: str) -> tuple[str, tuple[str, ...]]:
-    """(.msg text, dependencies as sorted "pkg/Type") of `type_name`."""
+    """(.msg text, dependencies as sorted "pkg/Type") of `type_name` (an action's goal,
+    result or feedback: its section of the .action file)."""
     package, namespace, name = _split_type(type_name)
     path = _find_share_file(type_name, ".msg")
     if path is None:
@@ -104,6 +123,13 @@ def _load_spec(type_name: str) -> tuple[str, tuple[str, ...]]:
     except (OSError, UnicodeDecodeError) as exc:
         raise RecordingError(f"cannot read the definition of {type_name} at {path}: "
                              f"{exc}") from exc
+    part = _action_part(namespace, name)
+    if part is not None:             # goal, result and feedback are separated by '---' lines
+        sections = re.split(r"^---[ \t]*\n", text, flags=re.MULTILINE)
+        if len(sections) != len(_ACTION_PARTS):
+            raise RecordingError(f"{path} has {len(sections)} sections, not goal, result and "
+                                 f"feedback")
+        text = sections[part[1]]
     dependencies = set()
     for match in _FIELD_TYPE.finditer(text):
         field_type = match.group(1)

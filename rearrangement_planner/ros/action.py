@@ -23,6 +23,7 @@ from trajectory_msgs.msg import JointTrajectory
 from msg_adapters import goal_to_pose_stamped, objects_to_pose_array
 from rearrangement_interfaces.action import PlanRearrangement
 from rearrangement_interfaces.msg import ErrorCode
+from rearrangement_planner.io.plan_record import NODE_NAMESPACE
 from rearrangement_planner.model.errors import InputError
 from rearrangement_planner.model.settings import parse_assignments
 from rearrangement_planner.planning.interface import Outcome, Progress
@@ -126,6 +127,22 @@ def predicted_object_poses(output: PlanOutput | None, frame: str,
     heights = np.array([scene.table.height + 0.5 * o.height for o in scene.objects])
     return [objects_to_pose_array(s.objects, frame, heights, stamp)
             for s in output.trajectory_states]
+
+
+ACTION_TYPE = "rearrangement_interfaces/action/PlanRearrangement"
+
+
+def recorded_action(job: Any, stamp: Time) -> list[tuple]:
+    """The goal, the feedback and the result of an action job as recording entries (topic,
+    type, message, log time (ns), QoS name), on `<node>/plan_rearrangement/{goal, feedback,
+    result}` with the action's Goal, Feedback and Result types."""
+    topic = f"{NODE_NAMESPACE}/plan_rearrangement"
+    entries = [(f"{topic}/goal", f"{ACTION_TYPE}_Goal", job.goal, job.submitted_ns, "reliable")]
+    entries += [(f"{topic}/feedback", f"{ACTION_TYPE}_Feedback", feedback, t, "reliable")
+                for t, feedback in list(job.feedback)]
+    entries.append((f"{topic}/result", f"{ACTION_TYPE}_Result", job_result(job, stamp),
+                    time.time_ns(), "reliable"))
+    return entries
 
 
 def plain_result(code: int, message: str) -> PlanRearrangement.Result:
@@ -238,7 +255,9 @@ class PlanActionServer:
                 job.cancel.set()
             running, progress = self._node.running()
             if handle.is_active:
-                handle.publish_feedback(job_feedback(job, progress if running is job else None))
+                feedback = job_feedback(job, progress if running is job else None)
+                handle.publish_feedback(feedback)
+                job.feedback.append((time.time_ns(), feedback))
         result = job_result(job, self._node.get_clock().now().to_msg())
         if result.error_code.val == ErrorCode.SUCCESS:
             handle.succeed()

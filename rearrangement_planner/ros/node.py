@@ -59,19 +59,19 @@ from rearrangement_planner.model.errors import RearrangementError
 from rearrangement_planner.model.resources import NODE_NAME
 from rearrangement_planner.planning.interface import Outcome, Progress
 from rearrangement_planner.planning.warmup import warm_up
-from rearrangement_planner.ros.action import PlanActionServer, execute
+from rearrangement_planner.ros.action import PlanActionServer, execute, recorded_action
 from rearrangement_planner.ros.parameters import PARAMETERS, declare_parameters, read_parameters
 from rearrangement_planner.ros.plan_request import (
     FINAL_STATES,
     Input,
     Job,
     configured_scene,
+    final_summary,
     objects_from_msg,
     planning_status,
     record,
     result_markers,
     run_plan,
-    summary_line,
 )
 from rearrangement_planner.ros.services import TriggerServices
 from rearrangement_planner.ros.status import PlannerStatus
@@ -345,19 +345,22 @@ class PlannerNode(Node):
             elif job.goal is None and params["auto_execute"] and sendable:
                 self._publish(self._command_pub, msg)
         job.phase = "recording"
-        recording, failure = record(job, output, params, frame, inputs, self.get_logger())
+
+        def action_records(path: str) -> list[tuple]:
+            """The goal, feedback and result, as the answer will be when `path` is written."""
+            job.outcome, job.recording = outcome, path
+            job.summary = final_summary(job, outcome, message, path, executed, sendable)
+            return recorded_action(job, self._stamp())
+
+        recording, failure = record(job, output, params, frame, inputs, self.get_logger(),
+                                    action_records if job.goal is not None else None)
         job.recording = recording
         if failure is not None:
             self.report(failure)
         self._publish(self._markers_pub, result_markers(scene, output, frame, self._stamp()))
 
         r = output.result if output is not None else None    # None: NO_STATE, nothing ran
-        summary = summary_line(job.plan_id, outcome, message, output, recording,
-                               params["rollouts"])
-        if executed and outcome == Outcome.SUCCEEDED.value:
-            summary += f"; {message}"
-        if job.goal is not None and job.goal.execute and fragile and not sendable:
-            summary += "; not executed (parameter execute_fragile is false)"
+        summary = final_summary(job, outcome, message, recording, executed, sendable)
         final = PlannerStatus(FINAL_STATES.get(outcome, "failed"), summary, outcome,
                               job.plan_id, r.iterations if r else 0, r.tree_size if r else 0,
                               r.best_goal_distance if r else math.inf,

@@ -8,6 +8,7 @@ import dataclasses
 import threading
 import time
 import traceback
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -85,6 +86,8 @@ class Job:
         """What the job does now: waiting, planning, recording, executing (the feedback)."""
         self.output: PlanOutput | None = None
         self.recording = ""
+        self.feedback: list[tuple[int, Any]] = []
+        """(time.time_ns(), feedback) of every action feedback sent (for the recording)."""
         self.trajectory: Any = None
         """The JointTrajectory of a solved plan."""
         self.frame = ""
@@ -238,9 +241,11 @@ def run_plan(job: Job, params: dict[str, Any], configured: Scene,
 
 
 def record(job: Job, output: PlanOutput | None, params: dict[str, Any], frame: str,
-           inputs: dict[str, Input | None], logger: Any) -> tuple[str, str | None]:
-    """Record the plan: (the path written or 'not recorded: <reason>', a failure to report
-    or None). A recording failure never loses the plan."""
+           inputs: dict[str, Input | None], logger: Any,
+           extra: Callable[[str], list[tuple]] | None = None) -> tuple[str, str | None]:
+    """Record the plan, and the messages `extra(path)` gives (an action's goal, feedback and
+    result): (the path written or 'not recorded: <reason>', a failure to report or None). A
+    recording failure never loses the plan."""
     if not params["record"]:
         return "not recorded: parameter record is false", None
     if output is None:
@@ -256,7 +261,8 @@ def record(job: Job, output: PlanOutput | None, params: dict[str, Any], frame: s
         written = record_plan(path, output, plan_id=job.plan_id, parameters=params,
                               planning_frame=frame, joint_state=msg("joint_states"),
                               object_poses=msg("object_poses"), goal=msg("goal"),
-                              start_time_ns=job.submitted_ns)
+                              start_time_ns=job.submitted_ns,
+                              extra=extra(str(path)) if extra is not None else ())
     except (RecordingError, OSError) as exc:
         reason = str(exc)
     except Exception as exc:  # noqa: BLE001 - a recording bug must not lose the plan
@@ -293,6 +299,19 @@ def summary_line(plan_id: str, outcome: str, message: str, output: PlanOutput | 
         summary += f"; robustness {output.robustness:.0%} of {rollouts} perturbed rollouts"
     if output is not None and output.fragile:
         summary += f"; {output.fragile_note()}"
+    return summary
+
+
+def final_summary(job: Job, outcome: str, message: str, recording: str, executed: bool,
+                  sendable: bool) -> str:
+    """The job's answer (`summary_line`), with what its execution did: the message of one
+    that reached the plan's end, or why a fragile plan was not sent."""
+    summary = summary_line(job.plan_id, outcome, message, job.output, recording,
+                           job.params["rollouts"])
+    if executed and outcome == Outcome.SUCCEEDED.value:
+        summary += f"; {message}"
+    if job.goal is not None and job.goal.execute and not sendable:
+        summary += "; not executed (parameter execute_fragile is false)"
     return summary
 
 

@@ -162,10 +162,15 @@ class Bag:
 
 
 def message_class(type_name: str) -> type:
-    """The rclpy message class of "pkg/msg/Type"."""
+    """The rclpy message class of "pkg/msg/Type" (or of an action's "pkg/action/Type_Goal",
+    "_Result", "_Feedback", which the action's class holds)."""
     try:
         package, kind, name = type_name.split("/")
-        return getattr(importlib.import_module(f"{package}.{kind}"), name)
+        module = importlib.import_module(f"{package}.{kind}")
+        if kind == "action" and not hasattr(module, name):
+            action, _, part = name.rpartition("_")
+            return getattr(getattr(module, action), part)
+        return getattr(module, name)
     except (ValueError, ImportError, AttributeError):
         raise BagError(f"message type {type_name!r} is not installed (expected "
                        f"'package/msg/Type' of an installed message package)") from None

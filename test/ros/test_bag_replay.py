@@ -28,6 +28,7 @@ from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy  # noqa: E
 from sensor_msgs.msg import JointState  # noqa: E402
 
 from msg_adapters import msg_to_trajectory, pose_array_to_objects  # noqa: E402
+from rearrangement_interfaces.action import PlanRearrangement  # noqa: E402
 from rearrangement_planner.model.state import wrap_angle  # noqa: E402
 from rearrangement_planner.physics.step import Physics  # noqa: E402
 from rearrangement_planner.physics.validation import parse_scene  # noqa: E402
@@ -278,6 +279,13 @@ def test_bag_plans_and_executes_open_loop_into_the_goal_region(path, session, tm
     for topic in (JOINTS, OBJECTS, GOAL):
         assert recorded.last(topic) == bag.last(topic), topic
     assert recorded.last(TRAJECTORY) == run.plan.trajectory
+    # The replay planned through the action: its goal and result are in the recording, and
+    # read back as rclpy messages of the action's own types.
+    action = "/rearrangement_planner/plan_rearrangement"
+    assert recorded.topics[f"{action}/result"].type_name == \
+        "rearrangement_interfaces/action/PlanRearrangement_Result"
+    assert isinstance(recorded.last(f"{action}/goal"), PlanRearrangement.Goal)
+    assert recorded.last(f"{action}/result").trajectory == run.plan.trajectory
     planned = recorded.metadata["rearrangement_plan"]
     assert planned["outcome"] == "SUCCEEDED" and planned["seed"] == str(
         run.parameters["seed"])

@@ -708,6 +708,31 @@ def test_action_plans_with_feedback_and_a_typed_result(ros):
     assert feedback and {f.phase for _, f in feedback} <= {"planning", "recording"}
     assert [f.elapsed for _, f in feedback] == sorted(f.elapsed for _, f in feedback)
 
+    # The recording holds the goal, the feedback and the result with their schemas: both
+    # mcap_ros2 (from the schema text) and rclpy (from the generated types) decode them.
+    from mcap.reader import make_reader
+    from mcap_ros2.decoder import DecoderFactory
+    from rclpy.serialization import deserialize_message
+
+    action = f"{NS}/plan_rearrangement"
+    with open(result.mcap_path, "rb") as f:
+        decoded = [(channel.topic, schema.name, message, decoded)
+                   for schema, channel, message, decoded in make_reader(
+                       f, decoder_factories=[DecoderFactory()]).iter_decoded_messages(
+                       topics=[f"{action}/goal", f"{action}/feedback", f"{action}/result"])]
+    kinds = {topic: name for topic, name, _, _ in decoded}
+    assert kinds == {f"{action}/{part.lower()}":
+                     f"rearrangement_interfaces/action/PlanRearrangement_{part}"
+                     for part in ("Goal", "Feedback", "Result")}
+    recorded = {topic: (message, value) for topic, _, message, value in decoded}
+    message, value = recorded[f"{action}/result"]
+    assert value.error_code.val == ErrorCode.SUCCESS and value.plan_id == result.plan_id
+    assert value.mcap_path == result.mcap_path and value.message == result.message
+    typed = deserialize_message(message.data, PlanRearrangement.Result)
+    assert typed.trajectory == result.trajectory and typed.robustness == result.robustness
+    goal = deserialize_message(recorded[f"{action}/goal"][0].data, PlanRearrangement.Goal)
+    assert list(goal.settings) == ROBUST
+
 
 def test_action_executes_and_waits_for_the_arm(ros):
     """goal.execute sends the plan to joint_trajectory and answers once joint_states reach its
