@@ -1,4 +1,4 @@
-"""The planner status (docs/design.md, the `~/status` topic) as a diagnostic_msgs/DiagnosticArray.
+"""The planner status (docs/design.md) as a diagnostic_msgs/DiagnosticArray, on `/diagnostics`.
 
 One DiagnosticStatus: level OK while idle, planning or after a success, WARN after a cancel
 or a fragile success, ERROR after a failure; message "<state>: <message>"; one KeyValue per
@@ -16,7 +16,7 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from std_msgs.msg import Header
 
 from rearrangement_planner.model.errors import InputError
-from rearrangement_planner.ros.status import PlannerStatus
+from rearrangement_planner.planning.status import PlannerStatus
 
 LEVELS = {
     "idle": DiagnosticStatus.OK,

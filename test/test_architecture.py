@@ -17,7 +17,7 @@ LAYERS = ["model", "physics", "planning", "execution", "io", "tools", "ros"]
 """A module may import from its own layer and the layers before it."""
 ROS_MODULES = ("rclpy", "builtin_interfaces", "geometry_msgs", "sensor_msgs", "std_msgs",
                "std_srvs", "trajectory_msgs", "visualization_msgs", "diagnostic_msgs",
-               "rcl_interfaces", "msg_adapters")
+               "rcl_interfaces", "msg_adapters", "rearrangement_interfaces", "action_msgs")
 
 
 def _module_name(path: Path) -> str:

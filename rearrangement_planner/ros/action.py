@@ -250,7 +250,7 @@ class PlanActionServer:
             handle.abort()
             return plain_result(ErrorCode.INTERNAL, "the accepted goal's job is gone")
         self._node.enqueue(job)
-        while not job.done.wait(1.0 / FEEDBACK_RATE):
+        while True:                      # at least one feedback, however quick the plan
             if handle.is_cancel_requested:
                 job.cancel.set()
             running, progress = self._node.running()
@@ -258,6 +258,8 @@ class PlanActionServer:
                 feedback = job_feedback(job, progress if running is job else None)
                 handle.publish_feedback(feedback)
                 job.feedback.append((time.time_ns(), feedback))
+            if job.done.wait(1.0 / FEEDBACK_RATE):
+                break
         result = job_result(job, self._node.get_clock().now().to_msg())
         if result.error_code.val == ErrorCode.SUCCESS:
             handle.succeed()

@@ -31,35 +31,31 @@ from typing import Any
 
 import rclpy
 from builtin_interfaces.msg import Time
-from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PoseArray, PoseStamped
 from rclpy.callback_groups import MutuallyExclusiveCallbackGroup, ReentrantCallbackGroup
 from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor
 from rclpy.logging import get_logger
 from rclpy.node import Node
 from rclpy.qos import (
-    DurabilityPolicy,
-    QoSProfile,
-    ReliabilityPolicy,
     qos_profile_sensor_data,
 )
 from rclpy.signals import SignalHandlerOptions
 from sensor_msgs.msg import JointState
 from trajectory_msgs.msg import JointTrajectory
-from visualization_msgs.msg import MarkerArray
 
 from msg_adapters import (
     joint_state_to_configuration,
     plan_markers,
     pose_stamped_to_goal,
-    status_to_diagnostics,
     trajectory_to_msg,
 )
 from rearrangement_planner.model.errors import RearrangementError
 from rearrangement_planner.model.resources import NODE_NAME
 from rearrangement_planner.planning.interface import Outcome, Progress
+from rearrangement_planner.planning.status import PlannerStatus
 from rearrangement_planner.planning.warmup import warm_up
 from rearrangement_planner.ros.action import PlanActionServer, execute, recorded_action
+from rearrangement_planner.ros.outputs import Outputs
 from rearrangement_planner.ros.parameters import PARAMETERS, declare_parameters, read_parameters
 from rearrangement_planner.ros.plan_request import (
     FINAL_STATES,
@@ -74,7 +70,6 @@ from rearrangement_planner.ros.plan_request import (
     run_plan,
 )
 from rearrangement_planner.ros.services import TriggerServices
-from rearrangement_planner.ros.status import PlannerStatus
 
 EXECUTOR_THREADS = 6
 STATUS_RATE = 4.0
@@ -127,15 +122,7 @@ class PlannerNode(Node):
         inputs = MutuallyExclusiveCallbackGroup()
         plan = ReentrantCallbackGroup()
         control = MutuallyExclusiveCallbackGroup()
-        latched = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
-                             durability=DurabilityPolicy.TRANSIENT_LOCAL)
-        self._trajectory_pub = self.create_publisher(JointTrajectory, "~/trajectory", latched)
-        self._command_pub = self.create_publisher(
-            JointTrajectory, "joint_trajectory",
-            QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
-                       durability=DurabilityPolicy.VOLATILE))
-        self._markers_pub = self.create_publisher(MarkerArray, "~/markers", latched)
-        self._status_pub = self.create_publisher(DiagnosticArray, "~/status", 10)
+        self._out = Outputs(self)
         self._joint_sub = self.create_subscription(
             JointState, "joint_states", self._on_joint_state, qos_profile_sensor_data,
             callback_group=inputs)
@@ -150,8 +137,8 @@ class PlannerNode(Node):
 
         self._worker = threading.Thread(target=self._work, name="planner_worker", daemon=True)
         self._worker.start()
-        self._markers_pub.publish(plan_markers(self._scene, None, None, self._planning_frame(),
-                                               self._stamp()))
+        self._out.publish(self._out.markers, plan_markers(
+            self._scene, None, None, self._planning_frame(), self._stamp()))
         self._publish_status(self._status)
         _warm_up(self)
         self.get_logger().info(
@@ -182,14 +169,8 @@ class PlannerNode(Node):
     def _planning_frame(self) -> str:
         return self.get_parameter("planning_frame").value or self._robot.config.base_frame
 
-    def _publish(self, publisher: Any, msg: Any) -> None:
-        """Publish unless the node's context has shut down (Ctrl-C while a plan runs: the
-        worker finishes its job quietly)."""
-        if self.context.ok():
-            publisher.publish(msg)
-
     def _publish_status(self, status: PlannerStatus) -> None:
-        self._publish(self._status_pub, status_to_diagnostics(status, self._stamp()))
+        self._out.status(status)
 
     def _planning_status(self, job: Job, message: str) -> PlannerStatus:
         return planning_status(job, self._progress, message)
@@ -333,17 +314,17 @@ class PlannerNode(Node):
         if output is not None and output.trajectory is not None:
             msg = trajectory_to_msg(output.trajectory)
             job.trajectory = msg
-            self._publish(self._trajectory_pub, msg)
+            self._out.publish(self._out.trajectory, msg)
             with self._lock:
                 self._last_trajectory = (job.plan_id, msg)
             if job.goal is not None and job.goal.execute and sendable:
                 job.phase = "executing"
                 outcome, message = execute(job, msg, params["execution_timeout"],
-                                           partial(self._publish, self._command_pub),
+                                           partial(self._out.publish, self._out.command),
                                            self._joint_input)
                 executed = True
             elif job.goal is None and params["auto_execute"] and sendable:
-                self._publish(self._command_pub, msg)
+                self._out.publish(self._out.command, msg)
         job.phase = "recording"
 
         def action_records(path: str) -> list[tuple]:
@@ -357,7 +338,7 @@ class PlannerNode(Node):
         job.recording = recording
         if failure is not None:
             self.report(failure)
-        self._publish(self._markers_pub, result_markers(scene, output, frame, self._stamp()))
+        self._out.publish(self._out.markers, result_markers(scene, output, frame, self._stamp()))
 
         r = output.result if output is not None else None    # None: NO_STATE, nothing ran
         summary = final_summary(job, outcome, message, recording, executed, sendable)
@@ -392,7 +373,7 @@ class PlannerNode(Node):
 
     def send(self, msg: JointTrajectory) -> None:
         """Send `msg` to the arm's controller (joint_trajectory)."""
-        self._publish(self._command_pub, msg)
+        self._out.publish(self._out.command, msg)
 
     def _joint_input(self) -> Input | None:
         with self._lock:

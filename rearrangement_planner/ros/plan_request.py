@@ -36,8 +36,8 @@ from rearrangement_planner.planning.interface import (
 from rearrangement_planner.planning.pipeline import PlanOutput, plan_scene
 from rearrangement_planner.planning.registry import planner_spec
 from rearrangement_planner.planning.request import PlanRequest, request_settings
+from rearrangement_planner.planning.status import PlannerStatus
 from rearrangement_planner.ros.action import NO_STATE, goal_parameters, goal_point_pose
-from rearrangement_planner.ros.status import PlannerStatus
 
 
 def node_request(params: dict[str, Any], scene: Scene) -> PlanRequest:

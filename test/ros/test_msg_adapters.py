@@ -21,17 +21,19 @@ from msg_adapters import (
     diagnostics_to_status,
     goal_to_pose_stamped,
     joint_state_to_configuration,
+    msg_to_status,
     msg_to_trajectory,
     objects_to_pose_array,
     plan_markers,
     pose_array_to_objects,
     pose_stamped_to_goal,
     status_to_diagnostics,
+    status_to_msg,
     trajectory_to_msg,
 )
 from rearrangement_planner.model.errors import InputError
+from rearrangement_planner.planning.status import STATES, PlannerStatus
 from rearrangement_planner.planning.trajectory import Trajectory
-from rearrangement_planner.ros.status import STATES, PlannerStatus
 
 CASES = 200
 FRAME = "panda_link0"
@@ -267,6 +269,19 @@ def test_status_round_trip():
             "best_goal_distance", "elapsed", "fragile"}
         assert diagnostics_to_status(msg) == status
         assert diagnostics_to_status(msg, name="planner") == status
+
+
+def test_typed_status_round_trip():
+    rng = np.random.default_rng(3)
+    for _ in range(50):
+        status = random_status(rng)
+        msg = status_to_msg(status, stamp=Time(sec=5))
+        assert msg.header.stamp.sec == 5 and msg.state == status.state
+        assert msg_to_status(msg) == status
+    bad = status_to_msg(PlannerStatus("idle"))
+    bad.state = "dreaming"
+    with pytest.raises(InputError, match="dreaming"):
+        msg_to_status(bad)
 
 
 @pytest.mark.parametrize(("state", "level"), [

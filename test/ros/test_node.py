@@ -41,11 +41,13 @@ from msg_adapters import (  # noqa: E402
     configuration_to_joint_state,
     diagnostics_to_status,
     goal_to_pose_stamped,
+    msg_to_status,
     msg_to_trajectory,
     objects_to_pose_array,
 )
 from rearrangement_interfaces.action import PlanRearrangement  # noqa: E402
 from rearrangement_interfaces.msg import ErrorCode  # noqa: E402
+from rearrangement_interfaces.msg import PlannerStatus as PlannerStatusMsg  # noqa: E402
 from rearrangement_planner.model.resources import NODE_NAME, config_dir  # noqa: E402
 from rearrangement_planner.model.state import State  # noqa: E402
 from rearrangement_planner.physics.step import Physics  # noqa: E402
@@ -84,10 +86,13 @@ class Client:
         self.lock = threading.Lock()
         self.statuses: list[tuple[float, object]] = []
         self.last_level = b"\x00"
+        self.diagnosed = None
+        """The last status on /diagnostics."""
         self.commands: list[JointTrajectory] = []
         self.controller = False
         """Act as the arm's controller: a command moves the published joint state to its end."""
-        n.create_subscription(DiagnosticArray, f"{NS}/status", self._on_status, 50)
+        n.create_subscription(PlannerStatusMsg, f"{NS}/status", self._on_status, 50)
+        n.create_subscription(DiagnosticArray, "/diagnostics", self._on_diagnostics, 50)
         n.create_subscription(JointTrajectory, "/joint_trajectory", self._on_command, 10)
         self.clients = {name: n.create_client(Trigger, f"{NS}/{name}")
                         for name in ("plan", "cancel", "execute")}
@@ -101,10 +106,18 @@ class Client:
         if self.objects is not None:
             self.objects_pub.publish(self.objects)
 
-    def _on_status(self, msg: DiagnosticArray) -> None:
+    def _on_status(self, msg: PlannerStatusMsg) -> None:
         with self.lock:
-            self.statuses.append((time.monotonic(), diagnostics_to_status(msg)))
+            self.statuses.append((time.monotonic(), msg_to_status(msg)))
+
+    def _on_diagnostics(self, msg: DiagnosticArray) -> None:
+        """The same status for the ROS diagnostics tools; keeps its level."""
+        if [s.name for s in msg.status] != [NS]:
+            return                                     # another planner node's
+        status = diagnostics_to_status(msg, name=NS)
+        with self.lock:
             self.last_level = msg.status[0].level
+            self.diagnosed = status
 
     def _on_command(self, msg: JointTrajectory) -> None:
         with self.lock:
@@ -653,7 +666,8 @@ def test_a_fragile_plan_is_said_to_be_fragile_and_not_executed_unless_asked(ros,
         assert "; robustness 25% of 5 perturbed rollouts; FRAGILE: " in response.message
         status = client.wait_status(t0, lambda s: s.state == "succeeded")
         assert status.fragile and "FRAGILE" in status.message
-        assert client.last_level == DiagnosticStatus.WARN
+        assert wait_until(lambda: client.last_level == DiagnosticStatus.WARN, 5.0)
+        assert client.diagnosed.fragile and client.diagnosed.plan_id == status.plan_id
         time.sleep(0.5)
         with client.lock:
             assert client.commands == []           # not sent to the controller
@@ -705,7 +719,10 @@ def test_action_plans_with_feedback_and_a_typed_result(ros):
     assert 0.5 <= result.robustness <= 1.0
     assert Path(result.mcap_path).name == f"{result.plan_id}.mcap"
     assert Path(result.mcap_path).is_file()
-    assert feedback and {f.phase for _, f in feedback} <= {"planning", "recording"}
+    # At least one feedback (the first goes out when the goal starts, however quick the plan;
+    # it travels on its own topic, so it may be taken after the result).
+    assert wait_until(lambda: feedback, 5.0)
+    assert {f.phase for _, f in feedback} <= {"waiting", "planning", "recording"}
     assert [f.elapsed for _, f in feedback] == sorted(f.elapsed for _, f in feedback)
 
     # The recording holds the goal, the feedback and the result with their schemas: both
