@@ -29,6 +29,17 @@ from typing import Any, cast
 Value = bool | int | float | str
 
 
+class SettingError(ValueError):
+    """A setting's value is unusable: out of range, of the wrong type, not read by the planner
+    asked for. `name` is the setting's name (or 'planner', 'seed'), so that each front end can
+    say where it came from (the node's parameter, the CLI's flag, the action goal's field)
+    without reading the message."""
+
+    def __init__(self, name: str, problem: str):
+        super().__init__(problem)
+        self.name = name
+
+
 @dataclass(frozen=True)
 class SettingSpec:
     """One setting as the node and the CLI see it."""
@@ -49,11 +60,12 @@ class SettingSpec:
                 return True
             if text.lower() in ("false", "0", "no", "off"):
                 return False
-            raise ValueError(f"{self.name} takes true or false, got {text!r}")
+            raise SettingError(self.name, f"{self.name} takes true or false, got {text!r}")
         try:
             return kind(text)
         except ValueError:
-            raise ValueError(f"{self.name} takes a {kind.__name__}, got {text!r}") from None
+            raise SettingError(self.name,
+                               f"{self.name} takes a {kind.__name__}, got {text!r}") from None
 
 
 def setting(default: Value, *, low: float | None = None, high: float | None = None,
@@ -117,21 +129,22 @@ def parse_assignments(specs: Sequence[SettingSpec], items: Sequence[str]) -> dic
 
 
 def check_value(spec: SettingSpec, value: Any) -> None:
-    """ValueError naming the setting if `value` is not of its type, or outside its range or
+    """SettingError naming the setting if `value` is not of its type, or outside its range or
     choices."""
     kind = type(spec.default)
     if kind is float and isinstance(value, int) and not isinstance(value, bool):
         value = float(value)
     if not isinstance(value, kind) or (kind is int and isinstance(value, bool)):
-        raise ValueError(f"{spec.name} must be a {kind.__name__}, got {value!r}")
+        raise SettingError(spec.name, f"{spec.name} must be a {kind.__name__}, got {value!r}")
     if spec.choices and value not in spec.choices:
-        raise ValueError(f"{spec.name} must be one of {', '.join(spec.choices)}, not {value!r}")
+        raise SettingError(spec.name, f"{spec.name} must be one of {', '.join(spec.choices)}, "
+                                      f"not {value!r}")
     if spec.low is None and spec.high is None or isinstance(value, str):
         return
     low = -math.inf if spec.low is None else spec.low
     high = math.inf if spec.high is None else spec.high
     if not low <= value <= high:     # also refuses NaN
-        raise ValueError(f"{spec.name} must be in [{low:g}, {high:g}], got {value}")
+        raise SettingError(spec.name, f"{spec.name} must be in [{low:g}, {high:g}], got {value}")
 
 
 def _attribute_docs(cls: type) -> dict[str, str]:

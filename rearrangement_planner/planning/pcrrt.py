@@ -31,7 +31,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from rearrangement_planner.model.scene import Scene
-from rearrangement_planner.model.settings import setting
+from rearrangement_planner.model.settings import SettingError, setting
 from rearrangement_planner.model.state import State
 from rearrangement_planner.physics.collision import CollisionWorld
 from rearrangement_planner.physics.step import Physics
@@ -93,8 +93,9 @@ class PCRRTOptions(PushingPlannerOptions):
     def __post_init__(self) -> None:
         super().__post_init__()
         if self.min_duration > self.max_duration:
-            raise ValueError(f"min_duration ({self.min_duration:g} s) must be at most "
-                             f"max_duration ({self.max_duration:g} s)")
+            raise SettingError("min_duration",
+                               f"min_duration ({self.min_duration:g} s) must be at most "
+                               f"max_duration ({self.max_duration:g} s)")
 
 
 def sample_arrangement(scene: Scene, rng: np.random.Generator, goal_bias: float,

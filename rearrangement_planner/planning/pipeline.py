@@ -178,19 +178,16 @@ def _states_at_points(states: tuple[State, ...], trajectory: Trajectory) -> tupl
 
 
 def plan_scene(request: PlanRequest, cancel: threading.Event | None = None,
-               progress: ProgressCallback | None = None,
-               physics: Physics | None = None) -> PlanOutput:
+               progress: ProgressCallback | None = None) -> PlanOutput:
     """Plan `request`: its planner with `request.trees` raced trees, the path shortcut
     (`request.shortcut`; not for planners whose registry entry says so: DARRT's rigid carrying
     is a different world model from the quasistatic physics shortcutting re-simulates), robust
     selection among candidates (`request.robust`, `robust_search`), the trajectory timed
-    (`request.timing`) and the object poses predicted along it. `physics`, when given, is the
-    scene's physics already built with `request.physics` (the node builds it to check the
-    scene). The compiled core is warmed up first (`warmup.warm_up`), outside the plan's clock."""
+    (`request.timing`) and the object poses predicted along it. The compiled core is warmed up
+    first (`warmup.warm_up`), outside the plan's clock."""
     warm_up()
     scene = request.scene
-    candidates = Candidates(request, physics or Physics(scene, request.physics), cancel,
-                            progress)
+    candidates = Candidates(request, Physics(scene, request.physics), cancel, progress)
     score = None
     if request.robust.min_robustness > 0:
         candidate, score = robust_search(candidates)

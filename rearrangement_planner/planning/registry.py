@@ -15,7 +15,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from rearrangement_planner.model.scene import Scene
-from rearrangement_planner.model.settings import Settings, SettingSpec
+from rearrangement_planner.model.settings import SettingError, Settings, SettingSpec
 from rearrangement_planner.physics.options import PhysicsOptions
 from rearrangement_planner.physics.step import Physics
 from rearrangement_planner.planning.darrt import DARRT, DARRTOptions
@@ -64,8 +64,8 @@ class PlannerSpec:
         fields = {f.name for f in dataclasses.fields(self.options_type)}
         unknown = sorted(set(values) - fields)
         if unknown:
-            raise ValueError(f"{self.name} has no setting {', '.join(unknown)}; its settings "
-                             f"are {', '.join(sorted(fields))}")
+            raise SettingError(unknown[0], f"{self.name} has no setting {', '.join(unknown)}; "
+                                           f"its settings are {', '.join(sorted(fields))}")
         if base is not None and not isinstance(base, self.options_type):
             ignored = [f.name for f in dataclasses.fields(base) if f.name not in fields
                        and getattr(base, f.name) != f.default]
@@ -107,8 +107,8 @@ def planner_spec(name: str) -> PlannerSpec:
     try:
         return PLANNERS[name]
     except KeyError:
-        raise ValueError(f"unknown planner {name!r}; choose one of "
-                         f"{', '.join(PLANNER_NAMES)}") from None
+        raise SettingError("planner", f"unknown planner {name!r}; choose one of "
+                                      f"{', '.join(PLANNER_NAMES)}") from None
 
 
 def make_planner(name: str, scene: Scene, options: PlannerOptions | None = None,

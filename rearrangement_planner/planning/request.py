@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from rearrangement_planner.model.scene import Scene
-from rearrangement_planner.model.settings import Settings, SettingSpec
+from rearrangement_planner.model.settings import SettingError, Settings, SettingSpec
 from rearrangement_planner.model.state import State
 from rearrangement_planner.physics.options import PhysicsOptions
 from rearrangement_planner.planning.interface import PlannerOptions
@@ -79,10 +79,11 @@ class PlanRequest:
         if not planner.steps_physics and self.physics != PhysicsOptions():
             changed = [s.name for s in PhysicsOptions.describe()
                        if getattr(self.physics, s.name) != s.default]
-            raise ValueError(f"{planner.name} does not read {', '.join(changed) or 'physics'}: "
-                             f"it never steps the quasistatic pushing model")
+            raise SettingError(changed[0] if changed else "physics",
+                               f"{planner.name} does not read {', '.join(changed) or 'physics'}:"
+                               f" it never steps the quasistatic pushing model")
         if not 0 <= self.seed < 2**63:
-            raise ValueError(f"seed must be a non-negative integer, got {self.seed}")
+            raise SettingError("seed", f"seed must be a non-negative integer, got {self.seed}")
         planner.check(self.scene, self.options)
 
     @property
@@ -112,8 +113,8 @@ class PlanRequest:
         reads = {s.name for s in spec.settings()} | {s.name for t in STAGES for s in t.describe()}
         for name, value in values.items():
             if name in known and name not in reads and value != known[name].default:
-                raise ValueError(f"{name}: {spec.name} does not read it (its settings: "
-                                 f"{', '.join(s.name for s in spec.settings())})")
+                raise SettingError(name, f"{name}: {spec.name} does not read it (its settings: "
+                                         f"{', '.join(s.name for s in spec.settings())})")
 
         def pick(kind: type[Settings]) -> Any:
             return kind(**{s.name: values[s.name] for s in kind.describe() if s.name in values})

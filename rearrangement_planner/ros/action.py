@@ -107,6 +107,16 @@ def goal_parameters(goal: PlanRearrangement.Goal, params: dict[str, Any]) -> dic
     return changed
 
 
+def goal_origins(goal: PlanRearrangement.Goal) -> dict[str, str]:
+    """The goal field each setting a goal changes comes from (what an error names)."""
+    origins = {name: f"goal.{name}" for name, given in (
+        ("planner", bool(goal.planner)), ("time_limit", goal.time_limit > 0),
+        ("seed", goal.seed >= 0), ("goal_radius", goal.goal_radius > 0)) if given}
+    for i, item in enumerate(goal.settings):
+        origins[item.partition("=")[0].strip()] = f"goal.settings[{i}]"
+    return origins
+
+
 def goal_point_pose(goal: PlanRearrangement.Goal, frame: str) -> Any:
     """The goal's goal point as the PoseStamped the node would have received on ~/goal, or None
     when the goal does not set one. InputError when it is not finite."""

@@ -24,8 +24,7 @@ from rearrangement_planner.io.recording import RecordingError
 from rearrangement_planner.model.errors import InputError, SceneError
 from rearrangement_planner.model.robot import RobotModel
 from rearrangement_planner.model.scene import Goal, Scene
-from rearrangement_planner.physics.options import PhysicsOptions
-from rearrangement_planner.physics.step import Physics
+from rearrangement_planner.model.settings import SettingError
 from rearrangement_planner.physics.validation import check_scene, load_scene
 from rearrangement_planner.planning.interface import (
     Outcome,
@@ -34,26 +33,29 @@ from rearrangement_planner.planning.interface import (
     ProgressCallback,
 )
 from rearrangement_planner.planning.pipeline import PlanOutput, plan_scene
-from rearrangement_planner.planning.registry import planner_spec
 from rearrangement_planner.planning.request import PlanRequest, request_settings
 from rearrangement_planner.planning.status import PlannerStatus
-from rearrangement_planner.ros.action import NO_STATE, goal_parameters, goal_point_pose
+from rearrangement_planner.ros.action import (
+    NO_STATE,
+    goal_origins,
+    goal_parameters,
+    goal_point_pose,
+)
 
 
-def node_request(params: dict[str, Any], scene: Scene) -> PlanRequest:
-    """The plan request of the node's parameters on `scene` (`PlanRequest.from_settings`: the
-    CLI builds its request the same way); InputError names the parameter at fault (the ranges
-    are already enforced by the parameter descriptors)."""
-    try:
-        planner_spec(params["planner"])
-    except ValueError as exc:
-        raise InputError("parameter planner", str(exc)) from None
+def node_request(params: dict[str, Any], scene: Scene,
+                 origins: dict[str, str] | None = None) -> PlanRequest:
+    """The one plan request of the node's parameters on the planning `scene`
+    (`PlanRequest.from_settings`: the CLI builds its request the same way). InputError names
+    where the setting at fault came from: `origins[name]` (an action goal's field) or the
+    parameter; the error's type carries the setting's name (`SettingError`)."""
     values = {s.name: params[s.name] for s in request_settings()}
     try:
         return PlanRequest.from_settings(scene, params["planner"], values,
                                          seed=int(params["seed"]))
-    except ValueError as exc:
-        raise InputError(f"parameter {str(exc).split()[0].rstrip(':')}", str(exc)) from None
+    except SettingError as exc:
+        where = (origins or {}).get(exc.name, f"parameter {exc.name}")
+        raise InputError(where, str(exc)) from None
 
 
 @dataclass(frozen=True)
@@ -186,10 +188,9 @@ def fresh_inputs(latest: dict[str, Input | None], topics: dict[str, str],
 
 
 def planning_scene(configured_scene: Scene, inputs: dict[str, Input | None],
-                   params: dict[str, Any], physics_options: PhysicsOptions
-                   ) -> tuple[Scene, Physics]:
-    """The configured scene with the received start state and goal, checked, and the one
-    physics the plan runs in (the scene is not re-parsed: only the state and goal change)."""
+                   params: dict[str, Any]) -> Scene:
+    """The configured scene with the received start state and goal, checked (the scene is not
+    re-parsed: only the state and goal change)."""
     joints, objects, received = (inputs["joint_states"], inputs["object_poses"],
                                  inputs["goal"])
     assert joints is not None and objects is not None    # `fresh_inputs` raised otherwise
@@ -200,11 +201,10 @@ def planning_scene(configured_scene: Scene, inputs: dict[str, Input | None],
     scene = dataclasses.replace(configured_scene.with_start(joints.value, objects.value),
                                 goal=goal)
     try:
-        physics = Physics(scene, physics_options)
-        check_scene(scene, physics.world)
+        check_scene(scene)
     except SceneError as exc:
         raise Rejected(*_classify(exc, received is not None)) from None
-    return scene, physics
+    return scene
 
 
 def run_plan(job: Job, params: dict[str, Any], configured: Scene,
@@ -217,14 +217,14 @@ def run_plan(job: Job, params: dict[str, Any], configured: Scene,
     inputs: dict[str, Input | None] = {}
     scene, output = configured, None
     try:
+        origins: dict[str, str] = {}
         if job.goal is not None:
             params, latest = goal_inputs(job.goal, params, configured, latest)
-            job.params = params
-        request = node_request(params, configured)
+            job.params, origins = params, goal_origins(job.goal)
         inputs = fresh_inputs(latest, topics, params["state_timeout"])
-        scene, physics = planning_scene(configured, inputs, params, request.physics)
-        output = plan_scene(dataclasses.replace(request, scene=scene), cancel=job.cancel,
-                            progress=progress, physics=physics)
+        scene = planning_scene(configured, inputs, params)
+        request = node_request(params, scene, origins)
+        output = plan_scene(request, cancel=job.cancel, progress=progress)
         return output.result.outcome.value, output.result.message, scene, output, inputs
     except InputError as exc:
         outcome, message = Outcome.INVALID_INPUT.value, str(exc)

@@ -22,7 +22,7 @@ import numpy as np
 from rearrangement_planner.model.errors import RearrangementError
 from rearrangement_planner.model.files import quote
 from rearrangement_planner.model.scene import Scene
-from rearrangement_planner.model.settings import parse_assignments
+from rearrangement_planner.model.settings import SettingError, parse_assignments
 from rearrangement_planner.physics.validation import load_scene
 from rearrangement_planner.planning.interface import Progress
 from rearrangement_planner.planning.pipeline import PlanOutput, plan_scene
@@ -146,9 +146,9 @@ def plan_request(args: argparse.Namespace, scene: Scene) -> PlanRequest:
         raise RearrangementError(f"--set {exc}") from None
     try:
         return PlanRequest.from_settings(scene, args.planner, values, seed=args.seed)
-    except ValueError as exc:
-        name = str(exc).split()[0].rstrip(":")
-        raise RearrangementError(f"{FLAGS.get(name, '--set')}: {exc}") from None
+    except SettingError as exc:
+        flag = {**FLAGS, "seed": "--seed", "planner": "--planner"}.get(exc.name, "--set")
+        raise RearrangementError(f"{flag}: {exc}") from None
 
 
 def _settings_table(planner: str) -> str:
