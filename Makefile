@@ -41,7 +41,7 @@ $(STAMP): $(IFACES) setup.py setup.cfg package.xml
 
 demo: $(STAMP)
 	mkdir -p out
-	$(PY) -m rearrangement_planner.ros.node_demo --scene default --seed 1 --time-limit 60 --time-scale 10 --record-dir out --plot out/default.png
+	$(PY) -m rearrangement_planner.ros.sim.node_demo --scene default --seed 1 --time-limit 60 --time-scale 10 --record-dir out --plot out/default.png
 
 test: $(STAMP)
 	$(PY) -m pytest -q test

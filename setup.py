@@ -39,7 +39,7 @@ setup(
     entry_points={
         "console_scripts": [
             f"planner_node = {PACKAGE}.ros.node:main",
-            f"world_sim = {PACKAGE}.ros.world_sim:main",
+            f"world_sim = {PACKAGE}.ros.sim.world_sim:main",
             f"rearrangement-plan = {PACKAGE}.tools.cli:main",
             f"rearrangement-bench = {PACKAGE}.tools.bench:main",
             f"rearrangement-train = {PACKAGE}.tools.train:main",

@@ -1,7 +1,7 @@
 """Open-loop execution of a joint trajectory in the planner's quasistatic physics, the way a
 joint trajectory controller plays it (positions interpolated linearly between the points), and
 the outcome a user cares about: did the goal object end in its goal region, what moved, what
-stopped the execution. ROS-free: `ros/world_sim.py` drives it from a ROS topic, tests and tools
+stopped the execution. ROS-free: `ros/sim/world_sim.py` drives it from a ROS topic, tests and tools
 call it directly.
 
     command = Command(times, positions)

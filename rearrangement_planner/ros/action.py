@@ -164,7 +164,8 @@ def plain_result(code: int, message: str) -> PlanRearrangement.Result:
 def job_result(job: Any, stamp: Time) -> PlanRearrangement.Result:
     """The action result of a finished job (`plan_request.Job`)."""
     output = job.output
-    result = plain_result(error_code(job.outcome, bool(output and output.fragile)), job.summary)
+    unsent = bool(output and output.fragile) and not job.executed   # executed: as asked
+    result = plain_result(error_code(job.outcome, unsent), job.summary)
     if job.trajectory is not None:
         result.trajectory = job.trajectory
     result.predicted_object_poses = predicted_object_poses(output, job.frame, stamp)

@@ -322,7 +322,7 @@ class PlannerNode(Node):
                 outcome, message = execute(job, msg, params["execution_timeout"],
                                            partial(self._out.publish, self._out.command),
                                            self._joint_input)
-                executed = True
+                executed = job.executed = True
             elif job.goal is None and params["auto_execute"] and sendable:
                 self._out.publish(self._out.command, msg)
         job.phase = "recording"

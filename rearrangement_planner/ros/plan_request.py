@@ -88,6 +88,8 @@ class Job:
         """What the job does now: waiting, planning, recording, executing (the feedback)."""
         self.output: PlanOutput | None = None
         self.recording = ""
+        self.executed = False
+        """The plan was sent to the controller for the goal (`execute`)."""
         self.feedback: list[tuple[int, Any]] = []
         """(time.time_ns(), feedback) of every action feedback sent (for the recording)."""
         self.trajectory: Any = None

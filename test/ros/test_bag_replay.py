@@ -33,9 +33,9 @@ from rearrangement_planner.model.state import wrap_angle  # noqa: E402
 from rearrangement_planner.physics.step import Physics  # noqa: E402
 from rearrangement_planner.physics.validation import parse_scene  # noqa: E402
 from rearrangement_planner.planning.propagation import replay  # noqa: E402
-from rearrangement_planner.ros.make_bags import BAGS as BAG_SPECS  # noqa: E402
-from rearrangement_planner.ros.make_bags import write_bag  # noqa: E402
-from rearrangement_planner.ros.replay import (  # noqa: E402
+from rearrangement_planner.ros.sim.make_bags import BAGS as BAG_SPECS  # noqa: E402
+from rearrangement_planner.ros.sim.make_bags import write_bag  # noqa: E402
+from rearrangement_planner.ros.sim.replay import (  # noqa: E402
     SWITCH_INTERVAL,
     BagError,
     BagPlayer,
@@ -341,12 +341,12 @@ def test_reference_plan_replays_to_its_recorded_object_poses(path):
 
 
 def test_replay_cli(session, tmp_path, monkeypatch, capsys):
-    """`python -m rearrangement_planner.ros.replay`: into a running planner node, and with its own
-    node and world_sim; bad arguments exit 2 with the problem named."""
+    """`python -m rearrangement_planner.ros.sim.replay`: into a running planner node, and with
+    its own node and world_sim; bad arguments exit 2 with the problem named."""
     from rclpy.parameter import Parameter
 
-    from rearrangement_planner.ros import replay as replay_module
     from rearrangement_planner.ros.node import PlannerNode
+    from rearrangement_planner.ros.sim import replay as replay_module
 
     monkeypatch.setenv("ROS_DOMAIN_ID", str(DOMAIN_ID))
     bag = BAGS_DIR / "easy_push_1obj.mcap"
@@ -376,7 +376,7 @@ def test_replay_cli(session, tmp_path, monkeypatch, capsys):
 
 
 def test_make_bags_cli_writes_a_bag_and_its_reference_plan(tmp_path, monkeypatch, capsys):
-    from rearrangement_planner.ros import make_bags
+    from rearrangement_planner.ros.sim import make_bags
 
     monkeypatch.setenv("ROS_DOMAIN_ID", str(DOMAIN_ID))
     assert make_bags.main(["--only", "easy_push_1obj", "--out", str(tmp_path)]) == 0

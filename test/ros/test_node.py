@@ -61,7 +61,7 @@ from rearrangement_planner.ros.node import (  # noqa: E402
     PlannerNode,
 )
 from rearrangement_planner.ros.parameters import DEFAULTS, PARAMETERS  # noqa: E402
-from rearrangement_planner.ros.replay import wait_until  # noqa: E402
+from rearrangement_planner.ros.sim.replay import wait_until  # noqa: E402
 
 FRAME = "world"
 NS = f"/{NODE_NAME}"

@@ -49,7 +49,7 @@ def test_ctrl_c_while_a_goal_plans_is_quiet(tmp_path):
     from msg_adapters import configuration_to_joint_state, objects_to_pose_array
     from rearrangement_interfaces.action import PlanRearrangement
     from rearrangement_planner.physics.validation import load_scene
-    from rearrangement_planner.ros.replay import wait_until
+    from rearrangement_planner.ros.sim.replay import wait_until
 
     domain = 210 + os.getpid() % 20
     env = {**os.environ, "ROS_DOMAIN_ID": str(domain),

@@ -1,4 +1,4 @@
-"""`python -m rearrangement_planner.ros.node_demo` (`make demo`): the whole job, in one process.
+"""`python -m rearrangement_planner.ros.sim.node_demo` (`make demo`): the whole job, in one process.
 
 Starts `world_sim` (the simulated arm, objects and trajectory controller) and `planner_node`
 on a scene, each a real ROS 2 node on one executor. The planner receives the joint state and
@@ -32,7 +32,7 @@ import numpy as np
 
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
-        prog="python -m rearrangement_planner.ros.node_demo",
+        prog="python -m rearrangement_planner.ros.sim.node_demo",
         description="Run world_sim and planner_node on a scene: plan from world_sim's state, "
                     "execute the plan open loop in world_sim, print the outcome.")
     parser.add_argument("--scene", default="default",
@@ -47,6 +47,9 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--time-scale", type=float, default=10.0, metavar="K",
                         help="world_sim runs the trajectory K times faster than real time "
                              "(default 10)")
+    parser.add_argument("--execute-fragile", action="store_true",
+                        help="execute the plan even when it is fragile (its robustness stayed "
+                             "below min_robustness; the node's parameter execute_fragile)")
     parser.add_argument("--goal-margin", type=float, default=None, metavar="M",
                         help="the planner's goal_margin: plan for the goal radius minus M "
                              "metres (default: the node's, config/planner.yaml)")
@@ -76,8 +79,8 @@ def main(argv: list[str] | None = None) -> int:
     from rearrangement_planner.model.errors import RearrangementError
     from rearrangement_planner.physics.validation import load_scene
     from rearrangement_planner.ros.node import PlannerNode
-    from rearrangement_planner.ros.replay import Session
-    from rearrangement_planner.ros.world_sim import WorldSim
+    from rearrangement_planner.ros.sim.replay import Session
+    from rearrangement_planner.ros.sim.world_sim import WorldSim
 
     try:
         for flag, value in (("--time-limit", args.time_limit), ("--time-scale", args.time_scale)):
@@ -112,7 +115,8 @@ def main(argv: list[str] | None = None) -> int:
             planner = session.add(PlannerNode(context=session.context, parameter_overrides=[
                 Parameter("scene", value=args.scene), Parameter("seed", value=args.seed),
                 Parameter("time_limit", value=float(args.time_limit)),
-                Parameter("record_dir", value=str(args.record_dir.resolve())), *margin]))
+                Parameter("record_dir", value=str(args.record_dir.resolve())),
+                Parameter("execute_fragile", value=bool(args.execute_fragile)), *margin]))
         except RearrangementError as exc:
             print(f"node_demo: {exc}", file=sys.stderr)
             return 2
@@ -124,7 +128,8 @@ def _run(session, world, planner, scene, args, planning_radius: float, plot_path
     from rearrangement_interfaces.action import PlanRearrangement
     from rearrangement_interfaces.msg import ErrorCode
     from rearrangement_planner.model.resources import NODE_NAME
-    from rearrangement_planner.ros.replay import BagError, OutcomeListener, PlannerClient
+    from rearrangement_planner.ros.client import ClientError, PlannerClient
+    from rearrangement_planner.ros.sim.replay import BagError, OutcomeListener
 
     node = session.node
     client = PlannerClient(node, f"/{NODE_NAME}")
@@ -153,7 +158,7 @@ def _run(session, world, planner, scene, args, planning_radius: float, plot_path
         reply = client.plan(goal, timeout=args.time_limit + 180.0)
         print(reply.message, flush=True)
         print(f"error code: {reply.outcome}; recording: {reply.mcap or 'none'}")
-        if reply.result.error_code.val != ErrorCode.SUCCESS:
+        if reply.result.error_code.val != ErrorCode.SUCCESS:   # a fragile plan is not sent
             return 1
         outcome = outcomes.wait_next(seen, 30.0)
         print(f"outcome: {outcome['message']}")
@@ -162,7 +167,7 @@ def _run(session, world, planner, scene, args, planning_radius: float, plot_path
               f"{outcome['status']}")
         print(f"top view: {plot_path}")
         return 0 if outcome["status"] == "SUCCEEDED" else 1
-    except BagError as exc:
+    except (BagError, ClientError) as exc:
         print(f"node_demo: {exc}", file=sys.stderr)
         return 1
 

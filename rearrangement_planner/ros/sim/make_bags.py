@@ -1,4 +1,4 @@
-"""`python -m rearrangement_planner.ros.make_bags`: regenerate the input bags in `bags/` and the
+"""`python -m rearrangement_planner.ros.sim.make_bags`: regenerate the input bags in `bags/` and the
 reference plan recordings in `bags/plans/`.
 
 Each input bag is what `ros2 bag record /joint_states /rearrangement_planner/object_poses
@@ -314,7 +314,7 @@ def write_bag(spec: BagSpec, out_dir: Path) -> Path:
 def record_reference_plans(paths: list[Path], plans_dir: Path, rate: float = 4.0) -> list[str]:
     """Replay every bag into a planner node (in this process) and keep the node's MCAP of the
     plan as `<plans_dir>/<bag>.plan.mcap`. Returns one summary line per bag."""
-    from rearrangement_planner.ros.replay import Session, run_bag
+    from rearrangement_planner.ros.sim.replay import Session, run_bag
 
     plans_dir.mkdir(parents=True, exist_ok=True)
     lines = []
@@ -334,7 +334,7 @@ def record_reference_plans(paths: list[Path], plans_dir: Path, rate: float = 4.0
 def search_seeds(paths: list[Path], seeds: range, rate: float = 4.0) -> None:
     """For choosing a bag's `seed`: replay every bag with each seed into a planner node and
     execute each plan open loop in world_sim on the ground truth; print one line per run."""
-    from rearrangement_planner.ros.replay import Session, run_bag
+    from rearrangement_planner.ros.sim.replay import Session, run_bag
 
     with Session(name="make_bags") as session, tempfile.TemporaryDirectory() as tmp:
         for i, path in enumerate(paths):
@@ -362,7 +362,7 @@ def _seed_range(text: str) -> range:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(
-        prog="python -m rearrangement_planner.ros.make_bags",
+        prog="python -m rearrangement_planner.ros.sim.make_bags",
         description="Regenerate the input bags (bags/*.mcap) and the reference plan "
                     "recordings (bags/plans/*.plan.mcap).")
     parser.add_argument("--out", type=Path, default=Path("bags"),

@@ -1,6 +1,6 @@
 """Replay recorded inputs into the planner node, like `ros2 bag play`, then plan (and execute).
 
-    python -m rearrangement_planner.ros.replay bags/default_3obj.mcap --rate 2 \
+    python -m rearrangement_planner.ros.sim.replay bags/default_3obj.mcap --rate 2 \
         --start-node --execute
 
 Pieces, usable on their own (the tests and `make_bags` use them):
@@ -13,9 +13,8 @@ Pieces, usable on their own (the tests and `make_bags` use them):
   the recorded publisher offered (reliability, durability, history depth), publishing the raw
   CDR bytes at their log times divided by `rate` (as `ros2 bag play --rate`); header stamps are
   left as recorded. `wait_for_subscribers()` first, so that nothing is published into the void.
-- `PlannerClient(node, namespace)`: the planner node's action `~/plan_rearrangement` and its
-  `~/execute` service; `plan()` returns a `PlanReply` (error code name, plan id, times, the
-  MCAP path and the trajectory, from the action's result).
+- `PlannerClient(node, namespace)` (`ros/client.py`): the planner node's action
+  `~/plan_rearrangement` and its `~/execute` service; `plan()` returns a `PlanReply`.
 - `Session`: an rclpy context with its own executor thread, for running nodes in-process.
 - `run_bag(bag, session, ...)`: the whole replay of one input bag: a planner node configured
   from the bag's `rearrangement_input` metadata (scene, seed, time limit, goal radius), the bag
@@ -44,7 +43,6 @@ import sys
 import tempfile
 import threading
 import time
-from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -56,6 +54,7 @@ from mcap.reader import make_reader
 from rearrangement_planner.model.errors import RearrangementError
 from rearrangement_planner.model.files import FileProblem, parse_yaml
 from rearrangement_planner.model.resources import NODE_NAME, share_dir
+from rearrangement_planner.ros.client import ClientError, PlannerClient, PlanReply, wait_until
 
 INPUT_METADATA = "rearrangement_input"
 """The metadata record of an input bag (written by make_bags): `planner_parameters` (JSON: the
@@ -348,89 +347,6 @@ class BagPlayer:
 # --------------------------------------------------------------------------------------------
 
 
-@dataclass(frozen=True)
-class PlanReply:
-    success: bool
-    """A plan came back (error code SUCCESS, or FRAGILE_PLAN with its trajectory)."""
-    message: str
-    """The node's one-line summary."""
-    plan_id: str = ""
-    outcome: str = ""
-    """The error code's name (SUCCESS, TIMED_OUT, ...; rearrangement_interfaces/ErrorCode)."""
-    plan_time: float = 0.0
-    iterations: int = 0
-    mcap: Path | None = None
-    """The plan's recording, None when not recorded."""
-    trajectory: Any = None
-    """The trajectory_msgs/JointTrajectory of the plan (None unless one came back)."""
-    wall_time: float = 0.0
-    """Seconds from the request to the answer."""
-    result: Any = None
-    """The action's whole PlanRearrangement result."""
-
-
-class PlannerClient:
-    """The planner node seen from `node`: its action `~/plan_rearrangement` (`plan`) and its
-    `~/execute` service (send the last plan to the controller)."""
-
-    def __init__(self, node, namespace: str = f"/{NODE_NAME}"):
-        from rclpy.action import ActionClient
-        from std_srvs.srv import Trigger
-
-        from rearrangement_interfaces.action import PlanRearrangement
-
-        self.namespace = namespace.rstrip("/")
-        self._action = ActionClient(node, PlanRearrangement,
-                                    f"{self.namespace}/plan_rearrangement")
-        self._execute = node.create_client(Trigger, f"{self.namespace}/execute")
-
-    def wait_ready(self, timeout: float = 10.0) -> None:
-        if not (self._action.wait_for_server(timeout_sec=timeout)
-                and self._execute.wait_for_service(timeout_sec=timeout)):
-            raise BagError(f"the planner node's action {self.namespace}/plan_rearrangement and "
-                           f"service {self.namespace}/execute did not come up in {timeout:g} s")
-
-    def plan(self, goal: Any = None, timeout: float = 120.0,
-             feedback: Callable[[Any], None] | None = None) -> PlanReply:
-        """Send `goal` (default: an empty PlanRearrangement goal, which plans with the node's
-        parameters and latest inputs) and wait for its result; `feedback` gets each feedback."""
-        from rearrangement_interfaces.action import PlanRearrangement
-        from rearrangement_interfaces.msg import ErrorCode
-        from rearrangement_planner.ros.action import ERROR_NAMES
-
-        self.wait_ready()
-        t0 = time.monotonic()
-        sent = self._action.send_goal_async(
-            goal if goal is not None else PlanRearrangement.Goal(),
-            feedback_callback=(lambda m: feedback(m.feedback)) if feedback else None)
-        if not wait_until(sent.done, 10.0):
-            raise BagError(f"{self.namespace}/plan_rearrangement did not take the goal in 10 s")
-        handle = sent.result()
-        if not handle.accepted:
-            raise BagError(f"{self.namespace}/plan_rearrangement refused the goal (busy; see "
-                           f"{self.namespace}/status)")
-        answer = handle.get_result_async()
-        if not wait_until(answer.done, timeout):
-            raise BagError(f"{self.namespace}/plan_rearrangement did not answer in {timeout:g} s")
-        result = answer.result().result
-        code = result.error_code.val
-        solved = code in (ErrorCode.SUCCESS, ErrorCode.FRAGILE_PLAN) and \
-            len(result.trajectory.points) > 0
-        return PlanReply(solved, result.message, result.plan_id,
-                         ERROR_NAMES.get(code, str(code)), result.plan_time, result.iterations,
-                         Path(result.mcap_path) if result.mcap_path else None,
-                         result.trajectory if solved else None, time.monotonic() - t0, result)
-
-    def execute(self, timeout: float = 10.0):
-        """Call ~/execute; the std_srvs/Trigger response."""
-        from std_srvs.srv import Trigger
-
-        future = self._execute.call_async(Trigger.Request())
-        if not wait_until(future.done, timeout):
-            raise BagError(f"{self.namespace}/execute did not answer in {timeout:g} s")
-        return future.result()
-
-
 class OutcomeListener:
     """Collects world_sim's `~/outcome` (JSON) messages."""
 
@@ -459,16 +375,6 @@ class OutcomeListener:
             raise BagError(f"no outcome on {self._subscription.topic_name} in {timeout:g} s")
         with self._lock:
             return self.outcomes[seen]
-
-
-def wait_until(predicate, timeout: float, period: float = 0.01) -> bool:
-    """Poll `predicate` every `period` s until it holds or `timeout` s pass; its last value."""
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if predicate():
-            return True
-        time.sleep(period)
-    return bool(predicate())
 
 
 # --------------------------------------------------------------------------------------------
@@ -598,7 +504,7 @@ def run_bag(bag: Bag | str | os.PathLike[str], session: Session, *, rate: float 
     from rclpy.parameter import Parameter
 
     from rearrangement_planner.ros.node import PlannerNode
-    from rearrangement_planner.ros.world_sim import WorldSim
+    from rearrangement_planner.ros.sim.world_sim import WorldSim
 
     bag = bag if isinstance(bag, Bag) else read_bag(bag)
     info = bag.input_metadata()
@@ -669,7 +575,7 @@ def run_bag(bag: Bag | str | os.PathLike[str], session: Session, *, rate: float 
 
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
-        prog="python -m rearrangement_planner.ros.replay",
+        prog="python -m rearrangement_planner.ros.sim.replay",
         description="Play an input bag into planner_node (like `ros2 bag play`), call ~/plan "
                     "and print its summary; optionally start the node in-process and execute "
                     "the plan open loop in world_sim.")
@@ -734,7 +640,7 @@ def main(argv: list[str] | None = None) -> int:
                                   ).plan()
             print(reply.message)
             return 0 if reply.success else 1
-        except BagError as exc:
+        except (BagError, ClientError) as exc:
             print(f"replay: {exc}", file=sys.stderr)
             return 1
 
