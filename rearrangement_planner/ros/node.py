@@ -5,14 +5,18 @@ Data flow:
 - Input topics (`joint_states`, `~/object_poses`, `~/goal`) are converted at the edge by
   msg_adapters and kept as the last good value with its receive time. A bad message is logged
   and reported on `~/status` (field and problem); the last good value stays.
-- A plan request (`~/plan`, or `~/goal` with `plan_on_goal`) becomes a `Job` for the ONE worker
-  thread; a request while a job exists is refused at once. The worker reads the parameters,
-  snapshots the inputs, builds the planning scene (the configured scene with the received start
-  state and goal, checked by `check_scene`), runs `plan_scene`, then publishes the trajectory,
-  records the plan to MCAP, publishes markers and the final status, and answers the request.
-- A MultiThreadedExecutor with three callback groups keeps the inputs, `~/cancel`, `~/execute`
-  and the 4 Hz status timer live while the worker plans: `inputs` (subscriptions), `plan`
-  (reentrant, so that a second request is refused instead of queued) and `control`.
+- A plan request (a goal of the action `~/plan_rearrangement` (`ros/action.py`), a `~/plan`
+  call (`ros/services.py`), or `~/goal` with `plan_on_goal`) becomes a `Job` for the ONE worker
+  thread; a request while a job exists is refused at once. The worker reads the parameters (a
+  goal changes them for its job), snapshots the inputs, builds the planning scene (the
+  configured scene with the received start state and goal, checked by `check_scene`), builds
+  one request on it, runs `plan_scene`, then publishes the trajectory, executes it when the goal
+  asks, records the plan to MCAP, publishes markers and the final status (`ros/outputs.py`),
+  and answers the request.
+- A MultiThreadedExecutor with three callback groups keeps the inputs, the action's feedback,
+  `~/cancel`, `~/execute` and the 4 Hz status timer live while the worker plans: `inputs`
+  (subscriptions), `plan` (reentrant, so that a second request is refused instead of queued)
+  and `control`.
 
 Only the worker thread touches the robot model (Pinocchio data is not thread-safe); the other
 threads share plain values under `self._lock`.
