@@ -544,8 +544,17 @@ def test_a_flood_of_varied_bad_inputs_is_one_short_report_a_second(ros):
         t0 = time.monotonic()
         huge = JointState(name=[f"joint_{i:06d}" for i in range(100_000)],
                           position=[0.0] * 100_000)
-        client.joint_pub.publish(huge)
-        status = client.wait_status(t0, lambda s: "rejected joint_states" in s.message)
+        rejected = []
+
+        def reported() -> bool:      # a 1.5 MB best-effort message may be dropped: send again
+            rejected[:] = [s for _, s in client.statuses_since(t0)
+                           if "rejected joint_states" in s.message]
+            if not rejected:
+                client.joint_pub.publish(huge)
+            return bool(rejected)
+
+        assert wait_until(reported, 20.0, period=0.3), "the huge joint state was not reported"
+        status = rejected[0]
         assert "joint_states.name" in status.message
         assert len(status.message) <= REPORT_CHARS + 60, len(status.message)
         time.sleep(1.1)
