@@ -124,14 +124,20 @@ class ExecutionReport:
     wall_time_s: float = 0.0
     executed_paths: np.ndarray = field(default_factory=lambda: np.zeros((0, 0, 3)))
     """(T, M, 3) executed object poses (x, y, yaw) at the T trajectory points."""
+    final_q: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    """The arm's configuration at the end (rad, planning-joint order)."""
 
     @property
     def toppled(self) -> tuple[str, ...]:
         return tuple(o.name for o in self.objects if o.toppled)
 
+    def final_state(self) -> State:
+        """Where the arm and the objects ended (x, y, yaw): what a closed loop observes."""
+        return State(self.final_q, np.array([o.pose for o in self.objects], dtype=float))
+
     def to_dict(self) -> dict[str, Any]:
         record = {k: v for k, v in self.__dict__.items()
-                  if k not in ("objects", "executed_paths")}
+                  if k not in ("objects", "executed_paths", "final_q")}
         record["object_contacts"] = list(self.object_contacts)
         record["toppled"] = list(self.toppled)
         record["objects"] = {o.name: {k: v for k, v in o.__dict__.items() if k != "name"}
@@ -450,7 +456,8 @@ class _Execution:
         paths = np.array(self.executed, dtype=float).reshape(-1, len(self.bodies), 3)
         return ExecutionReport(opts.arm, bool(reached), distance, scene.goal.radius, outcomes,
                                tuple(sorted(self.contacts)), dict(self.collisions),
-                               self.tracking, sim_time, wall_time, paths)
+                               self.tracking, sim_time, wall_time, paths,
+                               data.qpos[self.qadr].copy())
 
     def _outcome(self, i: int, obj: MovableObject) -> ObjectOutcome:
         body = self.bodies[i]
@@ -511,11 +518,17 @@ def check_perturbed(scene: Scene, trajectory: Trajectory, trials: int, seed: int
     drawn support pressure moves its centre of mass over the drawn centre of friction
     (`_shift_centre_of_mass`); its c is MuJoCo's own (the box's corners, the cylinder's rim
     carry it), which lies inside the drawn range."""
+    reports = tuple(check_execution(world, trajectory, None, options)
+                    for world in perturbed_worlds(scene, trials, seed, perturbation))
+    return PerturbedReport(trials, sum(r.reached for r in reports), reports)
+
+
+def perturbed_worlds(scene: Scene, trials: int, seed: int = 0,
+                     perturbation: Perturbation | None = None) -> list[Scene]:
+    """The `trials` worlds `check_perturbed` executes in (the closed loop uses the same)."""
     rng = np.random.default_rng(seed)
     perturbation = dataclasses.replace(perturbation or Perturbation(), contact_offset=0.0)
-    reports = tuple(check_execution(perturbation.apply(scene, rng), trajectory, None, options)
-                    for _ in range(trials))
-    return PerturbedReport(trials, sum(r.reached for r in reports), reports)
+    return [perturbation.apply(scene, rng) for _ in range(trials)]
 
 
 # -- world_sim's engine ---------------------------------------------------------------------------

@@ -293,6 +293,11 @@ def _add_run_parser(sub) -> None:
                      metavar="N",
                      help=f"executions of each solved plan in perturbed MuJoCo worlds (servo "
                           f"arm; default {benchmark.PERTURBED_EXECUTIONS}; 0: none)")
+    run.add_argument("--replan", type=int, default=0, metavar="N",
+                     help="also close the loop in MuJoCo (servo arm), nominal and perturbed: "
+                          "after an execution that misses with nothing toppled, retreat, "
+                          "observe and plan again, up to N times; the summary reports reached "
+                          "within N re-plans and the time to goal (default 0: open loop only)")
     _add_set_option(run)
     _add_engine_options(run, "trials")
     run.add_argument("--out", type=Path, default=Path("out/benchmark"), metavar="DIR",
@@ -593,6 +598,9 @@ def _check_run_options(args: argparse.Namespace) -> None:
     if not 0 <= args.perturbed <= 100:
         raise benchmark.BenchmarkError("--perturbed", f"must be between 0 and 100 executions, "
                                                       f"got {args.perturbed}")
+    if not 0 <= args.replan <= 20:
+        raise benchmark.BenchmarkError("--replan", f"must be between 0 and 20 re-plans, "
+                                                   f"got {args.replan}")
     if any(seed < 0 for seed in args.seeds):
         raise benchmark.BenchmarkError("--seeds", f"seeds must be >= 0, got {args.seeds}")
     if args.out.exists() and not args.out.is_dir():
@@ -626,7 +634,8 @@ def resolve_run(args: argparse.Namespace) -> tuple[list[tuple[Path, Scene]],
             raise benchmark.BenchmarkError("--robot", str(exc)) from None
     objects = {path.stem: len(scene.objects) for path, scene in scenes}
     trials = benchmark.make_trials([p for p, _ in scenes], args.planners, args.seeds,
-                                   args.time_limit, objects, args.robot, args.perturbed)
+                                   args.time_limit, objects, args.robot, args.perturbed,
+                                   args.replan)
     return scenes, trials
 
 
@@ -678,6 +687,9 @@ def run_command(args: argparse.Namespace, argv: list[str]) -> int:
     plots = plot_all(rows, summary, args.out)
     logs = ompl_log.write_logs(rows, protocol, args.out / "ompl")
     print(benchmark.summary_table(summary))
+    closed = benchmark.closed_loop_table(summary)
+    if closed:
+        print("\nclosed loop (servo arm in MuJoCo):\n" + closed)
     print(f"wrote {csv_path}, {args.out / 'summary.json'}, "
           + ", ".join(str(p) for p in plots)
           + f", OMPL benchmark logs {', '.join(p.name for p in logs)} in {args.out / 'ompl'}",

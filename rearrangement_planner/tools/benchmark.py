@@ -417,6 +417,9 @@ class Trial:
     perturbed: int = 5
     """Perturbed MuJoCo executions of a solved plan (servo arm; `PERTURBED_EXECUTIONS`,
     defined below, is the same default)."""
+    replan: int = 0
+    """Re-plans of the closed loop (`execution.closed_loop`) after each execution that misses
+    (nominal and perturbed); 0: open loop only."""
 
     @property
     def key(self) -> tuple[str, str, int, float]:
@@ -426,12 +429,13 @@ class Trial:
 
 def make_trials(scene_files: Sequence[Path], planners: Sequence[str], seeds: Sequence[int],
                 time_limit: float, objects: dict[str, int], robot: str = "",
-                perturbed: int = 5) -> list[Trial]:
+                perturbed: int = 5, replan: int = 0) -> list[Trial]:
     """Every (scene, planner, seed) at `time_limit`, scene-major; `objects` maps a scene name
     to its number of movable objects; `robot` plans them all ("": each scene's own);
-    `perturbed` executions of each solved plan in perturbed MuJoCo worlds."""
+    `perturbed` executions of each solved plan in perturbed MuJoCo worlds, each closed with up
+    to `replan` re-plans."""
     return [Trial(p.stem, str(p), objects[p.stem], planner, seed, float(time_limit), robot,
-                  perturbed)
+                  perturbed, replan)
             for p in scene_files for planner in planners for seed in seeds]
 
 
@@ -462,6 +466,8 @@ CSV_COLUMNS = (
     "executed_ideal", "executed_servo", "executed_goal_distance_m", "executed_toppled",
     "trial_wall_s", "ray_node", "robot",
     "robustness", "executed_object_contacts", "perturbed_reached", "perturbed_trials",
+    "trajectory_s", "replan", "replan_reached", "replans_made", "time_to_goal_s",
+    "perturbed_replan_reached",
 )
 """trials.csv: one row per trial. goal_distance_m: the goal object's final distance from the
 goal point (solved) or the least distance reached (not solved). *_before / *_after: of the path
@@ -486,6 +492,13 @@ perturbed_reached / perturbed_trials: of the executions (`--perturbed`, PERTURBE
 default) with the servo arm in
 MuJoCo worlds perturbed as `model.perturbation.Perturbation` draws them (seeded by the trial's
 seed), how many reached the goal with nothing toppled.
+trajectory_s: the solved plan's trajectory duration (s).
+replan: the re-plans allowed (`--replan`; 0 or empty: open loop only, and the next four are
+empty). replan_reached: 1 when the closed loop (`execution.closed_loop`, servo arm, nominal
+world) reached the goal with nothing toppled within that many re-plans; replans_made: the
+re-plans it made; time_to_goal_s: all its plan times, retreats and trajectories (trajectory
+time; reached or not); perturbed_replan_reached: of the perturbed worlds, how many the closed
+loop reached (each loop's first execution is that world's open-loop execution).
 A CSV written before a column existed is read with that column empty."""
 
 PERTURBED_EXECUTIONS = 5
@@ -604,7 +617,9 @@ def run_trial(trial: Trial, settings: dict[str, Any]) -> dict:
     row["pushing_links"] = ";".join(sorted(links))
     row["non_goal_objects_moved"] = str(len(moved)) if result.solved else ""
     row.update(_executed(output, trial.seed, trial.perturbed))
+    row.update(_closed_loop(request, output, trial))
     row["robustness"] = _num(output.robustness)
+    row["trajectory_s"] = _num(output.trajectory.duration if output.trajectory else None, 3)
     if result.solved and output.trajectory is not None:
         row[PLAN_KEY] = {"arm_path": np.array([s.q for s in result.states]),
                          "times": output.trajectory.times,
@@ -664,6 +679,26 @@ def _executed(output, seed: int, perturbed_executions: int) -> dict[str, str]:
             "executed_object_contacts": str(len(reports["servo"].object_contacts)),
             "perturbed_reached": str(perturbed.reached),
             "perturbed_trials": str(perturbed.trials)}
+
+
+def _closed_loop(request, output, trial: Trial) -> dict[str, str]:
+    """The replan_* columns: the closed loop with up to `trial.replan` re-plans in the nominal
+    world and in the `trial.perturbed` perturbed worlds (`_executed`'s)."""
+    row = {"replan": str(trial.replan), "replan_reached": "", "replans_made": "",
+           "time_to_goal_s": "", "perturbed_replan_reached": ""}
+    if output.trajectory is None or trial.replan == 0:
+        return row
+    from rearrangement_planner.execution.closed_loop import (
+        execute_closed_loop,
+        perturbed_closed_loops,
+    )
+
+    loop = execute_closed_loop(request, trial.replan, first=output)
+    loops = perturbed_closed_loops(request, output, trial.perturbed, trial.seed, trial.replan)
+    row.update({"replan_reached": str(int(loop.reached)), "replans_made": str(loop.replans),
+                "time_to_goal_s": _num(loop.time_to_goal_s, 3),
+                "perturbed_replan_reached": str(sum(x.reached for x in loops))})
+    return row
 
 
 def _replay_physics(scene):
@@ -990,6 +1025,7 @@ def _planner_summary(rows: Sequence[dict], planner: str, protocol: dict,
                               for b in budgets(time_limit)},
         "by_objects": by_objects,
         "executed": _executed_summary(solved),
+        "closed_loop": _closed_loop_summary(rows),
         "calibration": calibration(solved),
         "non_goal_objects_moved_mean": _rounded(float(np.mean(
             [int(r["non_goal_objects_moved"]) for r in solved]))) if solved else None,
@@ -1091,6 +1127,59 @@ def _perturbed_summary(checked: Sequence[dict]) -> dict[str, Any]:
     reached = sum(int(r["perturbed_reached"]) for r in done)
     return {"plans": len(done), "executions": trials, "reached": reached,
             "share": _rounded(reached / trials) if trials else None}
+
+
+def _closed_loop_summary(rows: Sequence[dict]) -> dict[str, Any] | None:
+    """Open loop beside the closed loop (`--replan N`), over every request: reached with the
+    servo arm in the nominal world, of the first executions that missed upright how many the
+    loop mended, the perturbed executions, and the median time to goal (plan time plus
+    trajectory time for the open loop; `time_to_goal_s` for the closed loop) over the solved
+    requests. None when no trial closed the loop."""
+    looped = [r for r in rows if r.get("replan") not in (None, "", "0")]
+    if not looped:
+        return None
+    solved = [r for r in looped if r["solved"] == "1"]
+    upright_misses = [r for r in solved
+                      if r["executed_servo"] == "0" and r["executed_toppled"] == "0"]
+    open_times = [float(r["plan_time_s"]) + float(r["trajectory_s"]) for r in solved
+                  if r.get("trajectory_s")]
+    executions = sum(int(r["perturbed_trials"] or 0) for r in solved)
+    return {"replan": max(int(r["replan"]) for r in looped), "requests": len(looped),
+            "reached_open_loop": sum(r["executed_servo"] == "1" for r in looped),
+            "reached_closed_loop": sum(r["replan_reached"] == "1" for r in looped),
+            "upright_misses": len(upright_misses),
+            "upright_misses_mended": sum(r["replan_reached"] == "1" for r in upright_misses),
+            "perturbed_executions": executions,
+            "perturbed_reached_open_loop": sum(int(r["perturbed_reached"] or 0)
+                                               for r in solved),
+            "perturbed_reached_closed_loop": sum(int(r["perturbed_replan_reached"] or 0)
+                                                 for r in solved),
+            "time_to_goal_s_median": {
+                "open_loop": _rounded(_median(open_times), 3),
+                "closed_loop": _rounded(_median([float(r["time_to_goal_s"]) for r in solved]),
+                                        3)}}
+
+
+def closed_loop_table(summary: dict) -> str:
+    """The closed-loop summaries as a Markdown table beside the open loop, one row per planner
+    that closed the loop ("" when none did)."""
+    head = ["planner", "re-plans", "reached, open loop", "reached within the re-plans",
+            "upright misses mended", "perturbed, open loop", "perturbed, within the re-plans",
+            "time to goal median, open / closed"]
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for name, p in summary["planners"].items():
+        c = p.get("closed_loop")
+        if not c:
+            continue
+        n, e = c["requests"], c["perturbed_executions"]
+        times = c["time_to_goal_s_median"]
+        lines.append("| " + " | ".join([
+            name, str(c["replan"]), f"{c['reached_open_loop']}/{n}",
+            f"{c['reached_closed_loop']}/{n}",
+            f"{c['upright_misses_mended']}/{c['upright_misses']}",
+            f"{c['perturbed_reached_open_loop']}/{e}", f"{c['perturbed_reached_closed_loop']}/{e}",
+            f"{times['open_loop']} / {times['closed_loop']} s"]) + " |")
+    return "\n".join(lines) if len(lines) > 2 else ""
 
 
 def _beats(a: dict, b: dict) -> dict[str, bool]:

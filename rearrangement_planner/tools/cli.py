@@ -118,6 +118,12 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--trials", type=int, default=0, metavar="N",
                         help="with --check-execution: also N executions in perturbed worlds "
                              "(friction x0.7-1.3, mass x0.8-1.2, pose noise 5 mm / 2 deg)")
+    parser.add_argument("--replan", type=int, default=0, metavar="N",
+                        help="with --check-execution: close the loop with the servo arm: "
+                             "while the goal object misses its region upright, move the arm "
+                             "back out of contact, observe, plan again from there and execute, "
+                             "up to N times (JSON 'executions', one entry per attempt, and "
+                             "'verdict'; with --trials, in each perturbed world too)")
     parser.add_argument("--quiet", action="store_true", help="no progress line on stderr")
     return parser
 
@@ -174,6 +180,9 @@ def main(argv: list[str] | None = None) -> int:
         if not 0 <= args.trials <= 1000 or (args.trials and not args.check_execution):
             raise RearrangementError(f"--trials must be between 0 and 1000 and goes with "
                                      f"--check-execution, got {args.trials}")
+        if not 0 <= args.replan <= 20 or (args.replan and not args.check_execution):
+            raise RearrangementError(f"--replan must be between 0 and 20 and goes with "
+                                     f"--check-execution, got {args.replan}")
         for option, path in (("--json", args.json), ("--record", args.record),
                              ("--plot", args.plot)):
             _check_output(option, path)
@@ -198,6 +207,8 @@ def main(argv: list[str] | None = None) -> int:
 
         try:
             record["execution"], executed = _check_execution(output, args)
+            if args.replan:
+                record.update(_closed_loop(request, output, args))
         except ExecutionCheckError as exc:      # the plan stands; the check could not run
             print(f"rearrangement-plan: --check-execution: {exc}", file=sys.stderr)
             record["execution"] = {"error": str(exc)}
@@ -285,6 +296,35 @@ def _check_execution(output: PlanOutput, args: argparse.Namespace
             print(f"perturbed executions: {perturbed.reached} of {perturbed.trials} reached",
                   file=sys.stderr)
     return record, executed
+
+
+def _closed_loop(request: PlanRequest, output: PlanOutput, args: argparse.Namespace
+                 ) -> dict[str, Any]:
+    """The closed loop in MuJoCo (`execution.closed_loop`): the JSON's `executions` and
+    `verdict`, and with --trials its share in the perturbed worlds."""
+    from rearrangement_planner.execution.closed_loop import (
+        execute_closed_loop,
+        perturbed_closed_loops,
+    )
+
+    loop = execute_closed_loop(request, args.replan, first=output)
+    if not args.quiet:
+        for k, attempt in enumerate(loop.attempts, start=1):
+            distance = attempt.to_dict()["goal_distance_m"]
+            print(f"closed loop, execution {k}: {attempt.plan.result.outcome.value} in "
+                  f"{attempt.plan.result.plan_time:.1f} s, "
+                  + (f"goal object {distance:.3f} m from the goal, " if distance is not None
+                     else "")
+                  + f"{attempt.ended}{': ' + attempt.detail if attempt.detail else ''}",
+                  file=sys.stderr)
+    record = loop.to_dict()
+    if args.trials:
+        loops = perturbed_closed_loops(request, output, args.trials, args.seed, args.replan)
+        record["perturbed_closed_loop"] = {
+            "trials": len(loops), "reached": sum(x.reached for x in loops),
+            "verdicts": [x.attempts[-1].ended for x in loops],
+            "replans": [x.replans for x in loops]}
+    return record
 
 
 def _plot(output: PlanOutput, path: Path, seed: int,

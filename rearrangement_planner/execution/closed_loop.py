@@ -1,0 +1,168 @@
+"""The closed loop in MuJoCo (docs/design.md "Closed loop"): execute a plan open loop, observe
+where the arm and the objects ended, and, while the goal object is outside its region, nothing
+toppled and re-plans remain, move the arm back out of contact (`planning.retreat`), observe
+again and plan from what is observed. The CLI (`--check-execution --replan N`) and the
+benchmark (`--replan N`) run it; the ROS node runs the same loop against its controller.
+
+    loop = execute_closed_loop(request, replans=2, world=perturbed_scene)
+    loop.reached, loop.time_to_goal_s, [a.ended for a in loop.attempts]
+
+The planner plans in `request.scene`, its nominal model; MuJoCo executes in `world` (the
+same scene, or a perturbed copy: `Perturbation.apply`). Between two executions the MuJoCo
+world is rebuilt at the observed planar poses (the objects have come to rest during the
+execution's `hold`; a tilt below toppling is not carried over).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+from rearrangement_planner.execution.mujoco_check import (
+    ExecutionOptions,
+    ExecutionReport,
+    check_execution,
+    perturbed_worlds,
+)
+from rearrangement_planner.model.errors import SceneError
+from rearrangement_planner.model.perturbation import Perturbation
+from rearrangement_planner.model.scene import Scene
+from rearrangement_planner.model.state import State
+from rearrangement_planner.physics.validation import check_scene
+from rearrangement_planner.planning.pipeline import PlanOutput, plan_scene
+from rearrangement_planner.planning.request import PlanRequest
+from rearrangement_planner.planning.retreat import retreat_path
+from rearrangement_planner.planning.trajectory import time_parameterize
+
+# Why an attempt ended (`Attempt.ended`)
+REACHED = "reached"              # the goal object is in its region, nothing toppled
+TOPPLED = "toppled"              # an object toppled: no re-plan mends that
+MISSED = "missed"                # the goal object is outside its region, upright
+NOT_SOLVED = "not_solved"        # the plan failed; nothing was executed
+NO_RETREAT = "no_retreat"        # no way back out of contact along the executed path
+OBSERVED_INVALID = "observed_invalid"  # the observed scene is not a valid planning problem
+
+
+@dataclass(frozen=True)
+class Attempt:
+    """One plan and its execution: the first, or a re-plan after a retreat."""
+
+    plan: PlanOutput
+    execution: ExecutionReport | None
+    """None when the plan failed."""
+    retreat_s: float
+    """Trajectory time of the retreat executed before this plan was made (0 for the first)."""
+    ended: str
+    detail: str = ""
+
+    @property
+    def trajectory_s(self) -> float:
+        trajectory = self.plan.trajectory
+        return trajectory.duration if trajectory is not None else 0.0
+
+    def to_dict(self) -> dict[str, Any]:
+        report = self.execution
+        return {"plan_outcome": self.plan.result.outcome.value,
+                "plan_time_s": self.plan.result.plan_time,
+                "robustness": self.plan.robustness,
+                "retreat_s": self.retreat_s,
+                "trajectory_s": self.trajectory_s,
+                "goal_distance_m": report.goal_distance_m if report else None,
+                "toppled": list(report.toppled) if report else [],
+                "ended": self.ended, "detail": self.detail}
+
+
+@dataclass(frozen=True)
+class ClosedLoop:
+    """Every attempt of one request, in order."""
+
+    attempts: tuple[Attempt, ...]
+
+    @property
+    def reached(self) -> bool:
+        return self.attempts[-1].ended == REACHED
+
+    @property
+    def replans(self) -> int:
+        return len(self.attempts) - 1
+
+    @property
+    def time_to_goal_s(self) -> float:
+        """All plan times, retreats and trajectories (trajectory time), reached or not."""
+        return sum(a.plan.result.plan_time + a.retreat_s + a.trajectory_s for a in self.attempts)
+
+    def to_dict(self) -> dict[str, Any]:
+        """The CLI's JSON: `executions` (one entry per attempt) and the final `verdict`."""
+        return {"executions": [a.to_dict() for a in self.attempts],
+                "verdict": self.attempts[-1].ended, "replans": self.replans,
+                "time_to_goal_s": self.time_to_goal_s}
+
+
+def execute_closed_loop(request: PlanRequest, replans: int, world: Scene | None = None,
+                        options: ExecutionOptions | None = None,
+                        first: PlanOutput | None = None,
+                        plan: Callable[[PlanRequest], PlanOutput] = plan_scene) -> ClosedLoop:
+    """Plan `request` (or take `first`, its plan), execute it in `world` (default: the
+    request's scene) with the servo arm, and re-plan from the observed state up to `replans`
+    times while the goal is missed with nothing toppled (module doc)."""
+    options = options or ExecutionOptions(arm="servo")
+    world = world if world is not None else request.scene
+    output = first if first is not None else plan(request)
+    attempts: list[Attempt] = []
+    retreat_s = 0.0
+    while True:
+        if output.trajectory is None:
+            attempts.append(Attempt(output, None, retreat_s, NOT_SOLVED, output.result.message))
+            break
+        report = check_execution(world, output.trajectory, output.trajectory_states, options)
+        ended = (REACHED if report.reached else TOPPLED if report.toppled else MISSED)
+        attempts.append(Attempt(output, report, retreat_s, ended))
+        if ended != MISSED or len(attempts) > replans:
+            break
+        observed, retreat_s, problem = _retreat(request.scene, world, report,
+                                                output.trajectory.positions, request.timing,
+                                                options)
+        if observed is None:
+            attempts[-1] = dataclasses.replace(attempts[-1], ended=NO_RETREAT, detail=problem)
+            break
+        try:
+            scene = request.scene.with_start(observed.q, observed.objects)
+            check_scene(scene)
+        except SceneError as exc:
+            attempts[-1] = dataclasses.replace(attempts[-1], ended=OBSERVED_INVALID,
+                                               detail=str(exc))
+            break
+        world = world.with_start(observed.q, observed.objects)
+        request = dataclasses.replace(request, scene=scene, start=None)
+        output = plan(request)
+    return ClosedLoop(tuple(attempts))
+
+
+def perturbed_closed_loops(request: PlanRequest, first: PlanOutput, trials: int, seed: int,
+                           replans: int, perturbation: Perturbation | None = None,
+                           options: ExecutionOptions | None = None) -> tuple[ClosedLoop, ...]:
+    """The closed loop of `first` (the plan of `request`) in `trials` MuJoCo worlds perturbed
+    as `check_perturbed` draws them from `seed`: the same worlds, so each loop's first attempt
+    is that open-loop execution."""
+    return tuple(execute_closed_loop(request, replans, world, options, first)
+                 for world in perturbed_worlds(request.scene, trials, seed, perturbation))
+
+
+def _retreat(scene: Scene, world: Scene, report: ExecutionReport, path: Any, timing: Any,
+             options: ExecutionOptions) -> tuple[State | None, float, str]:
+    """The retreat after `report`'s execution, planned in the model at the observed poses and
+    executed in `world`: (the state observed after it, its duration, ""), or (None, 0, why)."""
+    observed = report.final_state()
+    moves = retreat_path(scene.with_start(observed.q, observed.objects), observed, path)
+    if moves is None:
+        return None, 0.0, "no retreat along the executed path is clear of the objects"
+    if len(moves) == 1:
+        return observed, 0.0, ""
+    trajectory = time_parameterize(scene.robot, moves, timing)
+    back = check_execution(world.with_start(observed.q, observed.objects), trajectory, None,
+                           options)
+    if back.toppled:
+        return None, 0.0, f"the retreat toppled {', '.join(back.toppled)}"
+    return back.final_state(), trajectory.duration, ""

@@ -1,0 +1,63 @@
+"""The retreat before a re-plan: a plan ends with the arm touching what it pushed, and a start
+in contact is refused (`physics.validation.check_scene`), so the closed loop (docs/design.md
+"Closed loop") first moves the arm back the way it came, along the executed plan's own arm
+path, until it stands `clearance` clear of every object. The objects stay where they were
+observed: the move is checked like a transit move (no static collision, and no deeper into any
+object than where it starts), not simulated as a push.
+
+    path = retreat_path(scene, observed, plan_positions)   # (K, nq) or None
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from rearrangement_planner.model.scene import Scene
+from rearrangement_planner.model.state import State
+from rearrangement_planner.physics.collision import CollisionWorld
+
+RETREAT_CLEARANCE = 0.02
+"""m: the retreat ends where no contact shape of the arm comes this near an object."""
+RETREAT_RESOLUTION = 0.02
+"""rad: the retreat is checked at configurations this far apart (largest joint change)."""
+DEEPER_TOLERANCE = 1e-3
+"""m: how much deeper than at its start the arm may reach into an object along the retreat
+(it starts in contact; the check is that it does not push further)."""
+
+
+def retreat_path(scene: Scene, observed: State, path: np.ndarray,
+                 clearance: float = RETREAT_CLEARANCE,
+                 world: CollisionWorld | None = None) -> np.ndarray | None:
+    """Arm configurations (K, nq) from `observed.q` back along `path` (the executed plan's arm
+    path, (N, nq)) from its point nearest `observed.q`, ending at the first configuration
+    `clearance` m clear of every object at `observed.objects`; `observed.q` alone when it is
+    already clear. None when no configuration along the path is clear, or the way back hits
+    the table or an obstacle or reaches deeper into an object than the arm starts."""
+    world = world if world is not None else CollisionWorld(scene)
+    robot, objects = scene.robot, observed.objects
+    q = np.asarray(observed.q, dtype=float)
+    path = np.asarray(path, dtype=float)
+    if _clear(world, robot.shape_poses(q), objects, clearance):
+        return q[None, :].copy()
+    start_depth = world.arm_object_penetration(robot.shape_poses(q), objects)
+    nearest = int(np.argmin(np.max(np.abs(path - q), axis=1)))
+    waypoints = [q]
+    for target in path[nearest::-1]:
+        here = waypoints[-1]
+        count = max(1, int(np.ceil(np.max(np.abs(target - here)) / RETREAT_RESOLUTION)))
+        for k in range(1, count + 1):
+            config = here + (target - here) * (k / count)
+            shapes = robot.shape_poses(config)
+            if world.arm_static_collision(shapes) is not None:
+                return None
+            if world.arm_object_penetration(shapes, objects) > start_depth + DEEPER_TOLERANCE:
+                return None
+            if _clear(world, shapes, objects, clearance):
+                return np.array(waypoints + [config])
+        waypoints.append(np.array(target, dtype=float))
+    return None
+
+
+def _clear(world: CollisionWorld, shapes: np.ndarray, objects: np.ndarray,
+           clearance: float) -> bool:
+    return not world.arm_object_contacts(shapes, objects, margin=clearance)
