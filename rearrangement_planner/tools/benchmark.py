@@ -467,7 +467,7 @@ CSV_COLUMNS = (
     "trial_wall_s", "ray_node", "robot",
     "robustness", "executed_object_contacts", "perturbed_reached", "perturbed_trials",
     "trajectory_s", "replan", "replan_reached", "replans_made", "time_to_goal_s",
-    "perturbed_replan_reached",
+    "perturbed_replan_reached", "closed_loop_endings",
 )
 """trials.csv: one row per trial. goal_distance_m: the goal object's final distance from the
 goal point (solved) or the least distance reached (not solved). *_before / *_after: of the path
@@ -499,6 +499,8 @@ world) reached the goal with nothing toppled within that many re-plans; replans_
 re-plans it made; time_to_goal_s: all its plan times, retreats and trajectories (trajectory
 time; reached or not); perturbed_replan_reached: of the perturbed worlds, how many the closed
 loop reached (each loop's first execution is that world's open-loop execution).
+closed_loop_endings: how each attempt ended (`execution.closed_loop`), '>'-joined per loop, the
+nominal loop first, then the perturbed ones, ';'-separated ("missed>reached;toppled").
 A CSV written before a column existed is read with that column empty."""
 
 PERTURBED_EXECUTIONS = 5
@@ -685,7 +687,7 @@ def _closed_loop(request, output, trial: Trial) -> dict[str, str]:
     """The replan_* columns: the closed loop with up to `trial.replan` re-plans in the nominal
     world and in the `trial.perturbed` perturbed worlds (`_executed`'s)."""
     row = {"replan": str(trial.replan), "replan_reached": "", "replans_made": "",
-           "time_to_goal_s": "", "perturbed_replan_reached": ""}
+           "time_to_goal_s": "", "perturbed_replan_reached": "", "closed_loop_endings": ""}
     if output.trajectory is None or trial.replan == 0:
         return row
     from rearrangement_planner.execution.closed_loop import (
@@ -697,7 +699,9 @@ def _closed_loop(request, output, trial: Trial) -> dict[str, str]:
     loops = perturbed_closed_loops(request, output, trial.perturbed, trial.seed, trial.replan)
     row.update({"replan_reached": str(int(loop.reached)), "replans_made": str(loop.replans),
                 "time_to_goal_s": _num(loop.time_to_goal_s, 3),
-                "perturbed_replan_reached": str(sum(x.reached for x in loops))})
+                "perturbed_replan_reached": str(sum(x.reached for x in loops)),
+                "closed_loop_endings": ";".join(">".join(a.ended for a in x.attempts)
+                                                for x in (loop, *loops))})
     return row
 
 
