@@ -16,7 +16,7 @@ execution's `hold`; a tilt below toppling is not carried over).
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -103,10 +103,12 @@ class ClosedLoop:
 def execute_closed_loop(request: PlanRequest, replans: int, world: Scene | None = None,
                         options: ExecutionOptions | None = None,
                         first: PlanOutput | None = None,
-                        plan: Callable[[PlanRequest], PlanOutput] = plan_scene) -> ClosedLoop:
+                        plan: Callable[[PlanRequest], PlanOutput] = plan_scene,
+                        executed: ExecutionReport | None = None) -> ClosedLoop:
     """Plan `request` (or take `first`, its plan), execute it in `world` (default: the
-    request's scene) with the servo arm, and re-plan from the observed state up to `replans`
-    times while the goal is missed with nothing toppled (module doc)."""
+    request's scene) with the servo arm (or take `executed`, that execution of `first`), and
+    re-plan from the observed state up to `replans` times while the goal is missed with
+    nothing toppled (module doc)."""
     options = options or ExecutionOptions(arm="servo")
     world = world if world is not None else request.scene
     output = first if first is not None else plan(request)
@@ -116,7 +118,8 @@ def execute_closed_loop(request: PlanRequest, replans: int, world: Scene | None 
         if output.trajectory is None:
             attempts.append(Attempt(output, None, retreat_s, NOT_SOLVED, output.result.message))
             break
-        report = check_execution(world, output.trajectory, output.trajectory_states, options)
+        report = executed if executed is not None and not attempts else check_execution(
+            world, output.trajectory, output.trajectory_states, options)
         ended = (REACHED if report.reached else TOPPLED if report.toppled else MISSED)
         attempts.append(Attempt(output, report, retreat_s, ended))
         if ended != MISSED or len(attempts) > replans:
@@ -142,12 +145,15 @@ def execute_closed_loop(request: PlanRequest, replans: int, world: Scene | None 
 
 def perturbed_closed_loops(request: PlanRequest, first: PlanOutput, trials: int, seed: int,
                            replans: int, perturbation: Perturbation | None = None,
-                           options: ExecutionOptions | None = None) -> tuple[ClosedLoop, ...]:
+                           options: ExecutionOptions | None = None,
+                           executed: Sequence[ExecutionReport] = ()) -> tuple[ClosedLoop, ...]:
     """The closed loop of `first` (the plan of `request`) in `trials` MuJoCo worlds perturbed
     as `check_perturbed` draws them from `seed`: the same worlds, so each loop's first attempt
-    is that open-loop execution."""
-    return tuple(execute_closed_loop(request, replans, world, options, first)
-                 for world in perturbed_worlds(request.scene, trials, seed, perturbation))
+    is that open-loop execution (`executed`: those executions, already made)."""
+    worlds = perturbed_worlds(request.scene, trials, seed, perturbation)
+    done: list[ExecutionReport | None] = [*executed, *[None] * (trials - len(executed))]
+    return tuple(execute_closed_loop(request, replans, world, options, first, executed=report)
+                 for world, report in zip(worlds, done, strict=True))
 
 
 def _retreat(scene: Scene, world: Scene, report: ExecutionReport, path: Any, timing: Any,

@@ -618,8 +618,9 @@ def run_trial(trial: Trial, settings: dict[str, Any]) -> dict:
     row["shortcut_time_s"] = _num(output.shortcut_time, 3)
     row["pushing_links"] = ";".join(sorted(links))
     row["non_goal_objects_moved"] = str(len(moved)) if result.solved else ""
-    row.update(_executed(output, trial.seed, trial.perturbed))
-    row.update(_closed_loop(request, output, trial))
+    executions = _executions(output, trial.seed, trial.perturbed)
+    row.update(_executed(executions))
+    row.update(_closed_loop(request, output, trial, executions))
     row["robustness"] = _num(output.robustness)
     row["trajectory_s"] = _num(output.trajectory.duration if output.trajectory else None, 3)
     if result.solved and output.trajectory is not None:
@@ -656,14 +657,12 @@ def save_plan(folder: Path, row: dict, plan: dict[str, Any]) -> Path:
     return path
 
 
-def _executed(output, seed: int, perturbed_executions: int) -> dict[str, str]:
-    """The executed_* and perturbed_* columns: the plan played open loop in MuJoCo, both arms,
-    then `perturbed_executions` times with the servo arm in perturbed worlds drawn from
-    `seed`."""
+def _executions(output, seed: int, perturbed_executions: int):
+    """The solved plan played open loop in MuJoCo, both arms, then `perturbed_executions` times
+    with the servo arm in perturbed worlds drawn from `seed`: ({arm: report}, PerturbedReport),
+    or None when not solved."""
     if output.trajectory is None:
-        return {"executed_ideal": "", "executed_servo": "", "executed_goal_distance_m": "",
-                "executed_toppled": "", "executed_object_contacts": "",
-                "perturbed_reached": "", "perturbed_trials": ""}
+        return None
     from rearrangement_planner.execution.mujoco_check import (
         ExecutionOptions,
         check_execution,
@@ -672,8 +671,17 @@ def _executed(output, seed: int, perturbed_executions: int) -> dict[str, str]:
 
     reports = {arm: check_execution(output.scene, output.trajectory, None,
                                     ExecutionOptions(arm=arm)) for arm in ("ideal", "servo")}
-    perturbed = check_perturbed(output.scene, output.trajectory, perturbed_executions, seed,
-                                ExecutionOptions(arm="servo"))
+    return reports, check_perturbed(output.scene, output.trajectory, perturbed_executions, seed,
+                                    ExecutionOptions(arm="servo"))
+
+
+def _executed(executions) -> dict[str, str]:
+    """The executed_* and perturbed_* columns of `_executions`."""
+    if executions is None:
+        return {"executed_ideal": "", "executed_servo": "", "executed_goal_distance_m": "",
+                "executed_toppled": "", "executed_object_contacts": "",
+                "perturbed_reached": "", "perturbed_trials": ""}
+    reports, perturbed = executions
     return {"executed_ideal": str(int(reports["ideal"].reached)),
             "executed_servo": str(int(reports["servo"].reached)),
             "executed_goal_distance_m": _num(reports["ideal"].goal_distance_m),
@@ -683,9 +691,10 @@ def _executed(output, seed: int, perturbed_executions: int) -> dict[str, str]:
             "perturbed_trials": str(perturbed.trials)}
 
 
-def _closed_loop(request, output, trial: Trial) -> dict[str, str]:
+def _closed_loop(request, output, trial: Trial, executions) -> dict[str, str]:
     """The replan_* columns: the closed loop with up to `trial.replan` re-plans in the nominal
-    world and in the `trial.perturbed` perturbed worlds (`_executed`'s)."""
+    world and in the `trial.perturbed` perturbed worlds, starting from `_executions`'s
+    open-loop executions there."""
     row = {"replan": str(trial.replan), "replan_reached": "", "replans_made": "",
            "time_to_goal_s": "", "perturbed_replan_reached": "", "closed_loop_endings": ""}
     if output.trajectory is None or trial.replan == 0:
@@ -695,8 +704,10 @@ def _closed_loop(request, output, trial: Trial) -> dict[str, str]:
         perturbed_closed_loops,
     )
 
-    loop = execute_closed_loop(request, trial.replan, first=output)
-    loops = perturbed_closed_loops(request, output, trial.perturbed, trial.seed, trial.replan)
+    reports, perturbed = executions
+    loop = execute_closed_loop(request, trial.replan, first=output, executed=reports["servo"])
+    loops = perturbed_closed_loops(request, output, trial.perturbed, trial.seed, trial.replan,
+                                   executed=perturbed.reports)
     row.update({"replan_reached": str(int(loop.reached)), "replans_made": str(loop.replans),
                 "time_to_goal_s": _num(loop.time_to_goal_s, 3),
                 "perturbed_replan_reached": str(sum(x.reached for x in loops)),

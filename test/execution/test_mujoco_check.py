@@ -21,11 +21,10 @@ from rearrangement_planner.execution.mujoco_check import (
 )
 from rearrangement_planner.execution.open_loop import Command, OpenLoopExecution
 from rearrangement_planner.model.perturbation import Perturbation
-from rearrangement_planner.physics.options import PhysicsOptions, simulation_options
+from rearrangement_planner.physics.options import simulation_options
 from rearrangement_planner.physics.step import Physics
 from rearrangement_planner.physics.validation import load_scene, parse_scene
 from rearrangement_planner.planning import PCRRTOptions, PlanRequest, plan_scene
-from rearrangement_planner.planning.manifold import default_push_configuration, ik_on_manifold
 from rearrangement_planner.planning.trajectory import Trajectory
 
 BOX = {"name": "box", "shape": "box", "size": [0.06, 0.08, 0.12], "pose": [0.46, 0.0, 0.0],
@@ -35,41 +34,9 @@ BYSTANDER = {"name": "bystander", "shape": "cylinder", "radius": 0.03, "height":
 
 
 @pytest.fixture(scope="module")
-def push_path(panda):
-    """The tool on the pushing manifold moving along +x from 0.40 to 0.55 m at 5 cm/s (IK
-    every 5 mm), after a 1 s hold: times and positions."""
-    xs = np.arange(0.40, 0.55 + 1e-9, 0.005)
-    q = default_push_configuration(panda, 0.0)
-    path = []
-    for x in xs:
-        q = ik_on_manifold(panda, float(x), 0.0, 0.0, 0.0, q)
-        path.append(q)
-    positions = np.vstack([path[:1], path])
-    times = np.concatenate([[0.0], 1.0 + np.arange(len(xs)) * 0.1])
-    return times, positions
-
-
-def _pushed(panda, push_path, objects, options: PhysicsOptions | None = None):
-    """The scene with `objects` on the table, the push as a trajectory, and the quasistatic
-    prediction (world_sim's physics with `options`, 1 mm substeps)."""
-    times, positions = push_path
-    data = {"table": {"center": [0.55, 0.0], "size": [0.8, 1.2], "height": 0.0},
-            "start_configuration": positions[0].tolist(), "objects": objects,
-            "goal": {"object": objects[0]["name"], "position": [0.59, 0.0], "radius": 0.02}}
-    scene = parse_scene(data, robot=panda)
-    trajectory = Trajectory(panda.joint_names, times, positions, np.zeros_like(positions))
-    options = dataclasses.replace(options or simulation_options(), max_substep=0.001)
-    execution = OpenLoopExecution(Physics(scene, options),
-                                  scene.initial_state(), Command(times, positions), period=0.01)
-    execution.run()
-    assert execution.invalid is None
-    return scene, trajectory, execution.state
-
-
-@pytest.fixture(scope="module")
-def straight_push(panda, push_path):
+def straight_push(pushed):
     """A box 3 cm ahead of the finger tips on the push line, a cylinder well aside."""
-    return _pushed(panda, push_path, [BOX, BYSTANDER])
+    return pushed([BOX, BYSTANDER])
 
 
 def test_a_straight_push_moves_the_box_as_the_quasistatic_model_predicts(straight_push):
@@ -87,12 +54,12 @@ def test_a_straight_push_moves_the_box_as_the_quasistatic_model_predicts(straigh
 
 
 @pytest.mark.parametrize(("offset", "turn"), [(0.015, 0.0), (0.03, 1.0)])
-def test_an_off_centre_push_turns_the_box_as_much_as_in_mujoco(panda, push_path, offset, turn):
+def test_an_off_centre_push_turns_the_box_as_much_as_in_mujoco(pushed, offset, turn):
     """The finger pads' flat tip face spans 3 cm: pushed 1.5 cm off its centre line the box
     still goes straight (the face reaches the line through its centre), pushed 3 cm off it
     turns by about a radian; in MuJoCo and in the model alike (within 0.25 rad, 1.5 cm)."""
     box = {**BOX, "pose": [0.46, offset, 0.0]}
-    scene, trajectory, predicted = _pushed(panda, push_path, [box])
+    scene, trajectory, predicted = pushed([box])
     executed = np.asarray(check_execution(scene, trajectory).objects[0].pose)
     start = scene.object_poses[0]
     for pose in (executed, predicted.objects[0]):
@@ -101,14 +68,14 @@ def test_an_off_centre_push_turns_the_box_as_much_as_in_mujoco(panda, push_path,
 
 
 def test_a_centre_of_friction_off_the_push_line_turns_the_box_the_same_way_in_both(
-        panda, push_path):
+        panda, push_path, pushed):
     """The box pushed 3 cm off its centre line, with its weight resting 1 cm towards the
     finger or 1 cm away from it (`SupportPressure.centre`; MuJoCo moves the centre of mass
     there): away from the finger it turns more, in the model and in MuJoCo alike."""
     from rearrangement_planner.model.scene import SupportPressure
 
     box = {**BOX, "pose": [0.46, 0.03, 0.0]}
-    scene, trajectory, _ = _pushed(panda, push_path, [box])
+    scene, trajectory, _ = pushed([box])
     times, positions = push_path
     turns = {}
     for side in (-1.0, 1.0):        # the finger meets the box at y = -3 cm in its frame
@@ -136,12 +103,12 @@ CAN = {"name": "can", "shape": "cylinder", "radius": 0.03, "height": 0.1, "mass"
     [("second", SMALL_BOX, (0.525, 0.0)), ("can", CAN, (0.585, 0.0))],   # three in a row
     [("can", CAN, (0.525, -0.02))],                                   # a can off the line
 ], ids=["two", "offset", "three", "can"])
-def test_a_row_of_objects_moves_as_in_mujoco(panda, push_path, row):
+def test_a_row_of_objects_moves_as_in_mujoco(pushed, row):
     """The box pushed into one or two more (object contact, `PhysicsOptions.object_contact`):
     each object ends where MuJoCo puts it, within 5 mm (0.4-2.2 mm measured)."""
     objects = [BOX] + [{**spec, "name": name, "pose": [x, y, 0.0]}
                        for name, spec, (x, y) in row]
-    scene, trajectory, predicted = _pushed(panda, push_path, objects)
+    scene, trajectory, predicted = pushed(objects)
     executed = check_execution(scene, trajectory)
     for i, outcome in enumerate(executed.objects):
         assert outcome.moved_m > 0.05, outcome.name            # all of them pushed along

@@ -394,6 +394,45 @@ def test_an_unsolved_trial_fills_every_column():
     assert row["goal_push_path_m"] == row["executed_servo"] == ""
 
 
+def test_a_trial_with_replans_closes_the_loop_nominal_and_perturbed():
+    """n1_s0 with 1 re-plan and 1 perturbed world: the loop's first execution is the open-loop
+    one, so a request the open loop reaches is reached by the loop, with no re-plan."""
+    path = benchmark.scene_set_dir() / "n1_s0.yaml"
+    trial = benchmark.Trial("n1_s0", str(path), 1, "pc-rrt", 0, 20.0, perturbed=1, replan=1)
+    row = benchmark.run_trial(trial, {"trees": 1, "min_robustness": 0.0})
+    assert row["solved"] == "1" and row["replan"] == "1"
+    nominal, perturbed = row["closed_loop_endings"].split(";")
+    assert nominal.split(">")[0] == ("reached" if row["executed_servo"] == "1" else
+                                     "toppled" if row["executed_toppled"] != "0" else "missed")
+    assert row["replan_reached"] == str(int(nominal.endswith("reached")))
+    assert row["replans_made"] == str(nominal.count(">"))
+    assert int(row["perturbed_replan_reached"]) >= int(row["perturbed_reached"])
+    assert float(row["time_to_goal_s"]) >= float(row["plan_time_s"]) + float(row["trajectory_s"])
+
+
+def test_the_closed_loop_summary_sets_the_loop_beside_the_open_loop():
+    rows = []
+    for servo, toppled, looped, time_to_goal in (("1", "0", "1", 30.0), ("0", "0", "1", 50.0),
+                                                 ("0", "0", "0", 70.0), ("0", "1", "0", 20.0)):
+        row = _row("pc-rrt", 1, True, 2.0)
+        row.update(executed_servo=servo, executed_toppled=toppled, replan="2",
+                   replan_reached=looped, time_to_goal_s=str(time_to_goal), trajectory_s="18.0",
+                   perturbed_trials="5", perturbed_reached="2", perturbed_replan_reached="4")
+        rows.append(row)
+    rows.append({**_row("pc-rrt", 2, False, 60.0), "replan": "2"})
+    loop = benchmark._closed_loop_summary(rows)
+    assert loop["requests"] == 5 and loop["replan"] == 2
+    assert (loop["reached_open_loop"], loop["reached_closed_loop"]) == (1, 2)
+    assert (loop["upright_misses"], loop["upright_misses_mended"]) == (2, 1)
+    assert (loop["perturbed_executions"], loop["perturbed_reached_open_loop"],
+            loop["perturbed_reached_closed_loop"]) == (20, 8, 16)
+    assert loop["time_to_goal_s_median"] == {"open_loop": 20.0, "closed_loop": 40.0}
+    assert benchmark._closed_loop_summary([_row("pc-rrt", 1, True, 2.0)]) is None
+    table = benchmark.closed_loop_table({"planners": {"pc-rrt": {"closed_loop": loop}}})
+    assert "| pc-rrt | 2 | 1/5 | 2/5 | 1/2 | 8/20 | 16/20 | 20.0 / 40.0 s |" in table
+    assert benchmark.closed_loop_table({"planners": {"pc-rrt": {"closed_loop": None}}}) == ""
+
+
 def test_goal_push_sums_the_goal_objects_travel_and_turn():
     from rearrangement_planner.model.state import State
 
@@ -658,6 +697,8 @@ def test_a_planner_label_may_carry_its_own_settings(tmp_path):
     (["--seeds", "one"], "--seeds"),
     (["--scenes", "n9_s0"], "--scenes"),
     (["--scenes", "missing.yaml"], "--scenes"),
+    (["--replan", "-1"], "--replan"),
+    (["--replan", "21"], "--replan"),
 ])
 def test_bad_run_options_are_one_line_naming_the_option_and_exit_2(args, option, capsys,
                                                                     tmp_path):

@@ -187,13 +187,21 @@ def test_record_needs_no_ros(tmp_path):
 def test_check_execution_reports_the_mujoco_outcome(tmp_path, capsys):
     out, png = tmp_path / "plan.json", tmp_path / "plan.png"
     code = main(["easy_push", "--seed", "1", "--trees", "1", "--check-execution", "--trials",
-                 "2", "--json", str(out), "--plot", str(png)])
-    execution = json.loads(out.read_text())["execution"]
+                 "2", "--replan", "1", "--json", str(out), "--plot", str(png)])
+    record = json.loads(out.read_text())
+    execution = record["execution"]
     assert code == 0 and png.stat().st_size > 10_000
     assert set(execution) == {"ideal", "servo", "perturbed"}
     assert execution["ideal"]["goal_radius_m"] == 0.08 and "reached" in execution["servo"]
     assert execution["perturbed"]["trials"] == 2
-    assert "executed in MuJoCo (ideal arm): goal object" in capsys.readouterr().err
+    # the closed loop: its first execution is the servo arm's open-loop one
+    first = record["executions"][0]
+    assert first["goal_distance_m"] == execution["servo"]["goal_distance_m"]
+    assert record["verdict"] == first["ended"] == "reached" and record["replans"] == 0
+    assert record["perturbed_closed_loop"]["trials"] == 2
+    err = capsys.readouterr().err
+    assert "executed in MuJoCo (ideal arm): goal object" in err
+    assert "closed loop, execution 1: SUCCEEDED" in err
 
 
 def test_a_check_that_cannot_run_keeps_the_plan_and_exits_2(tmp_path, capsys):
@@ -221,6 +229,13 @@ def test_a_check_that_cannot_run_keeps_the_plan_and_exits_2(tmp_path, capsys):
 def test_trials_need_check_execution(capsys):
     assert main(["easy_push", "--trials", "3", "--quiet"]) == 2
     assert "--trials must be between 0 and 1000 and goes with --check-execution" \
+        in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("argv", [["--replan", "2"], ["--check-execution", "--replan", "-1"]])
+def test_replan_needs_check_execution_and_a_count(argv, capsys):
+    assert main(["easy_push", "--quiet", *argv]) == 2
+    assert "--replan must be between 0 and 20 and goes with --check-execution" \
         in capsys.readouterr().err
 
 
