@@ -10,6 +10,8 @@ object than where it starts), not simulated as a push.
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 from rearrangement_planner.model.scene import Scene
@@ -20,6 +22,9 @@ RETREAT_CLEARANCE = 0.02
 """m: the retreat ends where no contact shape of the arm comes this near an object."""
 RETREAT_RESOLUTION = 0.02
 """rad: the retreat is checked at configurations this far apart (largest joint change)."""
+TOUCH = 2e-3
+"""m: an arm this near an object touches it (MuJoCo's and a perception's poses are not
+exact); one farther re-plans from where it stands when the way back is not clear."""
 DEEPER_TOLERANCE = 1e-3
 """m: how much deeper than at its start the arm may reach into an object along the retreat
 (it starts in contact; the check is that it does not push further)."""
@@ -31,14 +36,25 @@ def retreat_path(scene: Scene, observed: State, path: np.ndarray,
     """Arm configurations (K, nq) from `observed.q` back along `path` (the executed plan's arm
     path, (N, nq)) from its point nearest `observed.q`, ending at the first configuration
     `clearance` m clear of every object at `observed.objects`; `observed.q` alone when it is
-    already clear. None when no configuration along the path is clear, or the way back hits
-    the table or an obstacle or reaches deeper into an object than the arm starts."""
+    already clear, or when it touches nothing (TOUCH m) and the way back is not clear. None
+    when the arm touches an object and no configuration along the path is clear, or the way
+    back hits the table or an obstacle or reaches deeper into an object than the arm
+    starts."""
     world = world if world is not None else CollisionWorld(scene)
     robot, objects = scene.robot, observed.objects
     q = np.asarray(observed.q, dtype=float)
-    path = np.asarray(path, dtype=float)
     if _clear(world, robot.shape_poses(q), objects, clearance):
         return q[None, :].copy()
+    back = _back_out(world, robot, observed, np.asarray(path, dtype=float), clearance)
+    if back is None and _clear(world, robot.shape_poses(q), objects, TOUCH):
+        return q[None, :].copy()
+    return back
+
+
+def _back_out(world: CollisionWorld, robot: Any, observed: State, path: np.ndarray,
+              clearance: float) -> np.ndarray | None:
+    """The way back of `retreat_path`, or None."""
+    objects, q = observed.objects, np.asarray(observed.q, dtype=float)
     start_depth = world.arm_object_penetration(robot.shape_poses(q), objects)
     nearest = int(np.argmin(np.max(np.abs(path - q), axis=1)))
     waypoints = [q]

@@ -34,6 +34,10 @@ NO_STATE = "NO_STATE"
 """The node's own outcome (docs/design.md): no joint state / object poses yet, or stale ones."""
 EXECUTION_FAILED = "EXECUTION_FAILED"
 """The node's own outcome: a plan was sent, and the arm did not reach its end in time."""
+GOAL_NOT_REACHED = "GOAL_NOT_REACHED"
+"""The closed loop's outcome (`ros/replan.py`): executed, observed, and the goal missed."""
+NO_OBSERVATION = "NO_OBSERVATION"
+"""The closed loop's outcome: no usable object poses arrived after an execution."""
 
 FEEDBACK_RATE = 4.0
 """Hz of the action's feedback while a goal runs."""
@@ -54,6 +58,8 @@ ERROR_CODES: dict[str, int] = {
     Outcome.GOAL_INVALID.value: ErrorCode.GOAL_INVALID,
     Outcome.INVALID_INPUT.value: ErrorCode.INVALID_INPUT,
     EXECUTION_FAILED: ErrorCode.EXECUTION_FAILED,
+    GOAL_NOT_REACHED: ErrorCode.GOAL_NOT_REACHED,
+    NO_OBSERVATION: ErrorCode.NO_OBSERVATION,
     Outcome.INTERNAL.value: ErrorCode.INTERNAL,
 }
 """The error code of each outcome (a fragile success is FRAGILE_PLAN: `error_code`)."""
@@ -96,10 +102,11 @@ def goal_parameters(goal: PlanRearrangement.Goal, params: dict[str, Any]) -> dic
             changed.update(parse_assignments(specs, [item]))
         except ValueError as exc:
             raise InputError(f"goal.settings[{i}]", str(exc)) from None
-    if goal.replan_attempts != 0:
-        raise InputError("goal.replan_attempts",
-                         f"is {goal.replan_attempts}; this node plans and executes once "
-                         f"(0): re-planning after an execution is not built yet")
+    if goal.replan_attempts > 20:
+        raise InputError("goal.replan_attempts", f"is {goal.replan_attempts}; give 0 to 20, or "
+                                                 f"a negative number for the node's")
+    if goal.replan_attempts >= 0:
+        changed["replan_attempts"] = int(goal.replan_attempts)
     return changed
 
 
@@ -177,7 +184,7 @@ def job_result(job: Any, stamp: Time) -> PlanRearrangement.Result:
 
 def job_feedback(job: Any, progress: Progress | None) -> PlanRearrangement.Feedback:
     """The feedback of a running job: its phase, and while it plans, the planner's progress."""
-    feedback = PlanRearrangement.Feedback(phase=job.phase, attempt=1,
+    feedback = PlanRearrangement.Feedback(phase=job.phase, attempt=job.attempt,
                                           elapsed=time.monotonic() - job.submitted,
                                           best_goal_distance=math.inf)
     if progress is not None and job.phase == "planning":

@@ -73,6 +73,7 @@ from rearrangement_planner.ros.plan_request import (
     result_markers,
     run_plan,
 )
+from rearrangement_planner.ros.replan import LoopIO, close_the_loop
 from rearrangement_planner.ros.services import TriggerServices
 
 EXECUTOR_THREADS = 6
@@ -113,6 +114,7 @@ class PlannerNode(Node):
         self._lock = threading.Lock()
         self._joint: Input | None = None
         self._objects: Input | None = None
+        self._objects_rejected: tuple[float, str] | None = None
         self._goal: Input | None = None
         self._job: Job | None = None
         self._progress: Progress | None = None
@@ -221,6 +223,8 @@ class PlannerNode(Node):
             objects = objects_from_msg(msg, params, self._scene)
         except Exception as exc:  # noqa: BLE001
             self.report(f"rejected object_poses: {_describe(exc)}", "object_poses")
+            with self._lock:
+                self._objects_rejected = (received, _describe(exc))
             return
         with self._lock:
             self._objects = Input(objects, msg, received)
@@ -301,13 +305,8 @@ class PlannerNode(Node):
                 job, f"plan {job.plan_id} started ({job.source})"))
         job.params = read_parameters(self, PARAMETERS)
         job.frame = frame = job.params["planning_frame"] or self._robot.config.base_frame
-        with self._lock:
-            latest = {"joint_states": self._joint, "object_poses": self._objects,
-                      "goal": self._goal}
-        topics = {"joint_states": self._joint_sub.topic_name,
-                  "object_poses": self._objects_sub.topic_name}
-        outcome, message, scene, output, inputs = run_plan(
-            job, job.params, self._scene, latest, topics, self._on_progress, self.get_logger())
+        node_params = job.params
+        outcome, message, scene, output, inputs = self._plan(job, node_params)
         params = job.params      # with the goal's changes
         job.output = output
         job.planned.set()
@@ -322,10 +321,8 @@ class PlannerNode(Node):
             with self._lock:
                 self._last_trajectory = (job.plan_id, msg)
             if job.goal is not None and job.goal.execute and sendable:
-                job.phase = "executing"
-                outcome, message = execute(job, msg, params["execution_timeout"],
-                                           partial(self._out.publish, self._out.command),
-                                           self._joint_input)
+                outcome, message, scene, output, inputs = _execute_goal(
+                    self, job, msg, (scene, output, inputs), node_params)
                 executed = job.executed = True
             elif job.goal is None and params["auto_execute"] and sendable:
                 self._out.publish(self._out.command, msg)
@@ -383,10 +380,53 @@ class PlannerNode(Node):
         with self._lock:
             return self._joint
 
+    def _latest(self) -> dict[str, Input | None]:
+        with self._lock:
+            return {"joint_states": self._joint, "object_poses": self._objects,
+                    "goal": self._goal}
+
+    def _rejected(self) -> tuple[float, str] | None:
+        with self._lock:
+            return self._objects_rejected
+
+    def _plan(self, job: Job, params: dict[str, Any]) -> tuple:
+        """`run_plan` from the latest inputs with the node's `params`."""
+        topics = {"joint_states": self._joint_sub.topic_name,
+                  "object_poses": self._objects_sub.topic_name}
+        return run_plan(job, params, self._scene, self._latest(), topics, self._on_progress,
+                        self.get_logger())
+
     def _on_progress(self, progress: Progress) -> None:
         with self._lock:
             self._progress = progress
 
+
+
+def _execute_goal(node: PlannerNode, job: Job, msg: JointTrajectory, planned: tuple,
+                  params: dict[str, Any]) -> tuple:
+    """Execute an action goal's plan `msg` and wait for the arm (`action.execute`); with
+    replan_attempts, close the loop (`ros/replan.py`; re-plans read the node's `params`).
+    Returns (outcome, message, scene, output, inputs) of the last attempt."""
+    scene, output, inputs = planned
+    job.phase = "executing"
+    send = partial(execute, job, timeout=job.params["execution_timeout"], publish=node.send,
+                   joint_input=node._joint_input)
+    outcome, message = send(msg)
+    attempts = job.params["replan_attempts"]
+    if outcome != Outcome.SUCCEEDED.value or attempts == 0:
+        return outcome, message, scene, output, inputs
+
+    def record_attempt(attempt: Any, used: dict, plan_id: str) -> None:
+        _, failure = record(job, attempt, job.params, job.frame, used, node.get_logger(),
+                            plan_id=plan_id)
+        if failure is not None:
+            node.report(failure)
+
+    io = LoopIO(node._latest, node._rejected, send, lambda _: node._plan(job, params),
+                record_attempt)
+    last = close_the_loop(job, io, scene, output, inputs, attempts, time.monotonic())
+    job.output = last[3]
+    return last
 
 
 def _cut(message: str) -> str:

@@ -94,6 +94,11 @@ _NODE_LAST: tuple[ParameterSpec, ...] = (
     ParameterSpec("execution_timeout", 0.0, "How long an action goal with execute waits for "
                   "joint_states to reach the sent trajectory's last point, s (EXECUTION_FAILED "
                   "after); 0 = the trajectory's duration plus 10 s.", 0.0, 86400.0),
+    ParameterSpec("replan_attempts", 0, "Closed loop for an action goal with execute: after "
+                  "an execution, observe ~/object_poses; while the goal object is outside its "
+                  "region, retreat out of contact, plan again from the observed state and "
+                  "execute, up to this many times (a goal's replan_attempts >= 0 overrides); "
+                  "0 = plan and execute once.", 0, 20),
 )
 
 PARAMETERS: tuple[ParameterSpec, ...] = (

@@ -97,6 +97,10 @@ class Job:
         self.frame = ""
         self.params: dict[str, Any] = {}
         """The parameters the job plans with (the node's, changed by its goal)."""
+        self.attempt = 1
+        """1 for the first plan; the closed loop's re-plans count up (`ros/replan.py`)."""
+        self.attempts: list[Any] = []
+        """The closed loop's `replan.Attempt`s (empty without one)."""
 
 
 class Rejected(Exception):
@@ -147,20 +151,22 @@ def objects_from_msg(msg: PoseArray, params: dict[str, Any], scene: Scene) -> np
 
 
 def goal_inputs(goal: Any, params: dict[str, Any], scene: Scene,
-                latest: dict[str, Input | None]) -> tuple[dict[str, Any], dict[str, Input | None]]:
+                latest: dict[str, Input | None], replan: bool = False
+                ) -> tuple[dict[str, Any], dict[str, Input | None]]:
     """The parameters and inputs of an action goal (`ros.action`): its settings over the
-    parameters, and its start state and goal point, where it gives them, over the latest
-    messages. InputError names the goal field at fault."""
+    parameters, and its start state (not for a `replan`: that starts from what is observed)
+    and goal point, where it gives them, over the latest messages. InputError names the goal
+    field at fault."""
     params = goal_parameters(goal, params)
     latest = dict(latest)
     now = time.monotonic()
-    if goal.start_joint_state.name:
+    if goal.start_joint_state.name and not replan:
         try:
             q = joint_state_to_configuration(goal.start_joint_state, scene.robot.joint_names)
         except InputError as exc:
             raise InputError(f"goal.start_{exc.field}", exc.problem) from None
         latest["joint_states"] = Input(q, goal.start_joint_state, now)
-    if goal.start_object_poses.poses:
+    if goal.start_object_poses.poses and not replan:
         try:
             objects = objects_from_msg(goal.start_object_poses, params, scene)
         except InputError as exc:
@@ -221,7 +227,7 @@ def run_plan(job: Job, params: dict[str, Any], configured: Scene,
     try:
         origins: dict[str, str] = {}
         if job.goal is not None:
-            params, latest = goal_inputs(job.goal, params, configured, latest)
+            params, latest = goal_inputs(job.goal, params, configured, latest, job.attempt > 1)
             job.params, origins = params, goal_origins(job.goal)
         inputs = fresh_inputs(latest, topics, params["state_timeout"])
         scene = planning_scene(configured, inputs, params)
@@ -244,10 +250,11 @@ def run_plan(job: Job, params: dict[str, Any], configured: Scene,
 
 def record(job: Job, output: PlanOutput | None, params: dict[str, Any], frame: str,
            inputs: dict[str, Input | None], logger: Any,
-           extra: Callable[[str], list[tuple]] | None = None) -> tuple[str, str | None]:
-    """Record the plan, and the messages `extra(path)` gives (an action's goal, feedback and
-    result): (the path written or 'not recorded: <reason>', a failure to report or None). A
-    recording failure never loses the plan."""
+           extra: Callable[[str], list[tuple]] | None = None,
+           plan_id: str = "") -> tuple[str, str | None]:
+    """Record the plan as `plan_id` (default the job's), and the messages `extra(path)` gives
+    (an action's goal, feedback and result): (the path written or 'not recorded: <reason>', a
+    failure to report or None). A recording failure never loses the plan."""
     if not params["record"]:
         return "not recorded: parameter record is false", None
     if output is None:
@@ -257,10 +264,11 @@ def record(job: Job, output: PlanOutput | None, params: dict[str, Any], frame: s
         value = inputs.get(key)
         return value.msg if value is not None else None
 
-    path = Path(params["record_dir"]).expanduser() / f"{job.plan_id}.mcap"
+    plan_id = plan_id or job.plan_id
+    path = Path(params["record_dir"]).expanduser() / f"{plan_id}.mcap"
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
-        written = record_plan(path, output, plan_id=job.plan_id, parameters=params,
+        written = record_plan(path, output, plan_id=plan_id, parameters=params,
                               planning_frame=frame, joint_state=msg("joint_states"),
                               object_poses=msg("object_poses"), goal=msg("goal"),
                               start_time_ns=job.submitted_ns,
@@ -268,12 +276,12 @@ def record(job: Job, output: PlanOutput | None, params: dict[str, Any], frame: s
     except (RecordingError, OSError) as exc:
         reason = str(exc)
     except Exception as exc:  # noqa: BLE001 - a recording bug must not lose the plan
-        logger.error(f"plan {job.plan_id}: {traceback.format_exc()}")
+        logger.error(f"plan {plan_id}: {traceback.format_exc()}")
         reason = f"internal error {type(exc).__name__}: {exc}"
     else:
         return str(written), None
     return (f"not recorded: {reason}",
-            f"plan {job.plan_id}: recording to {path} failed: {reason}")
+            f"plan {plan_id}: recording to {path} failed: {reason}")
 
 
 def planning_status(job: Job, progress: Progress | None, message: str) -> PlannerStatus:

@@ -91,6 +91,9 @@ class Client:
         self.commands: list[JointTrajectory] = []
         self.controller = False
         """Act as the arm's controller: a command moves the published joint state to its end."""
+        self.world: list[PoseArray | None] = []
+        """A scripted world: each command with points sets the published object poses to the
+        next entry (None: they stop arriving)."""
         n.create_subscription(PlannerStatusMsg, f"{NS}/status", self._on_status, 50)
         n.create_subscription(DiagnosticArray, "/diagnostics", self._on_diagnostics, 50)
         n.create_subscription(JointTrajectory, "/joint_trajectory", self._on_command, 10)
@@ -125,6 +128,8 @@ class Client:
             if self.controller and msg.points:
                 self.joint_state = JointState(name=list(msg.joint_names),
                                               position=list(msg.points[-1].positions))
+            if self.world and msg.points:
+                self.objects = self.world.pop(0)
 
     # -- calls ----------------------------------------------------------------------------------
 
@@ -792,6 +797,71 @@ def test_action_executes_and_waits_for_the_arm(ros):
             client.joint_state = client.good_joint_state
 
 
+def _objects_at(x: float, y: float) -> PoseArray:
+    return objects_to_pose_array(np.array([[x, y, 0.0]]), FRAME)
+
+
+def test_action_closes_the_loop_until_the_goal_is_observed_reached(ros):
+    """replan_attempts 2 in a scripted world: the first execution leaves the object 13 cm
+    beyond the goal (clear of the arm), the node observes that, plans again from there and
+    executes; after the second execution the object is observed in the goal region."""
+    client, scene = ros["client"], ros["scene"]
+    client.wait_inputs_flowing()
+    feedback: list = []
+    try:
+        with client.lock:
+            client.controller = True
+            client.commands.clear()
+            client.world = [_objects_at(0.65, -0.1), _objects_at(*scene.goal.position)]
+        status, result = client.run_goal(PlanRearrangement.Goal(
+            settings=ROBUST, execute=True, replan_attempts=2), feedback)
+        assert status == GoalStatus.STATUS_SUCCEEDED, result.message
+        plan_id = result.plan_id
+        assert (f"attempt 1 ({plan_id}): 'target' observed 0.130 m from the goal"
+                in result.message)
+        assert f"attempt 2 ({plan_id}-attempt2): 'target' observed 0.000 m" in result.message
+        assert result.message.endswith("goal reached after 1 re-plans")
+        with client.lock:
+            assert len(client.commands) == 2            # no retreat: the arm ended clear
+            assert client.commands[1].points[-1].positions == \
+                result.trajectory.points[-1].positions     # the answer is the last plan
+        assert {2} <= {f.attempt for _, f in feedback}
+        assert "observing" in {f.phase for _, f in feedback}
+        assert (ros["record_dir"] / f"{plan_id}-attempt1.mcap").is_file()
+    finally:
+        with client.lock:
+            client.controller = False
+            client.world = []
+            client.joint_state = client.good_joint_state
+            client.objects = client.good_objects
+
+
+def test_action_loop_ends_when_no_usable_observation_arrives(ros):
+    """After the first execution the object poses come tilted (a toppled object): the node
+    rejects them, says why, answers NO_OBSERVATION and keeps serving."""
+    client = ros["client"]
+    client.wait_inputs_flowing()
+    try:
+        with client.lock:
+            client.controller = True
+            client.world = [_tilted(client.good_objects)]
+        status, result = client.run_goal(PlanRearrangement.Goal(
+            settings=ROBUST, execute=True, replan_attempts=1))
+        assert status == GoalStatus.STATUS_ABORTED
+        assert result.error_code.val == ErrorCode.NO_OBSERVATION, result.message
+        assert "no object poses arrived within 5.5 s after the execution; the last were " \
+               "rejected" in result.message and "tilt" in result.message
+    finally:
+        with client.lock:
+            client.controller = False
+            client.world = []
+            client.joint_state = client.good_joint_state
+            client.objects = client.good_objects
+    client.wait_inputs_flowing()
+    status, result = client.run_goal(PlanRearrangement.Goal(settings=ROBUST))
+    assert status == GoalStatus.STATUS_SUCCEEDED, result.message
+
+
 def test_action_refuses_a_second_goal_and_cancels_through_the_protocol(ros):
     client = ros["client"]
     client.wait_inputs_flowing()
@@ -829,7 +899,7 @@ def test_action_refuses_a_second_goal_and_cancels_through_the_protocol(ros):
     (PlanRearrangement.Goal(settings=["warp=9"]), ErrorCode.INVALID_INPUT, "goal.settings[0]"),
     (PlanRearrangement.Goal(planner="a-star"), ErrorCode.INVALID_INPUT, "goal.planner"),
     (PlanRearrangement.Goal(time_limit=-1.0), ErrorCode.INVALID_INPUT, "goal.time_limit"),
-    (PlanRearrangement.Goal(replan_attempts=2), ErrorCode.INVALID_INPUT,
+    (PlanRearrangement.Goal(replan_attempts=21), ErrorCode.INVALID_INPUT,
      "goal.replan_attempts"),
     (PlanRearrangement.Goal(start_object_poses=objects_to_pose_array(np.array([[5.0, 0, 0]]),
                                                                       FRAME)),

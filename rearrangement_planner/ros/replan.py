@@ -1,0 +1,149 @@
+"""The node's closed loop (docs/design.md "Closed loop"): after an action goal's plan has been
+executed, observe the object poses, and while the goal object is outside its region and
+re-plans remain, move the arm back out of contact (`planning.retreat`), plan again from the
+observed joint state and object poses, and execute. The same loop in MuJoCo is
+`execution.closed_loop` (the CLI's and the benchmark's).
+
+What counts as observed: the first `~/object_poses` message received OBSERVE_SETTLE s after the
+arm reached the plan's end (the objects have come to rest). A toppled object is not a pose the
+node accepts (parameter max_object_tilt): its message is rejected, so no observation arrives,
+and the loop ends NO_OBSERVATION with the rejection's reason. A pose that stops arriving (an
+object the arm hides, a perception that stalls) is never taken for a pose that moved: the
+loop waits up to OBSERVE_TIMEOUT s and then ends, and never re-plans from stale poses.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from msg_adapters import trajectory_to_msg
+from rearrangement_planner.model.scene import Scene
+from rearrangement_planner.model.state import State
+from rearrangement_planner.planning.interface import Outcome
+from rearrangement_planner.planning.pipeline import PlanOutput
+from rearrangement_planner.planning.retreat import retreat_path
+from rearrangement_planner.planning.trajectory import time_parameterize
+from rearrangement_planner.ros.action import GOAL_NOT_REACHED, NO_OBSERVATION
+
+OBSERVE_SETTLE = 0.5
+"""s after the arm reached a plan's end before object poses count as observed."""
+OBSERVE_TIMEOUT = 5.0
+"""s the loop waits for those poses after OBSERVE_SETTLE."""
+
+
+
+@dataclass
+class Attempt:
+    """One executed plan of the loop and what was observed after it."""
+
+    plan_id: str
+    observed: str = ""
+
+
+@dataclass
+class LoopIO:
+    """What the loop needs of the node: the latest inputs (`Input` by key, as the node keeps
+    them), the last rejection of an object pose message ((time.monotonic(), text) or None),
+    `send_and_wait(msg) -> (outcome, message)` (`action.execute`), `plan(attempt) -> (outcome,
+    message, scene, output, inputs)` (`plan_request.run_plan` from the latest inputs) and
+    `record(output, inputs, plan_id)`."""
+
+    latest: Callable[[], dict[str, Any]]
+    rejected: Callable[[], tuple[float, str] | None]
+    send_and_wait: Callable[[Any], tuple[str, str]]
+    plan: Callable[[int], tuple[str, str, Scene, PlanOutput | None, dict[str, Any]]]
+    record: Callable[[PlanOutput | None, dict[str, Any], str], None]
+
+
+def close_the_loop(job: Any, io: LoopIO, scene: Scene, output: PlanOutput,
+                   inputs: dict[str, Any], attempts: int, executed_at: float
+                   ) -> tuple[str, str, Scene, PlanOutput | None, dict[str, Any]]:
+    """Observe after the executed `output` (executed at time.monotonic() `executed_at`) and
+    re-plan up to `attempts` times (module doc). Returns the last (outcome, message, scene,
+    output, inputs); every attempt's line is in `job.attempts`."""
+    job.attempts = [Attempt(job.plan_id)]
+    for k in range(1, attempts + 2):
+        job.phase = "observing"
+        observed, problem = _observe(job, io, executed_at)
+        if observed is None:
+            return problem[0], problem[1], scene, output, inputs
+        distance = scene.goal.distance(observed[scene.goal_index, :2])
+        reached = distance <= scene.goal.radius
+        job.attempts[-1].observed = (f"'{scene.goal.object}' observed {distance:.3f} m from the "
+                                     f"goal (radius {scene.goal.radius:g} m)")
+        if reached:
+            return (Outcome.SUCCEEDED.value, _lines(job) + f"; goal reached after {k - 1} "
+                                                             f"re-plans", scene, output, inputs)
+        if k > attempts:
+            break
+        io.record(output, inputs, f"{job.plan_id}-attempt{k}")
+        why = _retreat(job, io, scene, observed, output)
+        if why:
+            return GOAL_NOT_REACHED, _lines(job) + f"; {why}", scene, output, inputs
+        job.attempt, job.phase = k + 1, "planning"
+        outcome, message, scene, new, inputs = io.plan(k + 1)
+        job.attempts.append(Attempt(f"{job.plan_id}-attempt{k + 1}"))
+        if new is None or new.trajectory is None:
+            job.attempts[-1].observed = f"re-plan {outcome}: {message}"
+            return outcome, _lines(job), scene, new, inputs
+        output = new
+        if new.fragile and not job.params["execute_fragile"]:
+            job.attempts[-1].observed = f"not executed: {new.fragile_note()}"
+            return GOAL_NOT_REACHED, _lines(job) + " (parameter execute_fragile is false)", \
+                scene, output, inputs
+        job.phase = "executing"
+        job.trajectory = trajectory_to_msg(new.trajectory)      # the answer's plan
+        outcome, message = io.send_and_wait(job.trajectory)
+        if outcome != Outcome.SUCCEEDED.value:
+            return outcome, _lines(job) + f"; {message}", scene, output, inputs
+        executed_at = time.monotonic()
+    return (GOAL_NOT_REACHED, _lines(job) + f"; not reached after {attempts} re-plans", scene,
+            output, inputs)
+
+
+def _observe(job: Any, io: LoopIO, executed_at: float
+             ) -> tuple[np.ndarray | None, tuple[str, str]]:
+    """The object poses received OBSERVE_SETTLE s after `executed_at`, or why none came."""
+    settled = executed_at + OBSERVE_SETTLE
+    deadline = settled + OBSERVE_TIMEOUT
+    while not job.cancel.wait(0.02):
+        objects = io.latest()["object_poses"]
+        if objects is not None and objects.received > settled:
+            return objects.value, ("", "")
+        if time.monotonic() > deadline:
+            rejected = io.rejected()
+            why = (f"; the last were rejected: {rejected[1]}"
+                   if rejected is not None and rejected[0] > executed_at else "")
+            return None, (NO_OBSERVATION, _lines(job) + f"; no object poses arrived within "
+                                                        f"{OBSERVE_SETTLE + OBSERVE_TIMEOUT:g}"
+                                                        f" s after the execution{why}")
+    return None, (Outcome.CANCELLED.value, _lines(job) + "; cancelled while observing")
+
+
+def _retreat(job: Any, io: LoopIO, scene: Scene, observed: np.ndarray,
+             output: PlanOutput) -> str:
+    """Back the arm out of contact along the executed plan (sent and waited for); '' when it
+    is clear, else why the loop cannot go on."""
+    assert output.trajectory is not None
+    executed = output.trajectory.positions
+    joints = io.latest()["joint_states"]
+    q = joints.value if joints is not None else executed[-1]
+    path = retreat_path(scene.with_start(q, observed), State(q, observed), executed)
+    if path is None:
+        return "no retreat along the executed path is clear of the objects"
+    if len(path) == 1:
+        return ""
+    job.phase = "retreating"
+    outcome, message = io.send_and_wait(trajectory_to_msg(time_parameterize(scene.robot, path)))
+    return "" if outcome == Outcome.SUCCEEDED.value else f"retreat {outcome}: {message}"
+
+
+def _lines(job: Any) -> str:
+    """Every attempt so far: 'attempt 1 (plan ID): observed ...; attempt 2 ...'."""
+    return "; ".join(f"attempt {i} ({a.plan_id}): {a.observed or 'not observed'}"
+                     for i, a in enumerate(job.attempts, start=1))
