@@ -426,7 +426,8 @@ def test_bad_parameters_are_named(session, reference):
 
 def test_node_demo_exit_code_is_the_open_loop_outcome(tmp_path, monkeypatch, capsys):
     """The demo on the fast easy_push scene: exit 0 when the goal object ends in its region,
-    1 when a perturbed world (pose noise) makes the same plan miss it, 2 for bad arguments."""
+    1 when a perturbed world (pose noise) makes the same plan miss it, 0 again when the node
+    closes the loop there (--replan), 2 for bad arguments."""
     from rearrangement_planner.ros.sim import node_demo
 
     monkeypatch.setenv("ROS_DOMAIN_ID", str(DOMAIN_ID))
@@ -444,6 +445,15 @@ def test_node_demo_exit_code_is_the_open_loop_outcome(tmp_path, monkeypatch, cap
     out = capsys.readouterr().out
     assert "outcome: execution 1: GOAL_NOT_REACHED" in out and "outside radius" in out
 
+    # The closed loop mends that miss: the arm backs out of contact (execution 2), the node
+    # plans again from the observed poses, and the goal object ends inside.
+    assert node_demo.main([*common, "--pose-noise", "0.01", "--world-seed", "3",
+                           "--replan", "2"]) == 0
+    out = capsys.readouterr().out
+    assert "re-planning up to 2 times" in out and "goal reached after 1 re-plans" in out
+    assert "\n  attempt 2 (" in out and "outcome: execution 1: GOAL_NOT_REACHED" in out
+    assert "outcome: execution 3: SUCCEEDED" in out
+
     # make demo's default world is MuJoCo: the exit code is what happened there.
     code = node_demo.main([*common[:-1], "mujoco"])
     out = capsys.readouterr().out
@@ -453,6 +463,7 @@ def test_node_demo_exit_code_is_the_open_loop_outcome(tmp_path, monkeypatch, cap
     for bad, named in ((["--time-scale", "0"], "--time-scale"),
                        (["--goal-margin", "0.5"], "--goal-margin"),
                        (["--pose-noise", "-1"], "--pose-noise"),
+                       (["--replan", "-1"], "--replan"),
                        (["--scene", "no_such_scene"], "no_such_scene")):
         assert node_demo.main(bad) == 2
         assert named in capsys.readouterr().err

@@ -8,7 +8,10 @@ the node plans, sends the trajectory on `/joint_trajectory` to world_sim, which 
 loop, faster than real time (`--time-scale`), and answers once the arm has reached its end.
 Prints the plan summary, world_sim's outcome (goal object distance, in the region or not,
 objects moved), the MCAP of the plan and a top view PNG of the execution (the objects' true
-paths and the tool path).
+paths and the tool path). With `--replan N` the node closes the loop (`ros/replan.py`): when
+the observed goal object misses its region, the arm backs out of contact, the node plans again
+from the observed state and executes, up to N times; the answer and world_sim's outcomes are
+printed attempt by attempt.
 
 The planner plans for the goal radius minus its `goal_margin` (`--goal-margin`, default the
 node's parameter), world_sim judges the scene's radius: open-loop execution never reproduces
@@ -53,6 +56,10 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--goal-margin", type=float, default=None, metavar="M",
                         help="the planner's goal_margin: plan for the goal radius minus M "
                              "metres (default: the node's, config/planner.yaml)")
+    parser.add_argument("--replan", type=int, default=0, metavar="N",
+                        help="closed loop: after an execution that leaves the goal object "
+                             "outside its region, retreat, observe and plan again, up to N "
+                             "times (the goal's replan_attempts; default 0: open loop)")
     world = parser.add_argument_group(
         "simulated world", "make world_sim differ from what the planner sees, to probe "
                            "open-loop robustness")
@@ -88,7 +95,8 @@ def main(argv: list[str] | None = None) -> int:
                 raise RearrangementError(f"{flag} must be positive, got {value}")
         for flag, value, high in (("--pose-noise", args.pose_noise, 0.5),
                                   ("--friction-scale", args.friction_scale, 100.0),
-                                  ("--world-seed", args.world_seed, 2**31 - 1)):
+                                  ("--world-seed", args.world_seed, 2**31 - 1),
+                                  ("--replan", args.replan, 20)):
             if not 0 <= value <= high:
                 raise RearrangementError(f"{flag} must be in [0, {high:g}], got {value}")
         scene = load_scene(args.scene)
@@ -150,18 +158,25 @@ def _run(session, world, planner, scene, args, planning_radius: float, plot_path
         print(f"goal to /{NODE_NAME}/plan_rearrangement: plan (seed {args.seed}, time limit "
               f"{args.time_limit:g} s, '{scene.goal.object}' within {planning_radius:.3f} m of "
               f"({scene.goal.position[0]:.2f}, {scene.goal.position[1]:.2f})) and execute "
-              f"open loop in world_sim at time scale {args.time_scale:g} ...", flush=True)
+              f"in world_sim at time scale {args.time_scale:g}, "
+              + (f"re-planning up to {args.replan} times ..." if args.replan else
+                 "open loop ..."), flush=True)
         goal = PlanRearrangement.Goal(goal_object=scene.goal.object, use_goal_point=True,
-                                      execute=True)
+                                      execute=True, replan_attempts=args.replan)
         goal.goal_point.x, goal.goal_point.y = (float(v) for v in scene.goal.position)
         seen = outcomes.count()
-        reply = client.plan(goal, timeout=args.time_limit + 180.0)
-        print(reply.message, flush=True)
+        reply = client.plan(goal, timeout=(args.replan + 1) * (args.time_limit + 180.0))
+        head, *attempts = reply.message.split("; attempt ")
+        print("\n  attempt ".join([head, *attempts]), flush=True)
         print(f"error code: {reply.outcome}; recording: {reply.mcap or 'none'}")
-        if reply.result.error_code.val != ErrorCode.SUCCESS:   # a fragile plan is not sent
+        if not reply.result.trajectory.points:
             return 1
         outcome = outcomes.wait_next(seen, 30.0)
-        print(f"outcome: {outcome['message']}")
+        time.sleep(1.0)         # a re-plan's executions: their outcomes have all arrived
+        for outcome in outcomes.outcomes[seen:]:
+            print(f"outcome: {outcome['message']}")
+        if reply.result.error_code.val not in (ErrorCode.SUCCESS, ErrorCode.GOAL_NOT_REACHED):
+            return 1      # a fragile plan is not sent; an execution or observation failed
         _plot(world, outcome, plot_path,
               f"{Path(scene.source).stem}: open loop in world_sim ({args.engine}), "
               f"{outcome['status']}")
