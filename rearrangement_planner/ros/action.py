@@ -38,6 +38,8 @@ GOAL_NOT_REACHED = "GOAL_NOT_REACHED"
 """The closed loop's outcome (`ros/replan.py`): executed, observed, and the goal missed."""
 NO_OBSERVATION = "NO_OBSERVATION"
 """The closed loop's outcome: no usable object poses arrived after an execution."""
+DIVERGED = "DIVERGED"
+"""`execute`'s outcome when its watch stopped the arm: an object strayed from the plan."""
 
 FEEDBACK_RATE = 4.0
 """Hz of the action's feedback while a goal runs."""
@@ -195,11 +197,13 @@ def job_feedback(job: Any, progress: Progress | None) -> PlanRearrangement.Feedb
 
 
 def execute(job: Any, msg: JointTrajectory, timeout: float, publish: Callable[[Any], None],
-            joint_input: Callable[[], Any]) -> tuple[str, str]:
+            joint_input: Callable[[], Any],
+            watch: Callable[[np.ndarray], str | None] | None = None) -> tuple[str, str]:
     """Send `msg` (`publish`) and wait until the joint state (`joint_input()`, an Input
     received after the send) reaches its last point within EXECUTION_TOLERANCE, the job is
     cancelled (the arm is stopped with an empty trajectory, as joint_trajectory_controller
-    documents) or `timeout` s pass (0: the duration plus EXECUTION_MARGIN). Outcome, message."""
+    documents), `watch(q)` names a divergence (the arm is stopped: DIVERGED) or `timeout` s
+    pass (0: the duration plus EXECUTION_MARGIN). Outcome, message."""
     end = msg.points[-1]
     duration = end.time_from_start.sec + end.time_from_start.nanosec * 1e-9
     timeout = timeout if timeout > 0.0 else duration + EXECUTION_MARGIN
@@ -215,6 +219,10 @@ def execute(job: Any, msg: JointTrajectory, timeout: float, publish: Callable[[A
                 return (Outcome.SUCCEEDED.value,
                         f"executed: the arm reached the plan's end "
                         f"{time.monotonic() - sent:.1f} s after it was sent")
+            strayed = watch(joint.value) if watch is not None else None
+            if strayed:
+                publish(JointTrajectory(joint_names=list(msg.joint_names)))
+                return DIVERGED, f"stopped the arm: {strayed}"
         if time.monotonic() - sent > timeout:
             return (EXECUTION_FAILED,
                     f"execution failed: joint_states did not reach the trajectory's last point "

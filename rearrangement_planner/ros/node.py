@@ -30,7 +30,6 @@ import queue
 import threading
 import time
 import traceback
-from functools import partial
 from typing import Any
 
 import rclpy
@@ -58,7 +57,12 @@ from rearrangement_planner.model.resources import NODE_NAME
 from rearrangement_planner.planning.interface import Outcome, Progress
 from rearrangement_planner.planning.status import PlannerStatus
 from rearrangement_planner.planning.warmup import warm_up
-from rearrangement_planner.ros.action import PlanActionServer, execute, recorded_action
+from rearrangement_planner.ros.action import (
+    DIVERGED,
+    PlanActionServer,
+    execute,
+    recorded_action,
+)
 from rearrangement_planner.ros.outputs import Outputs
 from rearrangement_planner.ros.parameters import PARAMETERS, declare_parameters, read_parameters
 from rearrangement_planner.ros.plan_request import (
@@ -73,7 +77,7 @@ from rearrangement_planner.ros.plan_request import (
     result_markers,
     run_plan,
 )
-from rearrangement_planner.ros.replan import LoopIO, close_the_loop
+from rearrangement_planner.ros.replan import DivergenceWatch, LoopIO, close_the_loop
 from rearrangement_planner.ros.services import TriggerServices
 
 EXECUTOR_THREADS = 6
@@ -409,11 +413,16 @@ def _execute_goal(node: PlannerNode, job: Job, msg: JointTrajectory, planned: tu
     Returns (outcome, message, scene, output, inputs) of the last attempt."""
     scene, output, inputs = planned
     job.phase = "executing"
-    send = partial(execute, job, timeout=job.params["execution_timeout"], publish=node.send,
-                   joint_input=node._joint_input)
-    outcome, message = send(msg)
-    attempts = job.params["replan_attempts"]
-    if outcome != Outcome.SUCCEEDED.value or attempts == 0:
+    attempts, bound = job.params["replan_attempts"], job.params["divergence_bound"]
+
+    def send(command: JointTrajectory, watched: Any) -> tuple[str, str]:
+        watch = (DivergenceWatch(watched, bound, lambda: node._latest()["object_poses"])
+                 if watched is not None and attempts > 0 and bound > 0 else None)
+        return execute(job, command, job.params["execution_timeout"], node.send,
+                       node._joint_input, watch)
+
+    outcome, message = send(msg, output)
+    if outcome not in (Outcome.SUCCEEDED.value, DIVERGED) or attempts == 0:
         return outcome, message, scene, output, inputs
 
     def record_attempt(attempt: Any, used: dict, plan_id: str) -> None:
@@ -424,7 +433,8 @@ def _execute_goal(node: PlannerNode, job: Job, msg: JointTrajectory, planned: tu
 
     io = LoopIO(node._latest, node._rejected, send, lambda _: node._plan(job, params),
                 record_attempt)
-    last = close_the_loop(job, io, scene, output, inputs, attempts, time.monotonic())
+    last = close_the_loop(job, io, scene, output, inputs, attempts, time.monotonic(),
+                          message if outcome == DIVERGED else "")
     job.output = last[3]
     return last
 

@@ -99,6 +99,10 @@ _NODE_LAST: tuple[ParameterSpec, ...] = (
                   "region, retreat out of contact, plan again from the observed state and "
                   "execute, up to this many times (a goal's replan_attempts >= 0 overrides); "
                   "0 = plan and execute once.", 0, 20),
+    ParameterSpec("divergence_bound", 0.05, "With replan_attempts > 0: while a plan runs, an "
+                  "object observed farther than this from the pose the plan predicts at the "
+                  "arm's progress stops the arm (empty trajectory) and the node re-plans from "
+                  "there, m; 0 = do not watch.", 0.0, 10.0),
 )
 
 PARAMETERS: tuple[ParameterSpec, ...] = (

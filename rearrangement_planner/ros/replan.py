@@ -10,10 +10,19 @@ node accepts (parameter max_object_tilt): its message is rejected, so no observa
 and the loop ends NO_OBSERVATION with the rejection's reason. A pose that stops arriving (an
 object the arm hides, a perception that stalls) is never taken for a pose that moved: the
 loop waits up to OBSERVE_TIMEOUT s and then ends, and never re-plans from stale poses.
+
+Watching during execution (`DivergenceWatch`, parameter divergence_bound): the plan predicts
+every object's pose at every trajectory point. While a trajectory runs, the arm's joint state
+says which point it has reached (the nearest one from the last matched on, so time scaling
+and controller lag do not matter), and fresh object poses (received within FRESH s) are compared
+with that point's prediction; an object farther than the bound stops the arm (empty
+JointTrajectory) and the loop observes and re-plans from there. Stale poses are not compared:
+an object the arm hides is not an object that strayed.
 """
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -28,13 +37,49 @@ from rearrangement_planner.planning.interface import Outcome
 from rearrangement_planner.planning.pipeline import PlanOutput
 from rearrangement_planner.planning.retreat import retreat_path
 from rearrangement_planner.planning.trajectory import time_parameterize
-from rearrangement_planner.ros.action import GOAL_NOT_REACHED, NO_OBSERVATION
+from rearrangement_planner.ros.action import DIVERGED, GOAL_NOT_REACHED, NO_OBSERVATION
 
 OBSERVE_SETTLE = 0.5
 """s after the arm reached a plan's end before object poses count as observed."""
 OBSERVE_TIMEOUT = 5.0
 """s the loop waits for those poses after OBSERVE_SETTLE."""
+FRESH = 0.5
+"""s: object poses older than this are not compared with the prediction."""
 
+
+class DivergenceWatch:
+    """`action.execute`'s watch for one plan (module doc): `watch(q)` is None while every
+    object stays within `bound` m of a pose the plan predicts for it around the arm's progress,
+    else the sentence that says which strayed. "Around": at any trajectory point the arm has
+    passed since FRESH s before the object poses were received (the poses and the joint state
+    arrive on different topics, each with its own delay)."""
+
+    def __init__(self, output: PlanOutput, bound: float,
+                 objects: Callable[[], Any]):
+        assert output.trajectory is not None
+        self.path = output.trajectory.positions
+        self.predicted = np.array([s.objects for s in output.trajectory_states])
+        self.names = output.scene.object_names
+        self.bound, self.objects = bound, objects
+        self.passed: list[tuple[float, int]] = [(-math.inf, 0)]
+        """(time.monotonic(), point) of every match."""
+
+    def __call__(self, q: np.ndarray) -> str | None:
+        point = self.passed[-1][1]
+        point += int(np.argmin(np.max(np.abs(self.path[point:] - q), axis=1)))
+        self.passed.append((time.monotonic(), point))
+        seen = self.objects()
+        if seen is None or time.monotonic() - seen.received > FRESH:
+            return None
+        since = max((p for t, p in self.passed if t <= seen.received - FRESH), default=0)
+        window = self.predicted[since:point + 1, :, :2]               # (K, M, 2)
+        errors = np.min(np.linalg.norm(window - seen.value[None, :, :2], axis=2), axis=0)
+        worst = int(np.argmax(errors))
+        if errors[worst] <= self.bound:
+            return None
+        return (f"'{self.names[worst]}' strayed {errors[worst]:.3f} m from its predicted path "
+                f"by trajectory point {point} of {len(self.path)} (divergence_bound "
+                f"{self.bound:g} m)")
 
 
 @dataclass
@@ -49,24 +94,26 @@ class Attempt:
 class LoopIO:
     """What the loop needs of the node: the latest inputs (`Input` by key, as the node keeps
     them), the last rejection of an object pose message ((time.monotonic(), text) or None),
-    `send_and_wait(msg) -> (outcome, message)` (`action.execute`), `plan(attempt) -> (outcome,
-    message, scene, output, inputs)` (`plan_request.run_plan` from the latest inputs) and
-    `record(output, inputs, plan_id)`."""
+    `send_and_wait(msg, output) -> (outcome, message)` (`action.execute`, watching `output`
+    unless None), `plan(attempt) -> (outcome, message, scene, output, inputs)`
+    (`plan_request.run_plan` from the latest inputs) and `record(output, inputs, plan_id)`."""
 
     latest: Callable[[], dict[str, Any]]
     rejected: Callable[[], tuple[float, str] | None]
-    send_and_wait: Callable[[Any], tuple[str, str]]
+    send_and_wait: Callable[[Any, PlanOutput | None], tuple[str, str]]
     plan: Callable[[int], tuple[str, str, Scene, PlanOutput | None, dict[str, Any]]]
     record: Callable[[PlanOutput | None, dict[str, Any], str], None]
 
 
 def close_the_loop(job: Any, io: LoopIO, scene: Scene, output: PlanOutput,
-                   inputs: dict[str, Any], attempts: int, executed_at: float
-                   ) -> tuple[str, str, Scene, PlanOutput | None, dict[str, Any]]:
-    """Observe after the executed `output` (executed at time.monotonic() `executed_at`) and
-    re-plan up to `attempts` times (module doc). Returns the last (outcome, message, scene,
-    output, inputs); every attempt's line is in `job.attempts`."""
-    job.attempts = [Attempt(job.plan_id)]
+                   inputs: dict[str, Any], attempts: int, executed_at: float,
+                   stopped: str = "") -> tuple[str, str, Scene, PlanOutput | None,
+                                               dict[str, Any]]:
+    """Observe after the executed `output` (executed at time.monotonic() `executed_at`;
+    `stopped`: why its watch stopped it) and re-plan up to `attempts` times (module doc).
+    Returns the last (outcome, message, scene, output, inputs); every attempt's line is in
+    `job.attempts`."""
+    job.attempts = [Attempt(job.plan_id, stopped + "; " if stopped else "")]
     for k in range(1, attempts + 2):
         job.phase = "observing"
         observed, problem = _observe(job, io, executed_at)
@@ -74,8 +121,8 @@ def close_the_loop(job: Any, io: LoopIO, scene: Scene, output: PlanOutput,
             return problem[0], problem[1], scene, output, inputs
         distance = scene.goal.distance(observed[scene.goal_index, :2])
         reached = distance <= scene.goal.radius
-        job.attempts[-1].observed = (f"'{scene.goal.object}' observed {distance:.3f} m from the "
-                                     f"goal (radius {scene.goal.radius:g} m)")
+        job.attempts[-1].observed += (f"'{scene.goal.object}' observed {distance:.3f} m from "
+                                      f"the goal (radius {scene.goal.radius:g} m)")
         if reached:
             return (Outcome.SUCCEEDED.value, _lines(job) + f"; goal reached after {k - 1} "
                                                              f"re-plans", scene, output, inputs)
@@ -98,8 +145,10 @@ def close_the_loop(job: Any, io: LoopIO, scene: Scene, output: PlanOutput,
                 scene, output, inputs
         job.phase = "executing"
         job.trajectory = trajectory_to_msg(new.trajectory)      # the answer's plan
-        outcome, message = io.send_and_wait(job.trajectory)
-        if outcome != Outcome.SUCCEEDED.value:
+        outcome, message = io.send_and_wait(job.trajectory, new)
+        if outcome == DIVERGED:
+            job.attempts[-1].observed = message + "; "
+        elif outcome != Outcome.SUCCEEDED.value:
             return outcome, _lines(job) + f"; {message}", scene, output, inputs
         executed_at = time.monotonic()
     return (GOAL_NOT_REACHED, _lines(job) + f"; not reached after {attempts} re-plans", scene,
@@ -139,7 +188,8 @@ def _retreat(job: Any, io: LoopIO, scene: Scene, observed: np.ndarray,
     if len(path) == 1:
         return ""
     job.phase = "retreating"
-    outcome, message = io.send_and_wait(trajectory_to_msg(time_parameterize(scene.robot, path)))
+    outcome, message = io.send_and_wait(
+        trajectory_to_msg(time_parameterize(scene.robot, path)), None)
     return "" if outcome == Outcome.SUCCEEDED.value else f"retreat {outcome}: {message}"
 
 

@@ -20,7 +20,7 @@ from rearrangement_planner.execution.mujoco_check import ExecutionOptions, check
 from rearrangement_planner.model.state import State
 from rearrangement_planner.physics.collision import CollisionWorld
 from rearrangement_planner.physics.validation import load_scene
-from rearrangement_planner.planning import PCRRTOptions, PlanRequest, plan_scene
+from rearrangement_planner.planning import PCRRTOptions, PlanRequest, plan_scene, retreat
 from rearrangement_planner.planning.retreat import RETREAT_CLEARANCE, retreat_path
 
 BOX = {"name": "box", "shape": "box", "size": [0.06, 0.08, 0.12], "pose": [0.46, 0.0, 0.0],
@@ -60,12 +60,28 @@ def test_an_arm_already_clear_needs_no_retreat(pushed_box):
     assert moves is not None and moves.shape == (1, scene.robot.nq)
 
 
-def test_no_retreat_when_the_way_back_is_blocked(pushed, pushed_box):
-    """A second box put 8 mm behind the wrist after the push: backing out would go into it."""
+def test_a_blocked_way_back_pushes_off_the_objects_instead(pushed, pushed_box):
+    """A second box put 8 mm behind the wrist after the push: backing out along the path
+    would go into it, so the arm moves its contact points away and up until clear."""
     _, trajectory, end = pushed_box
     blocked, _, _ = pushed([BOX, {**BOX, "name": "behind", "pose": [0.3, 0.4, 0.0]}])
     objects = np.vstack([end.objects, [[0.435, 0.0, 0.0]]])
-    assert retreat_path(blocked, State(end.q, objects), trajectory.positions) is None
+    observed = State(end.q, objects)
+    world = CollisionWorld(blocked)
+    assert retreat._back_out(world, blocked.robot, observed, trajectory.positions,
+                             RETREAT_CLEARANCE) is None
+    moves = retreat_path(blocked, observed, trajectory.positions)
+    assert moves is not None and len(moves) >= 2
+    assert _gap(blocked, moves[-1], objects) >= RETREAT_CLEARANCE - 1e-9
+    start = world.arm_object_penetration(blocked.robot.shape_poses(end.q), objects)
+    assert all(world.arm_object_penetration(blocked.robot.shape_poses(q), objects)
+               <= start + retreat.DEEPER_TOLERANCE for q in moves)
+
+
+def test_no_retreat_when_nothing_gets_clear(pushed_box):
+    """Clear by a metre: neither the way back nor pushing off gets there."""
+    scene, trajectory, end = pushed_box
+    assert retreat_path(scene, end, trajectory.positions, clearance=1.0) is None
 
 
 @pytest.fixture(scope="module")

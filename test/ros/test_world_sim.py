@@ -446,9 +446,10 @@ def test_node_demo_exit_code_is_the_open_loop_outcome(tmp_path, monkeypatch, cap
     assert "outcome: execution 1: GOAL_NOT_REACHED" in out and "outside radius" in out
 
     # The closed loop mends that miss: the arm backs out of contact (execution 2), the node
-    # plans again from the observed poses, and the goal object ends inside.
+    # plans again from the observed poses, and the goal object ends inside. (Without the
+    # watch: at time scale 20 on a loaded machine, when it fires would depend on the load.)
     assert node_demo.main([*common, "--pose-noise", "0.01", "--world-seed", "3",
-                           "--replan", "2"]) == 0
+                           "--replan", "2", "--divergence-bound", "0"]) == 0
     out = capsys.readouterr().out
     assert "re-planning up to 2 times" in out and "goal reached after 1 re-plans" in out
     assert "\n  attempt 2 (" in out and "outcome: execution 1: GOAL_NOT_REACHED" in out

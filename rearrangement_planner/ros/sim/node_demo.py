@@ -60,6 +60,10 @@ def build_parser() -> argparse.ArgumentParser:
                         help="closed loop: after an execution that leaves the goal object "
                              "outside its region, retreat, observe and plan again, up to N "
                              "times (the goal's replan_attempts; default 0: open loop)")
+    parser.add_argument("--divergence-bound", type=float, default=None, metavar="M",
+                        help="with --replan: stop the arm when an object strays this far from "
+                             "its predicted path, m (default the node's parameter; 0: do not "
+                             "watch)")
     world = parser.add_argument_group(
         "simulated world", "make world_sim differ from what the planner sees, to probe "
                            "open-loop robustness")
@@ -96,7 +100,8 @@ def main(argv: list[str] | None = None) -> int:
         for flag, value, high in (("--pose-noise", args.pose_noise, 0.5),
                                   ("--friction-scale", args.friction_scale, 100.0),
                                   ("--world-seed", args.world_seed, 2**31 - 1),
-                                  ("--replan", args.replan, 20)):
+                                  ("--replan", args.replan, 20),
+                                  ("--divergence-bound", args.divergence_bound or 0.0, 10.0)):
             if not 0 <= value <= high:
                 raise RearrangementError(f"{flag} must be in [0, {high:g}], got {value}")
         scene = load_scene(args.scene)
@@ -110,6 +115,8 @@ def main(argv: list[str] | None = None) -> int:
     plot_path = args.plot or args.record_dir / f"{Path(scene.source).stem}.png"
     margin = [] if args.goal_margin is None else [Parameter("goal_margin",
                                                             value=float(args.goal_margin))]
+    if args.divergence_bound is not None:
+        margin.append(Parameter("divergence_bound", value=float(args.divergence_bound)))
 
     with Session(name="demo") as session:
         try:
