@@ -113,10 +113,10 @@ def main(argv: list[str] | None = None) -> int:
         print(f"node_demo: {exc}", file=sys.stderr)
         return 2
     plot_path = args.plot or args.record_dir / f"{Path(scene.source).stem}.png"
-    margin = [] if args.goal_margin is None else [Parameter("goal_margin",
-                                                            value=float(args.goal_margin))]
+    extra = [] if args.goal_margin is None else [Parameter("goal_margin",
+                                                           value=float(args.goal_margin))]
     if args.divergence_bound is not None:
-        margin.append(Parameter("divergence_bound", value=float(args.divergence_bound)))
+        extra.append(Parameter("divergence_bound", value=float(args.divergence_bound)))
 
     with Session(name="demo") as session:
         try:
@@ -131,7 +131,7 @@ def main(argv: list[str] | None = None) -> int:
                 Parameter("scene", value=args.scene), Parameter("seed", value=args.seed),
                 Parameter("time_limit", value=float(args.time_limit)),
                 Parameter("record_dir", value=str(args.record_dir.resolve())),
-                Parameter("execute_fragile", value=bool(args.execute_fragile)), *margin]))
+                Parameter("execute_fragile", value=bool(args.execute_fragile)), *extra]))
         except RearrangementError as exc:
             print(f"node_demo: {exc}", file=sys.stderr)
             return 2
