@@ -59,7 +59,10 @@ class Attempt:
 
     @property
     def trajectory_s(self) -> float:
-        trajectory = self.plan.trajectory
+        """The trajectory time executed (up to where the watch stopped it)."""
+        trajectory, report = self.plan.trajectory, self.execution
+        if report is not None and report.stopped:
+            return report.stopped_at_s
         return trajectory.duration if trajectory is not None else 0.0
 
     def to_dict(self) -> dict[str, Any]:
@@ -108,7 +111,8 @@ def execute_closed_loop(request: PlanRequest, replans: int, world: Scene | None 
     """Plan `request` (or take `first`, its plan), execute it in `world` (default: the
     request's scene) with the servo arm (or take `executed`, that execution of `first`), and
     re-plan from the observed state up to `replans` times while the goal is missed with
-    nothing toppled (module doc)."""
+    nothing toppled (module doc). `options.divergence_bound` > 0 watches each execution of a
+    plan (`ExecutionOptions`): a stopped one is observed and re-planned like a miss."""
     options = options or ExecutionOptions(arm="servo")
     world = world if world is not None else request.scene
     output = first if first is not None else plan(request)
@@ -121,7 +125,8 @@ def execute_closed_loop(request: PlanRequest, replans: int, world: Scene | None 
         report = executed if executed is not None and not attempts else check_execution(
             world, output.trajectory, output.trajectory_states, options)
         ended = (REACHED if report.reached else TOPPLED if report.toppled else MISSED)
-        attempts.append(Attempt(output, report, retreat_s, ended))
+        attempts.append(Attempt(output, report, retreat_s, ended,
+                                f"stopped: {report.stopped}" if report.stopped else ""))
         if ended != MISSED or len(attempts) > replans:
             break
         observed, retreat_s, problem = _retreat(request.scene, world, report,
@@ -168,7 +173,7 @@ def _retreat(scene: Scene, world: Scene, report: ExecutionReport, path: Any, tim
         return observed, 0.0, ""
     trajectory = time_parameterize(scene.robot, moves, timing)
     back = check_execution(world.with_start(observed.q, observed.objects), trajectory, None,
-                           options)
+                           dataclasses.replace(options, divergence_bound=0.0))
     if back.toppled:
         return None, 0.0, f"the retreat toppled {', '.join(back.toppled)}"
     return back.final_state(), trajectory.duration, ""

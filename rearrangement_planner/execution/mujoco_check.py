@@ -77,6 +77,10 @@ class ExecutionOptions:
     """Servo damping per joint, N m s/rad (None: `servo_gains`)."""
     effort: tuple[float, ...] | None = None
     """Joint torque limits, N m (None: the URDF's)."""
+    divergence_bound: float = 0.0
+    """The closed loop's watch: once an object is farther than this (m) from its predicted
+    pose at a trajectory point, the arm holds where it is (the trajectory is stopped); needs
+    the predicted states. 0: never."""
 
     def __post_init__(self) -> None:
         if self.arm not in ("ideal", "servo"):
@@ -126,6 +130,11 @@ class ExecutionReport:
     """(T, M, 3) executed object poses (x, y, yaw) at the T trajectory points."""
     final_q: np.ndarray = field(default_factory=lambda: np.zeros(0))
     """The arm's configuration at the end (rad, planning-joint order)."""
+    stopped: str = ""
+    """Why the watch (`ExecutionOptions.divergence_bound`) stopped the arm ("" when it did
+    not)."""
+    stopped_at_s: float = 0.0
+    """The trajectory time at which it stopped it."""
 
     @property
     def toppled(self) -> tuple[str, ...]:
@@ -371,6 +380,9 @@ class _Execution:
         self.collisions: dict[str, float] = {}
         self.tracking = 0.0
         self.steps = 0
+        self.hold: np.ndarray | None = None
+        """Where the arm holds once the watch stopped it."""
+        self.stopped, self.stopped_at = "", 0.0
 
     def begin(self) -> None:
         """The arm at the trajectory's first point, the objects where the scene has them."""
@@ -385,6 +397,8 @@ class _Execution:
         opts, taken = self.options, 0
         while self.steps * opts.timestep - opts.settle < until - 1e-9:
             t = self.steps * opts.timestep - opts.settle    # trajectory time at the step's start
+            if self.hold is not None and t > self.stopped_at + opts.hold:
+                break                     # stopped by the watch, and the objects have settled
             self._drive(t)
             mujoco.mj_step(self.model, self.data)
             self.steps += 1
@@ -400,6 +414,12 @@ class _Execution:
         """Ideal: jump to the reference and move along it through the step. Servo: track
         q_ref + kv/kp * qdot_ref (the feed-forward cancels the damping's lag)."""
         command, data, dt = self.command, self.data, self.options.timestep
+        if self.hold is not None:
+            if self.options.arm == "ideal":
+                data.qpos[self.qadr], data.qvel[self.vadr] = self.hold, 0.0
+            else:
+                data.ctrl[:] = self.hold
+            return
         if self.options.arm == "ideal":
             here, there = command.sample(t), command.sample(t + dt)
             data.qpos[self.qadr] = here
@@ -409,7 +429,7 @@ class _Execution:
 
     def _observe(self, t: float) -> None:
         data = self.data
-        if 0.0 <= t <= self.command.duration:
+        if 0.0 <= t <= self.command.duration and self.hold is None:
             self.tracking = max(self.tracking, float(np.max(np.abs(
                 data.qpos[self.qadr] - self.command.sample(t)))))
         for i, body in enumerate(self.bodies):
@@ -427,11 +447,17 @@ class _Execution:
         """Executed vs predicted object positions at trajectory point `point`."""
         assert self.predicted is not None
         expected = self.predicted[point].objects[:, :2]
+        bound = self.options.divergence_bound
         for i, body in enumerate(self.bodies):
             error = float(np.hypot(*(self.data.xpos[body][:2] - expected[i])))
             self.max_error[i] = max(self.max_error[i], error)
             if error > ERROR_THRESHOLD and self.error_from[i] is None:
                 self.error_from[i] = round(t, 3)
+            if 0.0 < bound < error and self.hold is None:
+                self.hold, self.stopped_at = self.data.qpos[self.qadr].copy(), t
+                self.stopped = (f"'{self.scene.objects[i].name}' strayed {error:.3f} m from "
+                                f"its predicted pose at trajectory point {point} of "
+                                f"{len(self.predicted)} ({t:.2f} s)")
 
     def _contacts(self) -> None:
         model, body_of = self.model, self.geom_body
@@ -457,7 +483,7 @@ class _Execution:
         return ExecutionReport(opts.arm, bool(reached), distance, scene.goal.radius, outcomes,
                                tuple(sorted(self.contacts)), dict(self.collisions),
                                self.tracking, sim_time, wall_time, paths,
-                               data.qpos[self.qadr].copy())
+                               data.qpos[self.qadr].copy(), self.stopped, self.stopped_at)
 
     def _outcome(self, i: int, obj: MovableObject) -> ObjectOutcome:
         body = self.bodies[i]

@@ -298,6 +298,10 @@ def _add_run_parser(sub) -> None:
                           "after an execution that misses with nothing toppled, retreat, "
                           "observe and plan again, up to N times; the summary reports reached "
                           "within N re-plans and the time to goal (default 0: open loop only)")
+    run.add_argument("--divergence-bound", type=float, default=0.0, metavar="M",
+                     help="with --replan: watch each execution of the closed loop, stopping "
+                          "the arm once an object strays M metres from its predicted pose "
+                          "(default 0: not watched)")
     _add_set_option(run)
     _add_engine_options(run, "trials")
     run.add_argument("--out", type=Path, default=Path("out/benchmark"), metavar="DIR",
@@ -598,6 +602,10 @@ def _check_run_options(args: argparse.Namespace) -> None:
     if not 0 <= args.perturbed <= 100:
         raise benchmark.BenchmarkError("--perturbed", f"must be between 0 and 100 executions, "
                                                       f"got {args.perturbed}")
+    if not 0 <= args.divergence_bound <= 10 or (args.divergence_bound and not args.replan):
+        raise benchmark.BenchmarkError("--divergence-bound", f"must be in [0, 10] m and goes "
+                                                             f"with --replan, got "
+                                                             f"{args.divergence_bound}")
     if not 0 <= args.replan <= 20:
         raise benchmark.BenchmarkError("--replan", f"must be between 0 and 20 re-plans, "
                                                    f"got {args.replan}")
@@ -635,7 +643,7 @@ def resolve_run(args: argparse.Namespace) -> tuple[list[tuple[Path, Scene]],
     objects = {path.stem: len(scene.objects) for path, scene in scenes}
     trials = benchmark.make_trials([p for p, _ in scenes], args.planners, args.seeds,
                                    args.time_limit, objects, args.robot, args.perturbed,
-                                   args.replan)
+                                   args.replan, args.divergence_bound)
     return scenes, trials
 
 

@@ -420,6 +420,8 @@ class Trial:
     replan: int = 0
     """Re-plans of the closed loop (`execution.closed_loop`) after each execution that misses
     (nominal and perturbed); 0: open loop only."""
+    divergence_bound: float = 0.0
+    """The closed loop's watch (`ExecutionOptions.divergence_bound`), m; 0: off."""
 
     @property
     def key(self) -> tuple[str, str, int, float]:
@@ -429,13 +431,14 @@ class Trial:
 
 def make_trials(scene_files: Sequence[Path], planners: Sequence[str], seeds: Sequence[int],
                 time_limit: float, objects: dict[str, int], robot: str = "",
-                perturbed: int = 5, replan: int = 0) -> list[Trial]:
+                perturbed: int = 5, replan: int = 0,
+                divergence_bound: float = 0.0) -> list[Trial]:
     """Every (scene, planner, seed) at `time_limit`, scene-major; `objects` maps a scene name
     to its number of movable objects; `robot` plans them all ("": each scene's own);
     `perturbed` executions of each solved plan in perturbed MuJoCo worlds, each closed with up
-    to `replan` re-plans."""
+    to `replan` re-plans (watched with `divergence_bound`)."""
     return [Trial(p.stem, str(p), objects[p.stem], planner, seed, float(time_limit), robot,
-                  perturbed, replan)
+                  perturbed, replan, divergence_bound)
             for p in scene_files for planner in planners for seed in seeds]
 
 
@@ -499,6 +502,8 @@ world) reached the goal with nothing toppled within that many re-plans; replans_
 re-plans it made; time_to_goal_s: all its plan times, retreats and trajectories (trajectory
 time; reached or not); perturbed_replan_reached: of the perturbed worlds, how many the closed
 loop reached (each loop's first execution is that world's open-loop execution).
+With --divergence-bound the closed loop's executions are watched (`ExecutionOptions`): its
+first executions are made again, watched, so they may differ from the open-loop columns.
 closed_loop_endings: how each attempt ended (`execution.closed_loop`), '>'-joined per loop, the
 nominal loop first, then the perturbed ones, ';'-separated ("missed>reached;toppled").
 A CSV written before a column existed is read with that column empty."""
@@ -703,11 +708,16 @@ def _closed_loop(request, output, trial: Trial, executions) -> dict[str, str]:
         execute_closed_loop,
         perturbed_closed_loops,
     )
+    from rearrangement_planner.execution.mujoco_check import ExecutionOptions
 
     reports, perturbed = executions
-    loop = execute_closed_loop(request, trial.replan, first=output, executed=reports["servo"])
+    watched = trial.divergence_bound > 0      # then the first executions are watched too
+    options = ExecutionOptions(arm="servo", divergence_bound=trial.divergence_bound)
+    loop = execute_closed_loop(request, trial.replan, options=options, first=output,
+                               executed=None if watched else reports["servo"])
     loops = perturbed_closed_loops(request, output, trial.perturbed, trial.seed, trial.replan,
-                                   executed=perturbed.reports)
+                                   options=options,
+                                   executed=() if watched else perturbed.reports)
     row.update({"replan_reached": str(int(loop.reached)), "replans_made": str(loop.replans),
                 "time_to_goal_s": _num(loop.time_to_goal_s, 3),
                 "perturbed_replan_reached": str(sum(x.reached for x in loops)),

@@ -115,6 +115,21 @@ def test_a_miss_is_mended_by_a_replan_from_what_is_observed(easy_push):
     assert only.execution.goal_distance_m == first.execution.goal_distance_m
 
 
+def test_the_watch_stops_a_straying_execution_and_the_loop_goes_on_from_there(easy_push):
+    """divergence_bound 3 cm: the box the fingers catch by its far edge strays from its
+    predicted path well before the plan's end; the arm holds there, and the loop observes,
+    retreats and re-plans from where things are."""
+    request, world = easy_push
+    options = ExecutionOptions(arm="servo", divergence_bound=0.03)
+    loop = execute_closed_loop(request, 2, world, options)
+    first = loop.attempts[0]
+    report = first.execution
+    assert report.stopped.startswith("'target' strayed") and first.detail.startswith("stopped")
+    assert 0.0 < report.stopped_at_s < first.plan.trajectory.duration
+    assert first.trajectory_s == report.stopped_at_s
+    assert loop.reached
+
+
 def test_a_failed_plan_ends_the_loop_with_nothing_executed(easy_push):
     request, world = easy_push
     hopeless = dataclasses.replace(request, options=dataclasses.replace(

@@ -699,6 +699,8 @@ def test_a_planner_label_may_carry_its_own_settings(tmp_path):
     (["--scenes", "missing.yaml"], "--scenes"),
     (["--replan", "-1"], "--replan"),
     (["--replan", "21"], "--replan"),
+    (["--divergence-bound", "0.05"], "--divergence-bound"),
+    (["--replan", "1", "--divergence-bound", "-1"], "--divergence-bound"),
 ])
 def test_bad_run_options_are_one_line_naming_the_option_and_exit_2(args, option, capsys,
                                                                     tmp_path):

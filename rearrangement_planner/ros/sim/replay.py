@@ -486,7 +486,10 @@ class BagRun:
     playback: PlaybackReport
     plan: PlanReply
     outcome: dict[str, Any] | None = None
-    """world_sim's outcome of the open-loop execution (with execute=True and a plan)."""
+    """world_sim's outcome of the open-loop execution (with execute=True and a plan); with
+    `replan`, of the last execution."""
+    outcomes: list[dict[str, Any]] = field(default_factory=list)
+    """With `replan`: world_sim's outcome of every execution (plans and retreats)."""
     execute_message: str = ""
     timings: dict[str, float] = field(default_factory=dict)
 
@@ -495,16 +498,18 @@ def run_bag(bag: Bag | str | os.PathLike[str], session: Session, *, rate: float 
             namespace: str = "", record_dir: str | os.PathLike[str] | None = None,
             overrides: dict[str, Any] | None = None, execute: bool = False,
             time_scale: float = 10.0, world_overrides: dict[str, Any] | None = None,
-            settle: float = SETTLE) -> BagRun:
+            settle: float = SETTLE, replan: int = 0) -> BagRun:
     """Replay one input bag end to end in `session` (module docstring): planner node from the
     bag's `planner_parameters` (plus `overrides`, plus `record_dir`), playback at `rate`,
     `settle` s later `~/plan`; with `execute`, a world_sim on the bag's ground-truth world
     (plus `world_overrides`) executes the plan at `time_scale` and its outcome is returned.
-    Every node lives in `namespace`; all are destroyed before returning."""
+    With `replan` N > 0 the world_sim starts once the bag has played, and the goal executes
+    and closes the loop (`replan_attempts` N) in it: the first plan starts from world_sim's
+    state (the bag's ground truth), the re-plans from what world_sim shows after each
+    execution. Every node lives in `namespace`; all are destroyed before returning."""
     from rclpy.parameter import Parameter
 
     from rearrangement_planner.ros.node import PlannerNode
-    from rearrangement_planner.ros.sim.world_sim import WorldSim
 
     bag = bag if isinstance(bag, Bag) else read_bag(bag)
     info = bag.input_metadata()
@@ -535,23 +540,18 @@ def run_bag(bag: Bag | str | os.PathLike[str], session: Session, *, rate: float 
         # and object poses the player sent (a busy process lags; a message the node rejects
         # or best-effort lost ends the wait at INPUT_WAIT), then the settle time.
         wait_until(lambda: _caught_up(planner, bag), INPUT_WAIT)
+        if replan:
+            return _closed_loop_run(bag, session, client, planner, parameters, playback, ns,
+                                    workdir.name, time_scale, world_overrides, replan, timings)
         time.sleep(settle)
         reply = client.plan(timeout=float(parameters.get("time_limit", 30.0)) + 60.0)
         timings["plan"] = reply.wall_time
         run = BagRun(bag, parameters, playback, reply, timings=timings)
         if not (execute and reply.success):
             return run
-        world_file = Path(workdir.name) / "world.yaml"
-        world_file.write_text(yaml.safe_dump(info["world"], sort_keys=False))
-        settings = {"scene": str(world_file), "time_scale": float(time_scale)}
-        settings.update(world_overrides or {})
         t1 = time.monotonic()
-        world = session.add(WorldSim(
-            context=session.context, namespace=ns or None,
-            parameter_overrides=[Parameter(k, value=v) for k, v in settings.items()]))
+        world = _world_sim(session, info, ns, workdir.name, time_scale, world_overrides)
         listener = OutcomeListener(session.node, f"{ns}/world_sim/outcome")
-        if not wait_until(lambda: world.command_publisher_count() > 0, 10.0):
-            raise BagError(f"world_sim does not see the planner's {ns}/joint_trajectory")
         seen = listener.count()
         executed = client.execute()
         run.execute_message = executed.message
@@ -566,6 +566,52 @@ def run_bag(bag: Bag | str | os.PathLike[str], session: Session, *, rate: float 
             if node is not None:
                 session.remove(node)
         workdir.cleanup()
+
+
+def _world_sim(session: Session, info: dict, ns: str, folder: str, time_scale: float,
+               overrides: dict[str, Any] | None) -> Any:
+    """A world_sim on the bag's ground-truth world in `ns`, connected to the planner."""
+    from rclpy.parameter import Parameter
+
+    from rearrangement_planner.ros.sim.world_sim import WorldSim
+
+    world_file = Path(folder) / "world.yaml"
+    world_file.write_text(yaml.safe_dump(info["world"], sort_keys=False))
+    settings = {"scene": str(world_file), "time_scale": float(time_scale)}
+    settings.update(overrides or {})
+    world = session.add(WorldSim(
+        context=session.context, namespace=ns or None,
+        parameter_overrides=[Parameter(k, value=v) for k, v in settings.items()]))
+    if not wait_until(lambda: world.command_publisher_count() > 0, 10.0):
+        session.remove(world)
+        raise BagError(f"world_sim does not see the planner's {ns}/joint_trajectory")
+    return world
+
+
+def _closed_loop_run(bag: Bag, session: Session, client: PlannerClient, planner: Any,
+                     parameters: dict[str, Any], playback: PlaybackReport, ns: str,
+                     folder: str, time_scale: float, overrides: dict[str, Any] | None,
+                     replan: int, timings: dict[str, float]) -> BagRun:
+    """`run_bag` with `replan` (its docstring): world_sim, then one goal that executes and
+    re-plans up to `replan` times; world_sim's outcomes of every execution."""
+    from rearrangement_interfaces.action import PlanRearrangement
+
+    world = _world_sim(session, bag.input_metadata(), ns, folder, time_scale, overrides)
+    try:
+        listener = OutcomeListener(session.node, f"{ns}/world_sim/outcome")
+        time.sleep(SETTLE)              # world_sim's state replaces the bag's last one
+        seen = listener.count()
+        budget = float(parameters.get("time_limit", 30.0)) + 60.0
+        reply = client.plan(PlanRearrangement.Goal(execute=True, replan_attempts=replan),
+                            timeout=(replan + 1) * budget)
+        timings["plan"] = reply.wall_time
+        wait_until(lambda: listener.count() > seen, 10.0)
+        time.sleep(1.0)                 # the last execution's outcome follows the answer
+        outcomes = listener.outcomes[seen:]
+        return BagRun(bag, parameters, playback, reply, outcomes[-1] if outcomes else None,
+                      timings=timings, outcomes=outcomes)
+    finally:
+        session.remove(world)
 
 
 # --------------------------------------------------------------------------------------------
