@@ -20,6 +20,8 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
+import numpy as np
+
 from rearrangement_planner.execution.mujoco_check import (
     ExecutionOptions,
     ExecutionReport,
@@ -30,7 +32,11 @@ from rearrangement_planner.model.errors import SceneError
 from rearrangement_planner.model.perturbation import Perturbation
 from rearrangement_planner.model.scene import Scene
 from rearrangement_planner.model.state import State
-from rearrangement_planner.physics.validation import check_scene
+from rearrangement_planner.physics.validation import (
+    SEPARATION_LIMIT,
+    check_scene,
+    separate_objects,
+)
 from rearrangement_planner.planning.pipeline import PlanOutput, plan_scene
 from rearrangement_planner.planning.request import PlanRequest
 from rearrangement_planner.planning.retreat import retreat_path
@@ -136,7 +142,7 @@ def execute_closed_loop(request: PlanRequest, replans: int, world: Scene | None 
             attempts[-1] = dataclasses.replace(attempts[-1], ended=NO_RETREAT, detail=problem)
             break
         try:
-            scene = request.scene.with_start(observed.q, observed.objects)
+            scene = request.scene.with_start(observed.q, _apart(request.scene, observed))
             check_scene(scene)
         except SceneError as exc:
             attempts[-1] = dataclasses.replace(attempts[-1], ended=OBSERVED_INVALID,
@@ -159,6 +165,15 @@ def perturbed_closed_loops(request: PlanRequest, first: PlanOutput, trials: int,
     done: list[ExecutionReport | None] = [*executed, *[None] * (trials - len(executed))]
     return tuple(execute_closed_loop(request, replans, world, options, first, executed=report)
                  for world, report in zip(worlds, done, strict=True))
+
+
+def _apart(scene: Scene, observed: State) -> np.ndarray:
+    """The observed object poses with touching objects moved apart (`separate_objects`)."""
+    apart = separate_objects(scene, observed.objects)
+    if apart is None:
+        raise SceneError("objects", f"the observed objects overlap by more than "
+                                    f"{SEPARATION_LIMIT:g} m")
+    return apart
 
 
 def _retreat(scene: Scene, world: Scene, report: ExecutionReport, path: Any, timing: Any,

@@ -24,7 +24,7 @@ from rearrangement_planner.model.scene import (
     read_scene,
     scene_from_dict,
 )
-from rearrangement_planner.physics.collision import CollisionWorld
+from rearrangement_planner.physics.collision import CollisionWorld, prism_penetration
 
 
 def load_scene(path: str | Path, robot: RobotModel | None = None) -> Scene:
@@ -103,3 +103,41 @@ def _check_start(scene: Scene, world: CollisionWorld) -> None:
         raise SceneError("start_configuration",
                          f"the arm is in collision: {reason}; choose a configuration clear of "
                          f"the table, obstacles and objects")
+
+
+SEPARATION_LIMIT = 0.03
+"""m: the most `separate_objects` moves an observed object."""
+SEPARATION_GAP = 1e-4
+"""m: the gap it leaves between objects it moves apart."""
+
+
+def separate_objects(scene: Scene, poses: np.ndarray,
+                     limit: float = SEPARATION_LIMIT) -> np.ndarray | None:
+    """Observed object poses (M, 3) with overlapping objects moved apart: objects that touch
+    after a push overlap a little in observed poses (MuJoCo's soft contacts, a perception's
+    error), and a planning start must not. Each overlapping pair moves apart along the line
+    between their centres, half each, until none overlaps; None when that would move an object
+    more than `limit` m (then the observation is not a state to plan from). The closed loop
+    re-plans from these (docs/design.md "Closed loop")."""
+    poses = np.array(poses, dtype=float)
+    start = poses.copy()
+    world = CollisionWorld(scene)
+    objects = scene.objects
+    for _ in range(20):
+        pairs = world.object_overlaps(poses, tol=TOUCH_TOLERANCE)
+        if not pairs:
+            return poses
+        for i, j in pairs:
+            depth = prism_penetration(objects[i].shape, list(objects[i].size), poses[i].tolist(),
+                                      objects[j].shape, list(objects[j].size),
+                                      poses[j].tolist())
+            line = poses[j, :2] - poses[i, :2]
+            length = float(np.hypot(*line))
+            direction = line / length if length > 1e-9 else np.array([1.0, 0.0])
+            shift = 0.5 * (max(depth, 0.0) + SEPARATION_GAP) * direction
+            poses[i, :2] -= shift
+            poses[j, :2] += shift
+        if np.max(np.hypot(*(poses[:, :2] - start[:, :2]).T)) > limit:
+            return None
+    return None
+

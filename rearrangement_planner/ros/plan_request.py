@@ -25,7 +25,12 @@ from rearrangement_planner.model.errors import InputError, SceneError
 from rearrangement_planner.model.robot import RobotModel
 from rearrangement_planner.model.scene import Goal, Scene
 from rearrangement_planner.model.settings import SettingError
-from rearrangement_planner.physics.validation import check_scene, load_scene
+from rearrangement_planner.physics.validation import (
+    SEPARATION_LIMIT,
+    check_scene,
+    load_scene,
+    separate_objects,
+)
 from rearrangement_planner.planning.interface import (
     Outcome,
     PlanResult,
@@ -195,6 +200,20 @@ def fresh_inputs(latest: dict[str, Input | None], topics: dict[str, str],
     return latest
 
 
+def observed_apart(scene: Scene, inputs: dict[str, Input | None]) -> dict[str, Input | None]:
+    """`inputs` with the observed object poses moved apart where objects overlap
+    (`separate_objects`; the recording keeps the message as received). Rejected
+    (START_INVALID) when they overlap by more than SEPARATION_LIMIT."""
+    objects = inputs["object_poses"]
+    assert objects is not None
+    apart = separate_objects(scene, objects.value)
+    if apart is None:
+        raise Rejected(Outcome.START_INVALID.value,
+                       f"start invalid (object_poses): the observed objects overlap by more "
+                       f"than {SEPARATION_LIMIT:g} m; not a state to re-plan from")
+    return {**inputs, "object_poses": dataclasses.replace(objects, value=apart)}
+
+
 def planning_scene(configured_scene: Scene, inputs: dict[str, Input | None],
                    params: dict[str, Any]) -> Scene:
     """The configured scene with the received start state and goal, checked (the scene is not
@@ -230,6 +249,8 @@ def run_plan(job: Job, params: dict[str, Any], configured: Scene,
             params, latest = goal_inputs(job.goal, params, configured, latest, job.attempt > 1)
             job.params, origins = params, goal_origins(job.goal)
         inputs = fresh_inputs(latest, topics, params["state_timeout"])
+        if job.attempt > 1:        # a re-plan from observed poses: touching objects overlap
+            inputs = observed_apart(configured, inputs)
         scene = planning_scene(configured, inputs, params)
         request = node_request(params, scene, origins)
         output = plan_scene(request, cancel=job.cancel, progress=progress)

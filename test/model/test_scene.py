@@ -445,3 +445,27 @@ def test_missing_file(tmp_path: Path) -> None:
 def test_unknown_shipped_scene_name() -> None:
     with pytest.raises(SceneError, match=r"unknown scene 'nope'; shipped scenes are \[.*'default'"):
         load_scene("nope")
+
+
+def test_observed_objects_that_overlap_are_moved_apart(base: dict, panda: RobotModel) -> None:
+    """Two cans 1 cm into each other (as touching objects are observed): each moves half a
+    centimetre apart along the line between them; 10 cm into each other is no state to plan
+    from; objects apart stay where they are."""
+    from rearrangement_planner.physics.validation import SEPARATION_GAP, separate_objects
+
+    data = base
+    can = {"shape": "cylinder", "radius": 0.04, "height": 0.1}
+    data["objects"] = [{**can, "name": "a", "pose": [0.5, 0.0, 0.0]},
+                       {**can, "name": "b", "pose": [0.5, 0.2, 0.0]}]
+    data["goal"]["object"] = "a"
+    scene = parse(data, panda)
+    observed = np.array([[0.5, 0.0, 0.3], [0.5, 0.07, 0.0]])
+    apart = separate_objects(scene, observed)
+    assert apart is not None
+    np.testing.assert_allclose(apart[:, 1], [-0.005 - SEPARATION_GAP / 2,
+                                             0.075 + SEPARATION_GAP / 2], atol=1e-9)
+    np.testing.assert_array_equal(apart[:, [0, 2]], observed[:, [0, 2]])
+    check_scene(scene.with_start(scene.start_configuration, apart))
+    assert separate_objects(scene, np.array([[0.5, 0.0, 0.0], [0.5, -0.02, 0.0]])) is None
+    np.testing.assert_array_equal(separate_objects(scene, scene.object_poses),
+                                  scene.object_poses)
