@@ -165,7 +165,7 @@ def test_a_benchmark_runs_on_both_nodes_of_a_local_cluster(two_node_cluster, tmp
         [sys.executable, "-m", "rearrangement_planner.tools.bench", "run", "--address",
          two_node_cluster, "--scenes", "n1_s0", "n1_s1", "n2_s0", "n2_s1", "--planners",
          "pc-rrt", "--seeds", "0", "--time-limit", "4", "--set", "min_robustness=0", "--set",
-         "trees=1", "--set", "shortcut_time=0", "--out", str(out)],
+         "trees=1", "--set", "shortcut_time=0", "--perturbed", "0", "--out", str(out)],
         capture_output=True, text=True, env=CLUSTER_ENV, timeout=600)
     assert run.returncode == 0, run.stderr
     assert f"Ray at {two_node_cluster}, as its CPUs take" in run.stderr
