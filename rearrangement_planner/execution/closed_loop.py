@@ -183,7 +183,7 @@ def _retreat(scene: Scene, world: Scene, report: ExecutionReport, path: Any, tim
     observed = report.final_state()
     moves = retreat_path(scene.with_start(observed.q, observed.objects), observed, path)
     if moves is None:
-        return None, 0.0, "no retreat along the executed path is clear of the objects"
+        return None, 0.0, "no retreat out of contact is clear of the objects"
     if len(moves) == 1:
         return observed, 0.0, ""
     trajectory = time_parameterize(scene.robot, moves, timing)

@@ -129,9 +129,9 @@ def close_the_loop(job: Any, io: LoopIO, scene: Scene, output: PlanOutput,
         if k > attempts:
             break
         io.record(output, inputs, f"{job.plan_id}-attempt{k}")
-        why = _retreat(job, io, scene, observed, output)
+        ended, why = _retreat(job, io, scene, observed, output)
         if why:
-            return GOAL_NOT_REACHED, _lines(job) + f"; {why}", scene, output, inputs
+            return ended, _lines(job) + f"; {why}", scene, output, inputs
         job.attempt, job.phase = k + 1, "planning"
         outcome, message, scene, new, inputs = io.plan(k + 1)
         job.attempts.append(Attempt(f"{job.plan_id}-attempt{k + 1}"))
@@ -175,22 +175,22 @@ def _observe(job: Any, io: LoopIO, executed_at: float
 
 
 def _retreat(job: Any, io: LoopIO, scene: Scene, observed: np.ndarray,
-             output: PlanOutput) -> str:
-    """Back the arm out of contact along the executed plan (sent and waited for); '' when it
-    is clear, else why the loop cannot go on."""
+             output: PlanOutput) -> tuple[str, str]:
+    """Back the arm out of contact (`planning.retreat`; sent and waited for): ('', '') when it
+    is clear, else the outcome and why the loop cannot go on."""
     assert output.trajectory is not None
     executed = output.trajectory.positions
     joints = io.latest()["joint_states"]
     q = joints.value if joints is not None else executed[-1]
     path = retreat_path(scene.with_start(q, observed), State(q, observed), executed)
     if path is None:
-        return "no retreat along the executed path is clear of the objects"
+        return GOAL_NOT_REACHED, "no retreat out of contact is clear of the objects"
     if len(path) == 1:
-        return ""
+        return "", ""
     job.phase = "retreating"
     outcome, message = io.send_and_wait(
         trajectory_to_msg(time_parameterize(scene.robot, path)), None)
-    return "" if outcome == Outcome.SUCCEEDED.value else f"retreat {outcome}: {message}"
+    return ("", "") if outcome == Outcome.SUCCEEDED.value else (outcome, f"retreat: {message}")
 
 
 def _lines(job: Any) -> str:
