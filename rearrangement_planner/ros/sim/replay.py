@@ -462,6 +462,15 @@ class Session:
         # after `make demo`, seen now and then; not reproduced on demand).
         self._closing = True
         self._thread.join(timeout=5.0)
+        # Callbacks still running in the executor's threads finish before any node is
+        # destroyed (rclpy's MultiThreadedExecutor.shutdown does not wait for them: a long
+        # MuJoCo update of world_sim then met its destroyed node, and its task printed "The
+        # following exception was never retrieved: cannot use Destroyable ..." at exit).
+        running = list(getattr(self.executor, "_futures", ()))
+        wait_until(lambda: all(task.done() for task in running), 5.0)
+        for task in running:
+            if task.done() and task.exception() is not None:
+                self.node.get_logger().warning(f"a callback failed: {task.exception()}")
         self.executor.shutdown()
         for node in self._nodes:
             node.destroy_node()
