@@ -9,8 +9,8 @@ discovery and a domain id from the pid (160..189; test_node uses 10..159).
 
 from __future__ import annotations
 
-import gc
 import copy
+import gc
 import json
 import math
 import os
