@@ -863,8 +863,9 @@ def test_action_stops_the_arm_when_an_object_strays_and_replans(ros):
                 f"its predicted path" in result.message)
         assert "divergence_bound 0.05 m" in result.message
         assert result.message.endswith("goal reached after 1 re-plans")
-        with client.lock:
-            assert [len(c.points) > 0 for c in client.commands] == [True, False, True]
+        with client.lock:      # plan, stop, re-plan (then maybe a stop: the scripted object
+            # jumps to the goal at once, which the watch may see before the arm's jump)
+            assert [len(c.points) > 0 for c in client.commands][:3] == [True, False, True]
     finally:
         with client.lock:
             client.controller, client.stall = False, 0
