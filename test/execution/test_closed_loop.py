@@ -14,9 +14,8 @@ from rearrangement_planner.execution.closed_loop import (
     NOT_SOLVED,
     REACHED,
     execute_closed_loop,
-    perturbed_closed_loops,
 )
-from rearrangement_planner.execution.mujoco_check import ExecutionOptions, check_perturbed
+from rearrangement_planner.execution.mujoco_check import ExecutionOptions
 from rearrangement_planner.model.state import State
 from rearrangement_planner.physics.collision import CollisionWorld
 from rearrangement_planner.physics.validation import load_scene
@@ -93,12 +92,12 @@ def easy_push(panda):
     target = scene.objects[0]
     world = dataclasses.replace(scene, objects=(
         dataclasses.replace(target, pose=np.asarray(target.pose) + [-0.07, 0.0, 0.0]),))
-    return request, world
+    return request, world, plan_scene(request)
 
 
 def test_a_miss_is_mended_by_a_replan_from_what_is_observed(easy_push):
-    request, world = easy_push
-    loop = execute_closed_loop(request, 2, world)
+    request, world, plan = easy_push
+    loop = execute_closed_loop(request, 2, world, first=plan)
     first, second = loop.attempts
     assert first.ended == MISSED and first.execution.goal_distance_m > world.goal.radius
     assert second.ended == REACHED and loop.reached and loop.replans == 1
@@ -119,9 +118,9 @@ def test_the_watch_stops_a_straying_execution_and_the_loop_goes_on_from_there(ea
     """divergence_bound 3 cm: the box the fingers catch by its far edge strays from its
     predicted path well before the plan's end; the arm holds there, and the loop observes,
     retreats and re-plans from where things are."""
-    request, world = easy_push
+    request, world, plan = easy_push
     options = ExecutionOptions(arm="servo", divergence_bound=0.03)
-    loop = execute_closed_loop(request, 2, world, options)
+    loop = execute_closed_loop(request, 2, world, options, first=plan)
     first = loop.attempts[0]
     report = first.execution
     assert report.stopped.startswith("'target' strayed") and first.detail.startswith("stopped")
@@ -131,18 +130,8 @@ def test_the_watch_stops_a_straying_execution_and_the_loop_goes_on_from_there(ea
 
 
 def test_a_failed_plan_ends_the_loop_with_nothing_executed(easy_push):
-    request, world = easy_push
+    request, world, _ = easy_push
     hopeless = dataclasses.replace(request, options=dataclasses.replace(
         request.options, max_iterations=1))
     (attempt,) = execute_closed_loop(hopeless, 2, world).attempts
     assert attempt.ended == NOT_SOLVED and attempt.execution is None
-
-
-def test_perturbed_loops_start_with_the_open_loop_executions(easy_push):
-    request, _ = easy_push
-    first = plan_scene(request)
-    loops = perturbed_closed_loops(request, first, 1, seed=4, replans=1)
-    open_loop = check_perturbed(request.scene, first.trajectory, 1, seed=4,
-                                options=ExecutionOptions(arm="servo"))
-    assert [x.attempts[0].execution.goal_distance_m for x in loops] == pytest.approx(
-        [r.goal_distance_m for r in open_loop.reports])

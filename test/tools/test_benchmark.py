@@ -406,6 +406,8 @@ def test_a_trial_with_replans_closes_the_loop_nominal_and_perturbed():
                                      "toppled" if row["executed_toppled"] != "0" else "missed")
     assert row["replan_reached"] == str(int(nominal.endswith("reached")))
     assert row["replans_made"] == str(nominal.count(">"))
+    # the perturbed loop starts from the open-loop execution in the same world
+    assert (perturbed.split(">")[0] == "reached") == (row["perturbed_reached"] == "1")
     assert int(row["perturbed_replan_reached"]) >= int(row["perturbed_reached"])
     assert float(row["time_to_goal_s"]) >= float(row["plan_time_s"]) + float(row["trajectory_s"])
 
