@@ -409,7 +409,8 @@ def test_a_trial_with_replans_closes_the_loop_nominal_and_perturbed():
     # the perturbed loop starts from the open-loop execution in the same world
     assert (perturbed.split(">")[0] == "reached") == (row["perturbed_reached"] == "1")
     assert int(row["perturbed_replan_reached"]) >= int(row["perturbed_reached"])
-    assert float(row["time_to_goal_s"]) >= float(row["plan_time_s"]) + float(row["trajectory_s"])
+    assert float(row["time_to_goal_s"]) >= \
+        float(row["plan_time_s"]) + float(row["trajectory_s"]) - 2e-3     # 3 decimals each
 
 
 def test_the_closed_loop_summary_sets_the_loop_beside_the_open_loop():
