@@ -187,18 +187,18 @@ def test_record_needs_no_ros(tmp_path):
 def test_check_execution_reports_the_mujoco_outcome(tmp_path, capsys):
     out, png = tmp_path / "plan.json", tmp_path / "plan.png"
     code = main(["easy_push", "--seed", "1", "--trees", "1", "--check-execution", "--trials",
-                 "2", "--replan", "1", "--json", str(out), "--plot", str(png)])
+                 "1", "--replan", "1", "--json", str(out), "--plot", str(png)])
     record = json.loads(out.read_text())
     execution = record["execution"]
     assert code == 0 and png.stat().st_size > 10_000
     assert set(execution) == {"ideal", "servo", "perturbed"}
     assert execution["ideal"]["goal_radius_m"] == 0.08 and "reached" in execution["servo"]
-    assert execution["perturbed"]["trials"] == 2
+    assert execution["perturbed"]["trials"] == 1
     # the closed loop: its first execution is the servo arm's open-loop one
     first = record["executions"][0]
     assert first["goal_distance_m"] == execution["servo"]["goal_distance_m"]
     assert record["verdict"] == first["ended"] == "reached" and record["replans"] == 0
-    assert record["perturbed_closed_loop"]["trials"] == 2
+    assert record["perturbed_closed_loop"]["trials"] == 1
     err = capsys.readouterr().err
     assert "executed in MuJoCo (ideal arm): goal object" in err
     assert "closed loop, execution 1: SUCCEEDED" in err
