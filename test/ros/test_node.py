@@ -136,6 +136,13 @@ class Client:
             if self.world and msg.points:
                 self.objects = self.world.pop(0)
 
+    def reset_world(self) -> None:
+        """No controller, no scripted world: the good joint state and object poses again."""
+        with self.lock:
+            self.controller, self.stall, self.world = False, 0, []
+            self.joint_state = self.good_joint_state
+            self.objects = self.good_objects
+
     # -- calls ----------------------------------------------------------------------------------
 
     def call_async(self, service: str):
@@ -838,11 +845,7 @@ def test_action_closes_the_loop_until_the_goal_is_observed_reached(ros):
         assert (ros["record_dir"] / f"{plan_id}-attempt1.mcap").is_file()
     finally:
         client.set(divergence_bound=0.05)
-        with client.lock:
-            client.controller = False
-            client.world = []
-            client.joint_state = client.good_joint_state
-            client.objects = client.good_objects
+        client.reset_world()
 
 
 def test_action_stops_the_arm_when_an_object_strays_and_replans(ros):
@@ -867,11 +870,7 @@ def test_action_stops_the_arm_when_an_object_strays_and_replans(ros):
             # jumps to the goal at once, which the watch may see before the arm's jump)
             assert [len(c.points) > 0 for c in client.commands][:3] == [True, False, True]
     finally:
-        with client.lock:
-            client.controller, client.stall = False, 0
-            client.world = []
-            client.joint_state = client.good_joint_state
-            client.objects = client.good_objects
+        client.reset_world()
 
 
 def test_cancel_stops_the_loop_while_it_waits_for_an_observation(ros):
@@ -896,11 +895,7 @@ def test_cancel_stops_the_loop_while_it_waits_for_an_observation(ros):
         assert result_future.result().status == GoalStatus.STATUS_CANCELED
         assert "cancelled while observing" in result_future.result().result.message
     finally:
-        with client.lock:
-            client.controller = False
-            client.world = []
-            client.joint_state = client.good_joint_state
-            client.objects = client.good_objects
+        client.reset_world()
 
 
 def test_action_loop_ends_when_no_usable_observation_arrives(ros):
@@ -919,11 +914,7 @@ def test_action_loop_ends_when_no_usable_observation_arrives(ros):
         assert "no object poses arrived within 5.5 s after the execution; the last were " \
                "rejected" in result.message and "tilt" in result.message
     finally:
-        with client.lock:
-            client.controller = False
-            client.world = []
-            client.joint_state = client.good_joint_state
-            client.objects = client.good_objects
+        client.reset_world()
     client.wait_inputs_flowing()
     status, result = client.run_goal(PlanRearrangement.Goal(settings=ROBUST))
     assert status == GoalStatus.STATUS_SUCCEEDED, result.message
