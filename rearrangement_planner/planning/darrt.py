@@ -23,7 +23,6 @@ are checked by the rules above.
 from __future__ import annotations
 
 import math
-import time
 from dataclasses import dataclass
 
 import numpy as np
@@ -33,8 +32,6 @@ from rearrangement_planner.model.settings import setting
 from rearrangement_planner.model.state import State
 from rearrangement_planner.physics.step import Physics
 from rearrangement_planner.planning.interface import (
-    CancelFlag,
-    IterationGate,
     Outcome,
     PlannerOptions,
     PlanResult,
@@ -43,6 +40,7 @@ from rearrangement_planner.planning.interface import (
 from rearrangement_planner.planning.manifold import ik_on_manifold, project_step, tool_planar_pose
 from rearrangement_planner.planning.push_policy import support_distance
 from rearrangement_planner.planning.search import Search
+from rearrangement_planner.planning.termination import Termination
 from rearrangement_planner.planning.tree import Tree
 
 TRANSIT_STEP = 0.02      # rad, joint-space resolution of transit motions (collision checks)
@@ -81,12 +79,10 @@ class DARRT:
 
     # -- the algorithm -------------------------------------------------------------------------
 
-    def plan(self, start: State | None = None, seed: int = 0,
-             cancel: CancelFlag | None = None,
-             progress: ProgressCallback | None = None,
-             iteration_gate: IterationGate | None = None) -> PlanResult:
-        """The `Planner` protocol (as `PCRRT.plan`)."""
-        search = Search(self.options, seed, cancel, progress, iteration_gate)
+    def plan(self, start: State | None = None, seed: int = 0, stop: Termination | None = None,
+             progress: ProgressCallback | None = None) -> PlanResult:
+        """The `Planner` protocol (as `PCRRT.plan`); a transit's RRT-Connect asks `stop` too."""
+        search = Search(self.options, seed, stop, progress)
         start = start or self.scene.initial_state()
         ended = search.check_start(self.physics, start)
         if ended is not None:
@@ -95,7 +91,6 @@ class DARRT:
             return PlanResult(Outcome.START_INVALID, "start configuration touches an object; "
                               "DARRT's transit primitives need a collision-free start", seed)
         search.tree = Tree(start, start.q)
-        self._cancelled = search.cancelled
         try:
             while True:
                 ended = search.check()
@@ -115,10 +110,10 @@ class DARRT:
         others = [i for i in range(len(self.scene.objects)) if i != g]
         choice = int(rng.integers(3))
         if choice == 0:
-            segment, node = self._extend_arm(tree, rng, search.deadline)
+            segment, node = self._extend_arm(tree, rng, search.termination)
         else:
             obj = g if choice == 1 or not others else others[int(rng.integers(len(others)))]
-            segment, node = self._extend_object(tree, obj, rng, search.deadline)
+            segment, node = self._extend_object(tree, obj, rng, search.termination)
         if not segment:
             return None
         search.steps += len(segment)
@@ -133,7 +128,7 @@ class DARRT:
 
     # -- primitives -----------------------------------------------------------------------------
 
-    def _extend_arm(self, tree: Tree, rng: np.random.Generator, deadline: float):
+    def _extend_arm(self, tree: Tree, rng: np.random.Generator, stop: Termination):
         """Sample a configuration; Transit, else RRTTransit, from the nearest node."""
         robot = self.robot
         q_rand = rng.uniform(robot.lower, robot.upper)
@@ -141,11 +136,11 @@ class DARRT:
         objects = tree.objects[node]
         if not self._free(q_rand, objects):
             return [], node
-        path = self._transit(tree.q[node], q_rand, objects, rng, deadline)
+        path = self._transit(tree.q[node], q_rand, objects, rng, stop)
         return ([State(q, objects) for q in path[1:]] if path else []), node
 
     def _extend_object(self, tree: Tree, obj: int, rng: np.random.Generator,
-                       deadline: float):
+                       stop: Termination):
         """Sample a pose for object `obj`; from the node where it is nearest, RRTTransit to a
         configuration holding it, then Push it straight towards the sample."""
         scene, opts = self.scene, self.options
@@ -169,7 +164,7 @@ class DARRT:
         q_hold = self._holding_configuration(here, obj, direction, rng)
         if q_hold is None:
             return [], node
-        path = self._transit(here.q, q_hold, here.objects, rng, deadline)
+        path = self._transit(here.q, q_hold, here.objects, rng, stop)
         if path is None:
             return [], node
         segment = [State(q, here.objects) for q in path[1:]]
@@ -257,17 +252,17 @@ class DARRT:
         return all(self._free(q_a + (q_b - q_a) * (i / n), objects) for i in range(1, n + 1))
 
     def _transit(self, q_a: np.ndarray, q_b: np.ndarray, objects: np.ndarray,
-                 rng: np.random.Generator, deadline: float) -> list[np.ndarray] | None:
+                 rng: np.random.Generator, stop: Termination) -> list[np.ndarray] | None:
         """Transit (a straight line) if free, else RRTTransit; the configurations from q_a to
         q_b at TRANSIT_STEP resolution, or None."""
         if self._line_free(q_a, q_b, objects):
             return _densify([q_a, q_b])
-        budget = min(time.monotonic() + self.options.transit_time_limit, deadline)
-        waypoints = self._rrt_connect(q_a, q_b, objects, rng, budget)
+        waypoints = self._rrt_connect(q_a, q_b, objects, rng,
+                                      stop.split(self.options.transit_time_limit))
         return None if waypoints is None else _densify(waypoints)
 
     def _rrt_connect(self, q_a: np.ndarray, q_b: np.ndarray, objects: np.ndarray,
-                     rng: np.random.Generator, deadline: float, step: float = 0.2
+                     rng: np.random.Generator, stop: Termination, step: float = 0.2
                      ) -> list[np.ndarray] | None:
         """RRT-Connect (Kuffner & LaValle 2000) in joint space; waypoints q_a ... q_b."""
         robot = self.robot
@@ -290,8 +285,8 @@ class DARRT:
             return ("reached" if reached else "advanced"), len(nodes) - 1
 
         a = 0
-        while time.monotonic() < deadline:
-            if self._cancelled():
+        while not stop.expired():
+            if stop.cancelled():
                 raise _Cancelled
             q_rand = rng.uniform(robot.lower, robot.upper)
             status, new = extend(a, q_rand)

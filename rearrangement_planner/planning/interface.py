@@ -3,8 +3,10 @@ codes and the reasons a propagation stops (one planner interface, like OMPL's
 `base::Planner`).
 
 A planner is built from the models and its options, `Planner(scene, options, physics)`, and
-answers `plan(start, seed, cancel, progress, iteration_gate) -> PlanResult`. The registry
-(`planning.registry`) maps names to planners; nothing else branches on a planner's name.
+answers `plan(start, seed, stop, progress) -> PlanResult`, `stop` the one condition that ends
+it (`planning.termination.Termination`: deadline, cancel, iteration bound, a race's gate). The
+registry (`planning.registry`) maps names to planners; nothing else branches on a planner's
+name.
 """
 
 from __future__ import annotations
@@ -13,7 +15,6 @@ import dataclasses
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
-from enum import Enum
 from typing import Protocol, TypeVar
 
 import numpy as np
@@ -22,36 +23,10 @@ from rearrangement_planner.model.scene import Scene
 from rearrangement_planner.model.settings import Settings, setting
 from rearrangement_planner.model.state import State
 from rearrangement_planner.physics.step import Physics
+from rearrangement_planner.planning.outcome import SUPERSEDED, Outcome, StopReason
+from rearrangement_planner.planning.termination import CancelFlag, IterationGate, Termination
 
-SUPERSEDED = "superseded: another tree of the race found a plan in fewer iterations"
-"""The message of a tree that a race (`planning.parallel`) stopped because another won."""
-
-
-class Outcome(str, Enum):
-    """Planning outcome codes (modelled on Nav2's; docs/design.md)."""
-
-    SUCCEEDED = "SUCCEEDED"
-    START_INVALID = "START_INVALID"
-    GOAL_INVALID = "GOAL_INVALID"
-    TIMEOUT = "TIMEOUT"
-    """The time limit passed before a plan was found."""
-    PLANNING_FAILED = "PLANNING_FAILED"
-    """The iteration budget (`max_iterations`) ran out before a plan was found."""
-    CANCELLED = "CANCELLED"
-    INVALID_INPUT = "INVALID_INPUT"
-    INTERNAL = "INTERNAL"
-
-
-class StopReason(str, Enum):
-    """Why a propagation ended before its duration, other than an invalid step (`Invalid`)."""
-
-    GOAL = "goal"
-    """The goal object is in the goal region: the plan is found."""
-    CANCEL = "cancel"
-    """The request was cancelled."""
-    TIMEOUT = "timeout"
-    """The plan's time limit passed (an action is cut there, so no plan is found late)."""
-
+__all__ = ["SUPERSEDED", "CancelFlag", "IterationGate", "Outcome", "StopReason", "Termination"]
 
 _O = TypeVar("_O", bound="PlannerOptions")
 
@@ -80,6 +55,10 @@ class PlannerOptions(Settings):
         """The radius (m) a plan must bring the goal object within: the region's less the
         margin."""
         return scene.goal.radius - self.goal_margin
+
+    def termination(self, cancel: CancelFlag | None = None) -> Termination:
+        """A search's budget from now: `time_limit`, `max_iterations` and `cancel`."""
+        return Termination.within(self.time_limit, cancel, self.max_iterations)
 
     @classmethod
     def adopt(cls: type[_O], options: PlannerOptions | None) -> _O:
@@ -140,14 +119,7 @@ class PlanResult:
         return np.array([s.q for s in self.states])
 
 
-class CancelFlag(Protocol):
-    """What a planner needs of a cancel request: `threading.Event` is one."""
-
-    def is_set(self) -> bool: ...
-
-
 ProgressCallback = Callable[[Progress], None]
-IterationGate = Callable[[int], bool]
 
 
 class Planner(Protocol):
@@ -158,11 +130,10 @@ class Planner(Protocol):
     def __init__(self, scene: Scene, options: PlannerOptions | None = None,
                  physics: Physics | None = None) -> None: ...
 
-    def plan(self, start: State | None = None, seed: int = 0,
-             cancel: CancelFlag | None = None,
-             progress: ProgressCallback | None = None,
-             iteration_gate: IterationGate | None = None) -> PlanResult:
+    def plan(self, start: State | None = None, seed: int = 0, stop: Termination | None = None,
+             progress: ProgressCallback | None = None) -> PlanResult:
         """Plan from `start` (default the scene's initial state) with all randomness from
-        `seed`. `cancel` is checked every iteration and every propagation step;
-        `iteration_gate(i)`, asked before iteration i, ends the plan as CANCELLED when False."""
+        `seed`, until `stop` (default: the options' time_limit and max_iterations) ends it: it
+        is asked before every iteration, its clock and cancel between batches of propagation
+        steps."""
         ...

@@ -50,6 +50,7 @@ from rearrangement_planner.planning.interface import (
     ProgressCallback,
 )
 from rearrangement_planner.planning.registry import PlannerSpec
+from rearrangement_planner.planning.termination import Termination
 
 
 @dataclass(frozen=True)
@@ -152,17 +153,17 @@ def _serve(conn, best, cancel) -> None:
         except (EOFError, OSError):
             return
         try:
-            key, blob, planner, options, seed, tree, trees, start, deadline = task
+            key, blob, planner, options, seed, tree, trees, start, budget = task
             if key not in built:
                 if len(built) >= SCENE_CACHE:
                     built.pop(next(iter(built)))
                 built[key] = _build(blob)
             scene, physics = built[key]
-            budget = max(deadline - time.monotonic(), 1e-3)
-            options = dataclasses.replace(options, time_limit=budget)
+            deadline, max_iterations, time_limit = budget
+            stop = Termination(deadline, cancel, max_iterations, _gate(best, tree, trees),
+                               time_limit)
             result = planner.make(scene, options, physics).plan(
-                start=start, seed=tree_seed(seed, tree), cancel=cancel,
-                iteration_gate=_gate(best, tree, trees))
+                start=start, seed=tree_seed(seed, tree), stop=stop)
             _claim(best, result, tree, trees)
             reply: Any = result
         except Exception:           # reported to the caller, which raises it
@@ -253,25 +254,28 @@ def shutdown() -> None:
 # -- the race --------------------------------------------------------------------------------------
 
 def plan_race(planner: PlannerSpec, scene: Scene, options: PlannerOptions, trees: int,
-              seed: int = 0, start: State | None = None,
-              cancel: threading.Event | None = None, progress: ProgressCallback | None = None,
+              seed: int = 0, start: State | None = None, stop: Termination | None = None,
+              progress: ProgressCallback | None = None,
               physics: Physics | None = None) -> PlanResult:
-    """Plan with `trees` independent trees (module doc). Tree 0 runs here and reports
-    progress; the result is the winning tree's, with `plan_time` the race's wall time and the
-    winner named in `message`. Raises RuntimeError if a worker fails."""
+    """Plan with `trees` independent trees (module doc) until `stop` (default the options'
+    budget) ends them: every tree shares its deadline and iteration bound, and its cancel
+    stops them all. Tree 0 runs here and reports progress; the result is the winning tree's,
+    with `plan_time` the race's wall time and the winner named in `message`. Raises
+    RuntimeError if a worker fails."""
     t0 = time.monotonic()
+    stop = stop if stop is not None else options.termination()
     physics = physics or Physics(scene)
     pool = _pool()
     with pool.lock:
         workers = pool.take(trees - 1)
         pool.cancel.clear()
         pool.best.value = NO_PLAN
-        deadline = t0 + options.time_limit
         key, blob = _scene_payload(scene, physics.options)
+        budget = (stop.deadline, stop.max_iterations, stop.time_limit)
         for t, worker in enumerate(workers, start=1):
-            worker.conn.send((key, blob, planner, options, seed, t, trees, start, deadline))
+            worker.conn.send((key, blob, planner, options, seed, t, trees, start, budget))
             worker.busy = True
-        user_cancelled = cancel.is_set if cancel is not None else (lambda: False)
+        user_cancelled = stop.cancelled
 
         def stop_all() -> bool:
             if user_cancelled():
@@ -279,10 +283,11 @@ def plan_race(planner: PlannerSpec, scene: Scene, options: PlannerOptions, trees
                 return True
             return False
 
+        own_stop = dataclasses.replace(stop, cancel=_Flag(stop_all),
+                                       gate=_gate(pool.best, 0, trees))
         try:
             own = planner.make(scene, options, physics).plan(
-                start=start, seed=seed, cancel=_Flag(stop_all), progress=progress,
-                iteration_gate=_gate(pool.best, 0, trees))
+                start=start, seed=seed, stop=own_stop, progress=progress)
         except BaseException:
             pool.cancel.set()       # do not leave the workers planning to their deadline
             raise
@@ -293,7 +298,7 @@ def plan_race(planner: PlannerSpec, scene: Scene, options: PlannerOptions, trees
         results: list[PlanResult] = [own]
         errors: list[str] = []
         for worker in workers:
-            reply = worker.collect(deadline + RESULT_GRACE - time.monotonic())
+            reply = worker.collect(stop.remaining() + RESULT_GRACE)
             if reply is None:
                 pool.cancel.set()
                 errors.append("a tree worker did not report within the budget")

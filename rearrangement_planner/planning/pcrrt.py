@@ -25,7 +25,6 @@ Reproducible: all randomness comes from one numpy Generator seeded by the reques
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -37,8 +36,6 @@ from rearrangement_planner.physics.collision import CollisionWorld
 from rearrangement_planner.physics.step import Physics
 from rearrangement_planner.planning.approach import approach_path
 from rearrangement_planner.planning.interface import (
-    CancelFlag,
-    IterationGate,
     Outcome,
     PlannerOptions,
     PlanResult,
@@ -54,6 +51,7 @@ from rearrangement_planner.planning.propagation import (
 )
 from rearrangement_planner.planning.push_policy import PushPolicy
 from rearrangement_planner.planning.search import Search
+from rearrangement_planner.planning.termination import Termination
 from rearrangement_planner.planning.tree import Tree
 
 
@@ -137,13 +135,11 @@ class PCRRT:
 
     # -- the algorithm -------------------------------------------------------------------------
 
-    def plan(self, start: State | None = None, seed: int = 0,
-             cancel: CancelFlag | None = None,
-             progress: ProgressCallback | None = None,
-             iteration_gate: IterationGate | None = None) -> PlanResult:
-        """Algorithm 1 (the `Planner` protocol). `cancel` is checked every iteration and every
-        propagation step; `iteration_gate(i)` is asked before iteration i."""
-        run = _Run(self, seed, cancel, progress, iteration_gate)
+    def plan(self, start: State | None = None, seed: int = 0, stop: Termination | None = None,
+             progress: ProgressCallback | None = None) -> PlanResult:
+        """Algorithm 1 (the `Planner` protocol): `stop` is asked before every iteration and
+        between batches of propagation steps."""
+        run = _Run(self, seed, stop, progress)
         start = start or self.scene.initial_state()
         early = run.begin(start)
         if early is not None:
@@ -206,12 +202,12 @@ class PCRRT:
 
     # -- pieces ---------------------------------------------------------------------------------
 
-    def stop_check(self, cancelled: Callable[[], bool], deadline: float) -> Stops:
-        """Ends a propagation early: GOAL (the goal object is in the goal region), CANCEL, or
-        TIMEOUT (past the `time.monotonic()` deadline: an action that would run past the time
-        limit is cut, so a plan is never found after its budget)."""
+    def stop_check(self, termination: Termination) -> Stops:
+        """Ends a propagation early: GOAL (the goal object is in the goal region), or CANCEL or
+        TIMEOUT when `termination` says so (an action that would run past the time limit is
+        cut, so a plan is never found after its budget)."""
         return Stops(self.scene.goal_index, (float(self._goal_xy[0]), float(self._goal_xy[1])),
-                     self.options.goal_radius(self.scene), deadline, cancelled)
+                     self.options.goal_radius(self.scene), termination)
 
     def goal_distance(self, state: State) -> float:
         """Distance (m) of the goal object's centre from the goal point."""
@@ -266,11 +262,11 @@ class _Run(Search):
     """One `PCRRT.plan` call: the shared bookkeeping (`Search`), the push policy, the stop
     check of every propagation and the approach onto the manifold."""
 
-    def __init__(self, planner: PCRRT, seed: int, cancel: CancelFlag | None,
-                 progress: ProgressCallback | None, iteration_gate: IterationGate | None):
-        super().__init__(planner.options, seed, cancel, progress, iteration_gate)
+    def __init__(self, planner: PCRRT, seed: int, stop: Termination | None,
+                 progress: ProgressCallback | None):
+        super().__init__(planner.options, seed, stop, progress)
         self.planner = planner
-        self.stop = planner.stop_check(self.cancelled, self.deadline)
+        self.stop = planner.stop_check(self.termination)
         self.policy = PushPolicy(planner.physics, planner.options,
                                  np.flatnonzero(planner._weights > 0))
         self.approach: list[State] = []

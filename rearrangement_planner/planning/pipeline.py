@@ -12,6 +12,8 @@ import dataclasses
 import math
 import threading
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 
 import numpy as np
@@ -28,6 +30,7 @@ from rearrangement_planner.planning.parallel import plan_race, tree_seed
 from rearrangement_planner.planning.request import PlanRequest
 from rearrangement_planner.planning.robustness import candidate_rank, goal_travel, robustness
 from rearrangement_planner.planning.shortcut import shortcut
+from rearrangement_planner.planning.termination import Termination
 from rearrangement_planner.planning.trajectory import (
     DUPLICATE_TOLERANCE,
     Trajectory,
@@ -70,6 +73,36 @@ class PathMetrics:
                 "object_displacement_m": self.object_displacement_m}
 
 
+@dataclass
+class Phases:
+    """Where a request's wall time went (s), phase by phase (docs/benchmark.md, "Where the
+    time goes"): the searches (every candidate's, raced trees and the wait on their workers
+    included), shortcutting, the robustness rollouts, trajectory timing, and loading or
+    compiling the compiled core (once per process, outside the plan's clock)."""
+
+    search: float = 0.0
+    shortcut: float = 0.0
+    rollouts: float = 0.0
+    timing: float = 0.0
+    warm_up: float = 0.0
+    candidates: int = 0
+    """Searches made (robust selection makes one per candidate)."""
+
+    @contextmanager
+    def timed(self, phase: str) -> Iterator[None]:
+        """Add the time the block takes to `phase`."""
+        start = time.perf_counter()
+        try:
+            yield
+        finally:
+            setattr(self, phase, getattr(self, phase) + time.perf_counter() - start)
+
+    def to_dict(self) -> dict[str, float]:
+        return {f"{name}_s": round(getattr(self, name), 3)
+                for name in ("search", "shortcut", "rollouts", "timing", "warm_up")} | {
+            "candidates": self.candidates}
+
+
 @dataclass(frozen=True)
 class PlanOutput:
     """Everything one plan request produced."""
@@ -90,6 +123,7 @@ class PlanOutput:
     """Share of the perturbed rollouts the plan reached the goal in (None: not measured)."""
     min_robustness: float = 0.0
     """The request's min_robustness (0: robustness not asked for)."""
+    phases: Phases = dataclasses.field(default_factory=Phases)
 
     @property
     def solved(self) -> bool:
@@ -144,6 +178,7 @@ class PlanOutput:
             "fragile": self.fragile,
             "before_shortcut": (self.metrics_before_shortcut.to_dict()
                                 if self.metrics_before_shortcut else None),
+            "phases": self.phases.to_dict(),
         }
         if self.metrics is not None:
             record.update(self.metrics.to_dict())
@@ -185,9 +220,12 @@ def plan_scene(request: PlanRequest, cancel: threading.Event | None = None,
     selection among candidates (`request.robust`, `robust_search`), the trajectory timed
     (`request.timing`) and the object poses predicted along it. The compiled core is warmed up
     first (`warmup.warm_up`), outside the plan's clock."""
-    warm_up()
+    phases = Phases()
+    with phases.timed("warm_up"):
+        warm_up()
     scene = request.scene
-    candidates = Candidates(request, Physics(scene, request.physics), cancel, progress)
+    candidates = Candidates(request, Physics(scene, request.physics),
+                            request.options.termination(cancel), progress, phases)
     score = None
     if request.robust.min_robustness > 0:
         candidate, score = robust_search(candidates)
@@ -197,14 +235,16 @@ def plan_scene(request: PlanRequest, cancel: threading.Event | None = None,
     name = request.planner.name
     floor = request.robust.min_robustness
     if not result.solved:
-        return PlanOutput(scene, name, result, robustness=score, min_robustness=floor)
-    trajectory = time_parameterize(scene.robot, result.arm_path, request.timing)
-    states = _states_at_points(result.states, trajectory)
+        return PlanOutput(scene, name, result, robustness=score, min_robustness=floor,
+                          phases=phases)
+    with phases.timed("timing"):
+        trajectory = time_parameterize(scene.robot, result.arm_path, request.timing)
+        states = _states_at_points(result.states, trajectory)
     shortened = request.shortcut.shortcut_time > 0 and request.planner.shortcut
     return PlanOutput(scene, name, result, trajectory, states,
                       PathMetrics.of(scene, result.states),
                       candidate.before if shortened else None, candidate.shortcut_time,
-                      score, floor)
+                      score, floor, phases)
 
 
 @dataclass(frozen=True)
@@ -226,38 +266,43 @@ class Candidates:
     request: PlanRequest
     physics: Physics
     """The scene's physics with the request's options (the planner's own is built from it)."""
-    cancel: threading.Event | None = None
+    stop: Termination
+    """The request's budget (its time limit, max_iterations and the user's cancel): every
+    candidate's search ends with it, and shortcutting at most shortcut_time after it."""
     progress: ProgressCallback | None = None
+    phases: Phases = dataclasses.field(default_factory=Phases)
 
-    def plan(self, seed: int, time_limit: float | None = None) -> PlanResult:
-        """The request's search with `seed` (and `time_limit` in place of its own)."""
+    def plan(self, seed: int) -> PlanResult:
+        """The request's search with `seed`, within `stop`."""
         request = self.request
-        options = request.options
-        if time_limit is not None:
-            options = dataclasses.replace(options, time_limit=time_limit)
-        if request.trees > 1:
-            return plan_race(request.planner, request.scene, options, request.trees, seed,
-                             request.start, self.cancel, self.progress, self.physics)
-        return request.planner.make(request.scene, options, self.physics).plan(
-            start=request.start, seed=seed, cancel=self.cancel, progress=self.progress)
+        self.phases.candidates += 1
+        with self.phases.timed("search"):
+            if request.trees > 1:
+                return plan_race(request.planner, request.scene, request.options,
+                                 request.trees, seed, request.start, self.stop, self.progress,
+                                 self.physics)
+            return request.planner.make(request.scene, request.options, self.physics).plan(
+                start=request.start, seed=seed, stop=self.stop, progress=self.progress)
 
-    def shortcut(self, result: PlanResult, seed: int, time_left: float = math.inf) -> Candidate:
-        """A solved `result` shortcut for up to shortcut_time s (and `time_left`) or
-        shortcut_attempts attempts (whichever ends first; an attempt bound that ends first
-        makes it reproducible); as it is when the planner's paths are not shortcut."""
+    def shortcut(self, result: PlanResult, seed: int) -> Candidate:
+        """A solved `result` shortcut for up to shortcut_time s (ending at most that long
+        after the request's budget) or shortcut_attempts attempts (whichever ends first; an
+        attempt bound that ends first makes it reproducible); as it is when the planner's
+        paths are not shortcut."""
         if not result.solved:
             return Candidate(result)
         request = self.request
         before = PathMetrics.of(request.scene, result.states)
-        seconds = min(request.shortcut.shortcut_time, time_left)
+        seconds = request.shortcut.shortcut_time
         if seconds <= 0 or len(result.states) <= 2 or not request.planner.shortcut:
             return Candidate(result, before)
         # Shortcutting re-simulates the pushes in the planner's own world (the Static RRT's
         # non-goal objects stay obstacles there, so a shortcut cannot push them either).
-        short = shortcut(request.planner.physics(request.scene, self.physics), result.states,
-                         seconds, seed=seed, cancel=self.cancel,
-                         max_attempts=request.shortcut.shortcut_attempts or None,
-                         goal_radius=request.options.goal_radius(request.scene))
+        stop = self.stop.extended(seconds, request.shortcut.shortcut_attempts or None)
+        with self.phases.timed("shortcut"):
+            short = shortcut(request.planner.physics(request.scene, self.physics),
+                             result.states, stop, seed=seed,
+                             goal_radius=request.options.goal_radius(request.scene))
         return Candidate(dataclasses.replace(result, states=tuple(short.states)), before,
                          short.elapsed)
 
@@ -266,8 +311,9 @@ class Candidates:
         rollouts, drawn from `seed`, in which it reaches the goal in the planner's physics."""
         request = self.request
         world = request.planner.physics(request.scene, self.physics).options
-        return robustness(request.scene, candidate.result.states, request.robust.rollouts,
-                          seed, physics_options=world)
+        with self.phases.timed("rollouts"):
+            return robustness(request.scene, candidate.result.states, request.robust.rollouts,
+                              seed, physics_options=world)
 
 
 def _answer(candidate: Candidate, t0: float, seed: int) -> Candidate:
@@ -289,22 +335,19 @@ def robust_search(candidates: Candidates) -> tuple[Candidate, float | None]:
     request = candidates.request
     robust, seed = request.robust, request.seed
     t0 = time.monotonic()
-    budget = request.options.time_limit
     best: tuple[Candidate, float, float] | None = None    # candidate, robustness, rank
     most_robust = 0.0
     last: PlanResult | None = None
     for k in range(robust.candidates):
-        remaining = budget - (time.monotonic() - t0)
-        if remaining <= 0.001:
+        if candidates.stop.remaining() <= 0.001:
             break
         k_seed = candidate_seed(seed, k)
-        last = candidates.plan(k_seed, remaining)
+        last = candidates.plan(k_seed)
         if last.outcome is Outcome.CANCELLED:
             return Candidate(last), None        # the user's cancel ends the selection too
         if not last.solved:
             continue
-        candidate = candidates.shortcut(last, k_seed, time_left=t0 + budget
-                                        + request.shortcut.shortcut_time - time.monotonic())
+        candidate = candidates.shortcut(last, k_seed)
         score = candidates.judge(candidate, k_seed)
         if score >= robust.min_robustness:
             return _answer(candidate, t0, seed), score
@@ -314,7 +357,7 @@ def robust_search(candidates: Candidates) -> tuple[Candidate, float | None]:
             best = (candidate, score, rank)
         most_robust = max(most_robust, score)
     if best is None:
-        assert last is not None or budget <= 0.001
+        assert last is not None or request.options.time_limit <= 0.001
         return Candidate(last or PlanResult(Outcome.TIMEOUT, "no time for a candidate",
                                             seed)), None
     fragile, score, _ = best

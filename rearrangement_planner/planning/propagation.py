@@ -25,8 +25,7 @@ each, under 2 % of their time (docs/benchmark.md, "The compiled core").
 from __future__ import annotations
 
 import math
-import time
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -37,6 +36,7 @@ from rearrangement_planner.physics.kernels import tool_kinematics
 from rearrangement_planner.physics.step import Invalid, Physics, step_kernel
 from rearrangement_planner.planning.interface import StopReason
 from rearrangement_planner.planning.manifold import project_arrays, project_kernel
+from rearrangement_planner.planning.termination import NEVER, Termination
 
 _GOAL, _ARRIVED, _CHECK_EVERY = 1, 2, 64
 PUSH_BAND = 0.02
@@ -45,38 +45,33 @@ PUSH_BAND = 0.02
 
 @dataclass(frozen=True)
 class Stops:
-    """The early ends of PC-RRT's propagations, callable on a state (after every valid step:
-    TIMEOUT past `deadline` (`time.monotonic()`), GOAL when object `goal_index`'s centre is
-    within `goal_radius` of `goal_xy`, CANCEL when `cancelled()`), and in the form the compiled
-    propagation (`constrained_prop`) takes: the goal test runs inside it, the clock and the
-    cancel flag between its batches of at most _CHECK_EVERY steps."""
+    """The early ends of a propagation, callable on a state (after every valid step): GOAL when
+    object `goal_index`'s centre is within `goal_radius` of `goal_xy` (goal_index -1: never),
+    TIMEOUT or CANCEL when the search's `termination` says so; and in the form the compiled
+    propagation (`constrained_prop`) takes: the goal test runs inside it, the termination is
+    asked between its batches of at most _CHECK_EVERY steps."""
 
     goal_index: int
     goal_xy: tuple[float, float]
     goal_radius: float
-    deadline: float
-    cancelled: Callable[[], bool]
+    termination: Termination = NEVER
 
     def __call__(self, state: State) -> StopReason | None:
-        if time.monotonic() > self.deadline:
+        if self.termination.expired():
             return StopReason.TIMEOUT
         if self.reached(state.objects):
             return StopReason.GOAL
-        if self.cancelled():
+        if self.termination.cancelled():
             return StopReason.CANCEL
         return None
 
     def reached(self, objects: np.ndarray) -> bool:
         g = self.goal_index
-        return math.hypot(objects[g, 0] - self.goal_xy[0],
-                          objects[g, 1] - self.goal_xy[1]) <= self.goal_radius
+        return g >= 0 and math.hypot(objects[g, 0] - self.goal_xy[0],
+                                     objects[g, 1] - self.goal_xy[1]) <= self.goal_radius
 
     def interrupted(self) -> StopReason | None:
-        if time.monotonic() > self.deadline:
-            return StopReason.TIMEOUT
-        if self.cancelled():
-            return StopReason.CANCEL
-        return None
+        return self.termination.interrupted()
 
 
 @dataclass(frozen=True)

@@ -1,7 +1,7 @@
 """The bookkeeping of one `plan()` call that every planner shares: the seeded generator, the
-wall-clock and iteration budget, cancel, progress reports, the race's iteration gate, the
-counters, and the results it ends with (Algorithm 1 of King et al. stops "on success, time
-limit, iteration limit or cancel, checked every iteration", docs/design.md "Planners")."""
+termination condition (`planning.termination`), progress reports, the counters, and the
+results it ends with (Algorithm 1 of King et al. stops "on success, time limit, iteration limit
+or cancel, checked every iteration", docs/design.md "Planners")."""
 
 from __future__ import annotations
 
@@ -14,15 +14,13 @@ import numpy as np
 from rearrangement_planner.model.state import State
 from rearrangement_planner.physics.step import Physics
 from rearrangement_planner.planning.interface import (
-    SUPERSEDED,
-    CancelFlag,
-    IterationGate,
     Outcome,
     PlannerOptions,
     PlanResult,
     Progress,
     ProgressCallback,
 )
+from rearrangement_planner.planning.termination import Termination
 from rearrangement_planner.planning.tree import Tree
 
 
@@ -31,36 +29,26 @@ class Search:
 
     tree: Tree
 
-    def __init__(self, options: PlannerOptions, seed: int, cancel: CancelFlag | None,
-                 progress: ProgressCallback | None, iteration_gate: IterationGate | None):
-        self.options, self.seed = options, seed
-        self.progress, self.iteration_gate = progress, iteration_gate
+    def __init__(self, options: PlannerOptions, seed: int, stop: Termination | None,
+                 progress: ProgressCallback | None):
+        self.options, self.seed, self.progress = options, seed, progress
         self.t0 = self.last_report = time.monotonic()
-        self.deadline = self.t0 + options.time_limit
-        self.cancelled = cancel.is_set if cancel is not None else (lambda: False)
+        self.termination = stop if stop is not None else options.termination()
         self.rng = np.random.default_rng(seed)
         self.iterations = self.steps = 0
         self.best = math.inf
         """The smallest goal distance (m) reached so far."""
 
     def check(self) -> PlanResult | None:
-        """Before each iteration: cancel, budget, progress report, the race's gate; a result
+        """Before each iteration: the termination condition, then a progress report; a result
         ends the plan."""
+        ended = self.termination.check(self.iterations)
+        if ended is not None:
+            return self.failure(*ended)
         now = time.monotonic()
-        opts = self.options
-        if self.cancelled():
-            return self.failure(Outcome.CANCELLED, "cancelled")
-        if now - self.t0 > opts.time_limit:
-            return self.failure(Outcome.TIMEOUT, f"no plan within {opts.time_limit:g} s / "
-                                                 f"{self.iterations} iterations")
-        if self.iterations >= opts.max_iterations:
-            return self.failure(Outcome.PLANNING_FAILED,
-                                f"no plan within max_iterations {opts.max_iterations}")
-        if self.progress is not None and now - self.last_report >= opts.progress_period:
+        if self.progress is not None and now - self.last_report >= self.options.progress_period:
             self.progress(Progress(self.iterations, self.tree.n, self.best, now - self.t0))
             self.last_report = now
-        if self.iteration_gate is not None and not self.iteration_gate(self.iterations + 1):
-            return self.failure(Outcome.CANCELLED, SUPERSEDED)
         return None
 
     def check_start(self, physics: Physics, start: State) -> PlanResult | None:

@@ -16,7 +16,6 @@ remainder of the path keeps its arm motion bit for bit.
 from __future__ import annotations
 
 import math
-import threading
 import time
 from dataclasses import dataclass
 
@@ -27,6 +26,7 @@ from rearrangement_planner.model.state import State, wrap_angle
 from rearrangement_planner.physics.step import Physics
 from rearrangement_planner.planning.manifold import on_manifold, project_step, tool_planar_pose
 from rearrangement_planner.planning.propagation import Stops, replay
+from rearrangement_planner.planning.termination import Termination
 
 LANDING_STEP = 0.05     # rad, largest joint step allowed to land exactly on q_j
 STEP_LENGTH = 0.01      # m, tool travel per connection step
@@ -66,11 +66,11 @@ def path_length(states) -> float:
     return float(np.linalg.norm(np.diff(arm, axis=0), axis=1).sum())
 
 
-def shortcut(physics: Physics, states, time_limit: float, seed: int = 0,
-             cancel: threading.Event | None = None, max_attempts: int | None = None,
-             dt: float = 0.1, goal_radius: float | None = None) -> ShortcutResult:
+def shortcut(physics: Physics, states, stop: Termination, seed: int = 0, dt: float = 0.1,
+             goal_radius: float | None = None) -> ShortcutResult:
     """Shortcut `states` (a valid plan ending in the goal: consecutive states one physics step
-    apart) for up to `time_limit` s or `max_attempts` attempts. Never lengthens the path and
+    apart) until `stop` ends it (its deadline, cancel, or iteration bound: the attempts; an
+    attempt bound that ends first makes the result reproducible). Never lengthens the path and
     never loses the goal, which is the goal object's centre within `goal_radius` (m; default
     the region's, less the planner's goal margin when the pipeline passes it); a state list
     that does not end in the goal is returned unchanged."""
@@ -88,10 +88,7 @@ def shortcut(physics: Physics, states, time_limit: float, seed: int = 0,
     rng = np.random.default_rng(seed)
     attempts = accepted = 0
     length = before
-    while time.monotonic() - t0 < time_limit and (max_attempts is None
-                                                   or attempts < max_attempts):
-        if cancel is not None and cancel.is_set():
-            break
+    while stop.check(attempts) is None:
         n = len(path)
         if n - first < 3:
             break
@@ -152,8 +149,7 @@ def _resimulate(physics: Physics, prefix: list[State], bridge: list[np.ndarray],
     the first state in the goal region."""
     scene = physics.scene
     goal = Stops(scene.goal_index, (float(scene.goal.position[0]),
-                                    float(scene.goal.position[1])), radius, math.inf,
-                 lambda: False)
+                                    float(scene.goal.position[1])), radius)
     states, problem = replay(physics, prefix[-1], [prefix[-1].q, *bridge, *rest], until=goal)
     if problem or len(states) < 2 or not _at_goal(scene, states[-1], radius):
         return None

@@ -35,7 +35,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Protocol
 
@@ -47,8 +46,6 @@ from rearrangement_planner.model.state import State, wrap_angle
 from rearrangement_planner.physics.step import Physics
 from rearrangement_planner.planning.approach import approach_path
 from rearrangement_planner.planning.interface import (
-    CancelFlag,
-    IterationGate,
     Outcome,
     PlannerOptions,
     PlanResult,
@@ -62,6 +59,7 @@ from rearrangement_planner.planning.pcrrt import sample_arrangement
 from rearrangement_planner.planning.propagation import Action, Propagation, Stops, constrained_prop
 from rearrangement_planner.planning.push_policy import support_distance
 from rearrangement_planner.planning.search import Search
+from rearrangement_planner.planning.termination import Termination
 from rearrangement_planner.planning.tree import Tree
 
 MAX_YAW_RATE = 0.5
@@ -186,12 +184,10 @@ class SliceRRT:
         self._weights = weights
         self._goal_xy = np.asarray(scene.goal.position, dtype=float)
 
-    def plan(self, start: State | None = None, seed: int = 0,
-             cancel: CancelFlag | None = None,
-             progress: ProgressCallback | None = None,
-             iteration_gate: IterationGate | None = None) -> PlanResult:
+    def plan(self, start: State | None = None, seed: int = 0, stop: Termination | None = None,
+             progress: ProgressCallback | None = None) -> PlanResult:
         """Algorithm 1 of Haustein et al. 2018 (the `Planner` protocol)."""
-        run = _SliceRun(self, seed, cancel, progress, iteration_gate)
+        run = _SliceRun(self, seed, stop, progress)
         early = run.begin(start or self.scene.initial_state())
         if early is not None:
             return early
@@ -278,21 +274,21 @@ class SliceRRT:
         nullspace = rng.uniform(-opts.nullspace_speed, opts.nullspace_speed, self.robot.nq)
         return Action(velocity, duration, nullspace)
 
-    def stop_check(self, cancelled: Callable[[], bool], deadline: float) -> Stops:
+    def stop_check(self, termination: Termination) -> Stops:
         """Ends a propagation early: GOAL, CANCEL or TIMEOUT (as PC-RRT's)."""
         return Stops(self.scene.goal_index, (float(self._goal_xy[0]), float(self._goal_xy[1])),
-                     self.options.goal_radius(self.scene), deadline, cancelled)
+                     self.options.goal_radius(self.scene), termination)
 
 
 class _SliceRun(Search):
     """One `SliceRRT.plan` call: the shared bookkeeping (`Search`) and the slices: every
     distinct object arrangement of the tree, its members and their tool positions."""
 
-    def __init__(self, planner: SliceRRT, seed: int, cancel: CancelFlag | None,
-                 progress: ProgressCallback | None, iteration_gate: IterationGate | None):
-        super().__init__(planner.options, seed, cancel, progress, iteration_gate)
+    def __init__(self, planner: SliceRRT, seed: int, stop: Termination | None,
+                 progress: ProgressCallback | None):
+        super().__init__(planner.options, seed, stop, progress)
         self.planner = planner
-        self.stop = planner.stop_check(self.cancelled, self.deadline)
+        self.stop = planner.stop_check(self.termination)
         self.push_stop = dataclasses.replace(self.stop, goal_index=-1)
         """`stop` without the goal test: a push is judged where it ends."""
         self.approach: list[State] = []

@@ -8,7 +8,6 @@ start."""
 from __future__ import annotations
 
 import logging
-import math
 import threading
 import time
 
@@ -68,7 +67,7 @@ def _exercise() -> None:
     joint_limit_gradient(scene.robot, start.q, 0.5)
     prism_penetration("box", (0.1, 0.1, 0.1), (0.0, 0.0, 0.0), "cylinder", (0.1, 0.1, 0.1),
                       (0.05, 0.0, 0.0))
-    stops = Stops(scene.goal_index, (0.0, 0.0), 0.0, math.inf, lambda: False)
+    stops = Stops(scene.goal_index, (0.0, 0.0), 0.0)
     push = Action(np.array([0.0, 0.1, 0.0]), 0.5, np.zeros(scene.robot.nq))
     constrained_prop(physics, start, push, 0.05, stops)
     replay(physics, start, [start.q, start.q], until=stops)

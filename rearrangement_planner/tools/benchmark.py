@@ -471,6 +471,7 @@ CSV_COLUMNS = (
     "robustness", "executed_object_contacts", "perturbed_reached", "perturbed_trials",
     "trajectory_s", "replan", "replan_reached", "replans_made", "time_to_goal_s",
     "perturbed_replan_reached", "closed_loop_endings",
+    "search_s", "shortcuts_s", "rollouts_s", "timing_s", "warm_up_s", "candidates",
 )
 """trials.csv: one row per trial. goal_distance_m: the goal object's final distance from the
 goal point (solved) or the least distance reached (not solved). *_before / *_after: of the path
@@ -506,6 +507,10 @@ With --divergence-bound the closed loop's executions are watched (`ExecutionOpti
 first executions are made again, watched, so they may differ from the open-loop columns.
 closed_loop_endings: how each attempt ended (`execution.closed_loop`), '>'-joined per loop, the
 nominal loop first, then the perturbed ones, ';'-separated ("missed>reached;toppled").
+search_s, shortcuts_s, rollouts_s, timing_s, warm_up_s: the request's wall time by phase
+(`pipeline.Phases`: every candidate's search with its raced trees, every shortcut, the
+robustness rollouts, trajectory timing, loading the compiled core); candidates: the searches
+it made.
 A CSV written before a column existed is read with that column empty."""
 
 PERTURBED_EXECUTIONS = 5
@@ -621,6 +626,10 @@ def run_trial(trial: Trial, settings: dict[str, Any]) -> dict:
     row["goal_start_distance_m"] = _num(scene.goal.distance(
         scene.object_poses[scene.goal_index, :2]))
     row["shortcut_time_s"] = _num(output.shortcut_time, 3)
+    phases = output.phases
+    row.update(search_s=_num(phases.search, 3), shortcuts_s=_num(phases.shortcut, 3),
+               rollouts_s=_num(phases.rollouts, 3), timing_s=_num(phases.timing, 3),
+               warm_up_s=_num(phases.warm_up, 3), candidates=str(phases.candidates))
     row["pushing_links"] = ";".join(sorted(links))
     row["non_goal_objects_moved"] = str(len(moved)) if result.solved else ""
     executions = _executions(output, trial.seed, trial.perturbed)
@@ -969,6 +978,37 @@ def _rounded(value: float | None, digits: int = 4) -> float | None:
     return None if value is None or not math.isfinite(value) else round(float(value), digits)
 
 
+PHASES = ("search_s", "shortcuts_s", "rollouts_s", "timing_s", "warm_up_s")
+"""The phase columns of trials.csv (`pipeline.Phases`)."""
+
+
+def time_breakdown(rows: Sequence[dict]) -> dict:
+    """Where the requests' time went: each phase's total (s) and share of all phases, over
+    the trials that recorded them (docs/benchmark.md, "Where the time goes")."""
+    timed = [r for r in rows if r.get("search_s", "") != ""]
+    totals = {p: sum(float(r[p]) for r in timed) for p in PHASES}
+    whole = sum(totals.values())
+    return {"trials": len(timed),
+            "candidates_mean": _rounded(float(np.mean([int(r["candidates"]) for r in timed])),
+                                        2) if timed else None,
+            **{p.removesuffix("_s"): {"total_s": _rounded(t, 1),
+                                      "share": _rounded(t / whole, 3) if whole else None}
+               for p, t in totals.items()}}
+
+
+def deadline_overrun(rows: Sequence[dict]) -> dict:
+    """How far past its time limit a request's plan time ran (s; 0 within it): p99 and max
+    over all trials, and over the searches that ended TIMEOUT (pure search, no rollouts)."""
+    def overruns(group: Sequence[dict]) -> list[float]:
+        return [max(float(r["plan_time_s"]) - float(r["time_limit"]), 0.0) for r in group]
+
+    every, timeouts = overruns(rows), overruns([r for r in rows if r["outcome"] == "TIMEOUT"])
+    return {"p99": _rounded(_percentile(every, 99), 3),
+            "max": _rounded(max(every), 3) if every else None,
+            "timeout_p99": _rounded(_percentile(timeouts, 99), 3),
+            "timeout_max": _rounded(max(timeouts), 3) if timeouts else None}
+
+
 def _shortcut_summary(solved: Sequence[dict], budget: float) -> dict:
     """Means before/after shortcutting over the solved trials (Fig. 8 of King et al. shows the
     means) and the reduction of the means, 1 - mean(after) / mean(before). `budget` is the
@@ -1033,6 +1073,8 @@ def _planner_summary(rows: Sequence[dict], planner: str, protocol: dict,
                        "share": _rounded(reached / len(rows)) if rows else None},
         "request_time_s": {"median": _rounded(_median(all_times), 3),
                            "p90": _rounded(_percentile(all_times, 90), 3)},
+        "time_breakdown": time_breakdown(rows),
+        "deadline_overrun_s": deadline_overrun(rows),
         "toppled": {"checked": len(checked),
                     "plans_toppling": sum(int(r["executed_toppled"]) > 0 for r in checked),
                     "objects": sum(int(r["executed_toppled"]) for r in checked)},

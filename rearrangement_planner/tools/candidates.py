@@ -46,7 +46,7 @@ def record_request(scene_path: Path, seed: int, candidates: int, time_limit: flo
     scene = load_scene(scene_path)
     request = PlanRequest.from_settings(
         scene, "pc-rrt", {**(settings or {}), "time_limit": time_limit, "trees": 1}, seed)
-    search = Candidates(request, Physics(scene, request.physics))
+    physics = Physics(scene, request.physics)
     g = scene.goal_index
     records: list[dict] = []
     spent = 0.0
@@ -54,6 +54,7 @@ def record_request(scene_path: Path, seed: int, candidates: int, time_limit: flo
         if spent >= time_limit:
             break
         k_seed = candidate_seed(seed, k)
+        search = Candidates(request, physics, request.options.termination())   # its own budget
         found = search.plan(k_seed)
         record: dict = {"scene": Path(scene_path).stem, "seed": seed, "k": k,
                         "solved": found.solved, "search_s": round(found.plan_time, 3)}

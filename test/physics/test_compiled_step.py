@@ -5,6 +5,7 @@ the same steps taken one by one from Python, and the robot shapes the step takes
 from __future__ import annotations
 
 import math
+import threading
 
 import numpy as np
 import pytest
@@ -18,6 +19,7 @@ from rearrangement_planner.physics.validation import load_scene
 from rearrangement_planner.planning.interface import StopReason
 from rearrangement_planner.planning.manifold import default_push_configuration, project_step
 from rearrangement_planner.planning.propagation import Action, Stops, constrained_prop
+from rearrangement_planner.planning.termination import Termination
 
 SIM = simulation_options()
 """Plain mechanics: objects slide however pushed (no tipping check, no turn limit)."""
@@ -96,7 +98,7 @@ def test_the_compiled_propagation_takes_the_same_steps_as_python():
     q = default_push_configuration(physics.robot, scene.table.height)
     start = State(q, start.objects)
     # The box starts 0.2 m from this goal point, beyond it from the hand: pushes reach it.
-    stop = Stops(scene.goal_index, (0.52, 0.3), 0.195, math.inf, lambda: False)
+    stop = Stops(scene.goal_index, (0.52, 0.3), 0.195)
     outcomes = set()
     for steps in (1, 63, 64, 65, 150):
         rng = np.random.default_rng(steps)
@@ -126,7 +128,7 @@ def test_a_push_to_the_goal_stops_there_in_the_compiled_propagation():
     start = scene.initial_state()
     g, goal = scene.goal_index, np.asarray(scene.goal.position)
     distance = float(np.hypot(*(start.objects[g, :2] - goal)))
-    stop = Stops(g, tuple(goal), distance + 1e-9, math.inf, lambda: False)
+    stop = Stops(g, tuple(goal), distance + 1e-9)
     action = Action(np.zeros(3), 0.5, np.zeros(physics.robot.nq))
     result = constrained_prop(physics, start, action, 0.05, stop)
     assert len(result.states) == 1 and result.stopped.value == "goal"
@@ -137,9 +139,11 @@ def test_timeout_and_cancel_end_the_compiled_propagation():
     physics = Physics(scene, SIM)
     start = scene.initial_state()
     action = Action(np.array([0.0, 0.0, 0.1]), 10.0, np.zeros(physics.robot.nq))
-    late = Stops(scene.goal_index, (9.0, 9.0), 0.0, -math.inf, lambda: False)
+    late = Stops(scene.goal_index, (9.0, 9.0), 0.0, Termination(-math.inf))
     assert constrained_prop(physics, start, action, 0.05, late).stopped.value == "timeout"
-    cancelled = Stops(scene.goal_index, (9.0, 9.0), 0.0, math.inf, lambda: True)
+    flag = threading.Event()
+    flag.set()
+    cancelled = Stops(scene.goal_index, (9.0, 9.0), 0.0, Termination(cancel=flag))
     result = constrained_prop(physics, start, action, 0.05, cancelled)
     assert result.stopped.value == "cancel" and len(result.states) <= 64
 
@@ -202,7 +206,7 @@ def test_the_compiled_replay_equals_physics_steps_and_stops_at_the_goal():
     assert problem == f"{step.reason.value}: {step.detail}"
     # Cut at the goal: the first state within 5 cm of where the push ends.
     end = pushed.states[-1].objects[g, :2]
-    until = Stops(g, (float(end[0]), float(end[1])), 0.05, math.inf, lambda: False)
+    until = Stops(g, (float(end[0]), float(end[1])), 0.05)
     cut, problem = replay(physics, start, arm, until=until)
     inside = [np.hypot(*(s.objects[g, :2] - end)) <= 0.05 for s in full]
     assert problem == "" and len(cut) == inside.index(True) + 1 < len(arm)

@@ -1,7 +1,6 @@
 """The baselines of King et al. 2015, §V-A: Static RRT (only the goal object moves) and DARRT
 (transit, RRT-Connect transit, straight-line rigid push)."""
 
-import time
 from itertools import pairwise
 
 import numpy as np
@@ -15,6 +14,7 @@ from rearrangement_planner.planning import DARRT, Outcome, PCRRTOptions, StaticR
 from rearrangement_planner.planning.propagation import replay
 from rearrangement_planner.planning.request import PlanRequest
 from rearrangement_planner.planning.shortcut import ShortcutOptions
+from rearrangement_planner.planning.termination import Termination
 
 STATIC_SEED = 4   # a seed for which the Static RRT solves the default scene quickly
 
@@ -169,7 +169,6 @@ def test_darrt_is_reproducible(easy, darrt_plan):
 def test_darrt_rrt_connect_finds_a_way_around(easy):
     """RRTTransit joins two configurations whose straight line is blocked."""
     planner = DARRT(easy)
-    planner._cancelled = lambda: False
     robot = easy.robot
     objects = easy.object_poses
     rng = np.random.default_rng(0)
@@ -182,7 +181,7 @@ def test_darrt_rrt_connect_finds_a_way_around(easy):
                          rng=rng)
     assert planner._free(q_a, objects) and planner._free(q_b, objects)
     assert not planner._line_free(q_a, q_b, objects)
-    path = planner._rrt_connect(q_a, q_b, objects, rng, time.monotonic() + 20)
+    path = planner._rrt_connect(q_a, q_b, objects, rng, Termination.within(20.0))
     assert path is not None
     np.testing.assert_array_equal(path[0], q_a)
     np.testing.assert_array_equal(path[-1], q_b)
@@ -192,7 +191,8 @@ def test_darrt_rrt_connect_finds_a_way_around(easy):
 @pytest.mark.parametrize("cls", [DARRT, StaticRRT])
 def test_baselines_cancel_within_0_2_s(default, cls, cancel_after):
     planner = cls(default, PCRRTOptions(time_limit=30.0))
-    result, _, latency = cancel_after(lambda cancel: planner.plan(seed=5, cancel=cancel), 1.0)
+    result, _, latency = cancel_after(
+        lambda cancel: planner.plan(seed=5, stop=planner.options.termination(cancel)), 1.0)
     assert latency < 0.2
     assert result.outcome in (Outcome.CANCELLED, Outcome.SUCCEEDED)
 

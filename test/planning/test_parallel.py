@@ -18,6 +18,7 @@ from rearrangement_planner.planning import (
     plan_scene,
 )
 from rearrangement_planner.planning.parallel import RaceOptions, plan_race, race_key, tree_seed
+from rearrangement_planner.planning.termination import Termination
 
 PC_RRT = PLANNERS["pc-rrt"]
 RACE_SEED = 10
@@ -85,7 +86,7 @@ def test_race_cancel_stops_within_0_2_s_and_the_pool_recovers(panda, easy, cance
     clutter = load_scene("clutter", robot=panda)            # not solved in 1 s
     result, running, latency = cancel_after(lambda cancel: plan_race(
         PC_RRT, clutter, PCRRTOptions(time_limit=60.0, goal_bias=0.0), 2, seed=3,
-        cancel=cancel), 1.5)
+        stop=Termination.within(60.0, cancel)), 1.5)
     assert running
     assert result.outcome is Outcome.CANCELLED and result.states == ()
     assert latency < 0.2

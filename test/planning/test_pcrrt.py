@@ -1,7 +1,6 @@
 """PC-RRT (Algorithm 1): solves the easy scene, is reproducible under a seed, its path replays
 through the physics, and it stops honestly (timeout = failure, cancel within 0.2 s)."""
 
-import math
 from itertools import pairwise
 
 import numpy as np
@@ -12,6 +11,8 @@ from rearrangement_planner.physics.step import Invalid, Physics
 from rearrangement_planner.physics.validation import load_scene
 from rearrangement_planner.planning import PCRRT, Outcome, PCRRTOptions, StopReason
 from rearrangement_planner.planning.propagation import replay
+from rearrangement_planner.planning.termination import NEVER
+from rearrangement_planner.planning.warmup import warm_up
 
 
 @pytest.fixture(scope="module")
@@ -56,12 +57,15 @@ def test_path_starts_at_the_scene_start_and_reaches_the_plane(easy, easy_plan):
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
 def test_no_plan_time_past_the_budget(seed):
-    """The deadline is checked inside every propagation step, so neither a failure nor a
-    success ends later than a step after the time limit (a benchmark counts plans found
-    within the budget)."""
+    """The termination condition is asked between batches of propagation steps, and the
+    compiled core is loaded before the clock starts (by the caller), so neither a failure nor
+    a success ends much later than the time limit (a benchmark counts plans found within the
+    budget; the benchmark's p99 overrun is the measurement, this margin is for a loaded CI
+    machine)."""
+    warm_up()               # as every entry point does (plan_scene, the node, a tree worker)
     scene = load_scene("clutter")
     result = PCRRT(scene, PCRRTOptions(time_limit=1.0)).plan(seed=seed)
-    assert result.plan_time <= 1.1, (result.outcome, result.plan_time)
+    assert result.plan_time <= 1.25, (result.outcome, result.plan_time)
 
 
 def test_timeout_is_a_failure_without_a_path(panda):
@@ -75,8 +79,8 @@ def test_timeout_is_a_failure_without_a_path(panda):
 def test_cancel_stops_within_0_2_s(panda, cancel_after):
     clutter = load_scene(scenes_dir() / "clutter.yaml", robot=panda)  # not solved in 1 s
     planner = PCRRT(clutter, PCRRTOptions(time_limit=60.0, goal_bias=0.0))
-    result, running, latency = cancel_after(lambda cancel: planner.plan(seed=3, cancel=cancel),
-                                            1.0)
+    result, running, latency = cancel_after(
+        lambda cancel: planner.plan(seed=3, stop=planner.options.termination(cancel)), 1.0)
     assert running
     assert result.outcome is Outcome.CANCELLED
     assert latency < 0.2
@@ -211,8 +215,8 @@ def test_a_state_on_the_goal_boundary_is_refused_by_the_margin(easy):
     objects = easy.object_poses
     objects[g, :2] = goal + np.array([easy.goal.radius - 1e-4, 0.0])     # just inside the edge
     on_edge = easy.initial_state().with_objects(objects)
-    plain = PCRRT(easy, PCRRTOptions(goal_margin=0.0)).stop_check(lambda: False, math.inf)
-    margin = PCRRT(easy, PCRRTOptions(goal_margin=0.03)).stop_check(lambda: False, math.inf)
+    plain = PCRRT(easy, PCRRTOptions(goal_margin=0.0)).stop_check(NEVER)
+    margin = PCRRT(easy, PCRRTOptions(goal_margin=0.03)).stop_check(NEVER)
     assert plain(on_edge) is StopReason.GOAL and margin(on_edge) is None
 
 

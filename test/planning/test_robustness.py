@@ -48,7 +48,7 @@ def _push_until(scene, distance: float) -> list[State]:
                        scene.robot.home, rng=np.random.default_rng(0))
     start = State(q, scene.object_poses)
 
-    stop = Stops(g, (float(goal[0]), float(goal[1])), distance, math.inf, lambda: False)
+    stop = Stops(g, (float(goal[0]), float(goal[1])), distance)
     result = push_policy_prop(physics, start, g, goal, 1000, 0.02, 0.1, np.zeros(7), stop)
     assert result.stopped is StopReason.GOAL
     return [start, *result.states]
@@ -151,9 +151,9 @@ def remembered_searches(monkeypatch):
 
     search = Candidates.plan
 
-    def plan(self, seed, time_limit=None):
+    def plan(self, seed):
         if seed not in _SEARCHES:
-            _SEARCHES[seed] = search(self, seed, time_limit)
+            _SEARCHES[seed] = search(self, seed)
         return _SEARCHES[seed]
 
     monkeypatch.setattr(Candidates, "plan", plan)
@@ -241,7 +241,8 @@ def test_a_contact_offset_grows_or_shrinks_every_shape_of_the_arm_alike(easy):
 
 def test_the_rollouts_judge_the_shortcut_plan_and_count_in_its_plan_time(easy, monkeypatch):
     """With shortcutting, the robustness reported is the shortcut path's (the one the answer
-    holds); the plan time includes the rollouts (here slowed to 0.3 s)."""
+    holds); the plan time includes the rollouts (here slowed to 0.3 s), and the phases say
+    where the request's time went."""
     from rearrangement_planner.planning import pipeline
 
     options = PCRRTOptions(time_limit=60.0)
@@ -262,6 +263,11 @@ def test_the_rollouts_judge_the_shortcut_plan_and_count_in_its_plan_time(easy, m
     monkeypatch.setattr(pipeline, "robustness", slow)
     timed = plan_scene(PlanRequest.first_plan(easy, "pc-rrt", options, seed=1, robust=robust))
     assert timed.solved and timed.result.plan_time >= 0.3
+    phases = timed.to_dict()["phases"]
+    assert phases["candidates"] == 1 and 0.3 <= phases["rollouts_s"] < timed.result.plan_time
+    assert 0 < phases["search_s"] <= timed.result.plan_time - 0.3 + 0.05
+    assert phases["timing_s"] > 0 and phases["shortcut_s"] == 0.0      # a first plan's request
+    assert output.phases.shortcut > 0.0
 
 
 def test_rollouts_leave_out_the_planners_restrictions():
@@ -331,8 +337,7 @@ def test_a_cancel_ends_the_selection_not_only_the_candidate(panda, cancel_after,
     planned = []
     plan = Candidates.plan
     monkeypatch.setattr(Candidates, "plan",
-                        lambda self, seed, time_limit=None: planned.append(seed)
-                        or plan(self, seed, time_limit))
+                        lambda self, seed: planned.append(seed) or plan(self, seed))
     clutter = load_scene("clutter", robot=panda)             # not solved in 1 s
     request = PlanRequest.first_plan(
         clutter, "pc-rrt", PCRRTOptions(time_limit=60.0, goal_bias=0.0), seed=3,

@@ -14,6 +14,7 @@ from rearrangement_planner.planning.shortcut import (
     path_length,
     shortcut,
 )
+from rearrangement_planner.planning.termination import Termination
 
 
 @pytest.fixture(scope="module")
@@ -35,7 +36,7 @@ def plan(easy, physics):
 
 @pytest.fixture(scope="module")
 def short(physics, plan):
-    return shortcut(physics, plan.states, time_limit=60.0, seed=0, max_attempts=60)
+    return shortcut(physics, plan.states, Termination.within(60.0, max_iterations=60), seed=0)
 
 
 def test_shortcut_shortens_and_never_lengthens(plan, short):
@@ -57,7 +58,7 @@ def test_shortcut_path_is_valid_and_keeps_the_goal(easy, physics, plan, short):
 
 
 def test_shortcut_is_reproducible_with_an_attempt_bound(physics, plan, short):
-    again = shortcut(physics, plan.states, time_limit=60.0, seed=0, max_attempts=60)
+    again = shortcut(physics, plan.states, Termination.within(60.0, max_iterations=60), seed=0)
     assert np.array_equal(np.array([s.q for s in again.states]),
                           np.array([s.q for s in short.states]))
 
@@ -66,14 +67,14 @@ def test_each_accepted_step_is_monotone(physics, plan):
     """Run attempt by attempt: the length never increases."""
     states, last = plan.states, path_length(plan.states)
     for k in range(8):
-        step = shortcut(physics, states, time_limit=60.0, seed=k, max_attempts=5)
+        step = shortcut(physics, states, Termination.within(60.0, max_iterations=5), seed=k)
         assert step.length_after <= last + 1e-12
         states, last = step.states, step.length_after
 
 
 def test_a_path_not_at_the_goal_is_returned_unchanged(physics, plan):
     cut = plan.states[: len(plan.states) // 2]
-    result = shortcut(physics, cut, time_limit=5.0, seed=0, max_attempts=20)
+    result = shortcut(physics, cut, Termination.within(5.0, max_iterations=20), seed=0)
     assert result.accepted == 0 and len(result.states) == len(cut)
 
 

@@ -17,6 +17,7 @@ from rearrangement_planner.planning.manifold import ik_on_manifold, tool_planar_
 from rearrangement_planner.planning.propagation import replay
 from rearrangement_planner.planning.push_policy import support_distance
 from rearrangement_planner.planning.slice_rrt import HandOracle, SliceRRT, SliceRRTOptions
+from rearrangement_planner.planning.termination import NEVER
 
 
 @pytest.fixture(scope="module")
@@ -84,7 +85,7 @@ def test_a_transit_stops_before_it_would_move_an_object(default, panda):
                        rng=np.random.default_rng(0))
     start = State(q, default.object_poses)
     transit = planner._transit(start, np.array([x + 0.2, y, 0.0]), planner.stop_check(
-        lambda: False, math.inf))
+        NEVER))
     assert transit.states, "the transit should get some way towards the can"
     for state in transit.states:
         np.testing.assert_array_equal(state.objects, start.objects)
@@ -155,7 +156,7 @@ def test_a_push_is_judged_where_it_ends(panda):
 
     scene = load_scene("easy_push", robot=panda)
     planner = SliceRRT(scene, SliceRRTOptions(oracle="hand"))
-    run = _SliceRun(planner, 0, None, None, None)
+    run = _SliceRun(planner, 0, None, None)
     assert run.begin(scene.initial_state()) is None
     assert run.push_stop.goal_index == -1 and run.stop.goal_index == scene.goal_index
     root = run.tree.state(0)

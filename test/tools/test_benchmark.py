@@ -22,7 +22,8 @@ from rearrangement_planner.tools import bench, benchmark
 from rearrangement_planner.tools.benchmark import CSV_COLUMNS
 
 SCENE_DIR = benchmark.scene_set_dir()
-TIMING = ("plan_time_s", "shortcut_time_s", "trial_wall_s")
+TIMING = ("plan_time_s", "shortcut_time_s", "trial_wall_s", "search_s", "shortcuts_s",
+          "rollouts_s", "timing_s", "warm_up_s")
 
 # --------------------------------------------------------------------------------------------
 # The scene set
@@ -332,6 +333,26 @@ def test_summary_counts_plans_found_after_the_time_limit_as_solved_but_not_withi
     pc = benchmark.summarize(rows, protocol)["planners"]["pc-rrt"]
     assert (pc["solved_share"], pc["solved_after_time_limit"]) == (1.0, 1)
     assert pc["success_at_budget"]["60"] == 0.5
+    assert pc["deadline_overrun_s"]["max"] == 1.2 and pc["deadline_overrun_s"]["timeout_max"] \
+        is None
+
+
+def test_the_summary_breaks_the_time_down_by_phase_and_reports_the_overrun():
+    rows = [_row("pc-rrt", 1, True, 2.0), _row("pc-rrt", 1, False, 60.04),
+            _row("pc-rrt", 1, True, 9.0)]
+    for row, search, rollouts, candidates in ((rows[0], "1.5", "0.5", "1"),
+                                              (rows[1], "60.04", "0", "3")):
+        row.update(search_s=search, shortcuts_s="1.0", rollouts_s=rollouts, timing_s="0.0",
+                   warm_up_s="0.0", candidates=candidates)
+    protocol = {"scenes": ["n1_s0"], "planners": ["pc-rrt"], "seeds": [0, 1, 2],
+                "time_limit": 60.0, "quick": False}
+    pc = benchmark.summarize(rows, protocol)["planners"]["pc-rrt"]
+    breakdown = pc["time_breakdown"]           # the third row ran before the phase columns
+    assert breakdown["trials"] == 2 and breakdown["candidates_mean"] == 2.0
+    assert breakdown["search"] == {"total_s": 61.5, "share": round(61.54 / 64.04, 3)}
+    assert breakdown["shortcuts"]["total_s"] == 2.0
+    assert pc["deadline_overrun_s"]["timeout_max"] == 0.04
+    assert pc["deadline_overrun_s"]["max"] == 0.04
 
 
 def test_calibration_bins_scores_against_perturbed_executions_with_a_brier_score():
