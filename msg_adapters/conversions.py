@@ -28,7 +28,7 @@ from trajectory_msgs.msg import JointTrajectory
 
 from rearrangement_planner.io import messages
 from rearrangement_planner.model.errors import InputError
-from rearrangement_planner.planning.trajectory import Trajectory
+from rearrangement_planner.planning.requests.trajectory import Trajectory
 
 from .plain import from_plain, time_to_plain
 

@@ -16,7 +16,7 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from std_msgs.msg import Header
 
 from rearrangement_planner.model.errors import InputError
-from rearrangement_planner.planning.status import PlannerStatus
+from rearrangement_planner.planning.requests.status import PlannerStatus
 
 LEVELS = {
     "idle": DiagnosticStatus.OK,

@@ -12,7 +12,7 @@ from std_msgs.msg import Header
 
 from rearrangement_interfaces.msg import PlannerStatus as PlannerStatusMsg
 from rearrangement_planner.model.errors import InputError
-from rearrangement_planner.planning.status import PlannerStatus
+from rearrangement_planner.planning.requests.status import PlannerStatus
 
 
 def status_to_msg(status: PlannerStatus, stamp: Time | None = None) -> PlannerStatusMsg:

@@ -8,8 +8,8 @@ import tempfile
 from pathlib import Path
 
 COMPILED_MODULES = ("physics/kernels.py", "physics/pushing.py", "physics/step.py",
-                    "planning/manifold.py", "planning/propagation.py", "planning/robustness.py",
-                    "planning/tree.py")
+                    "planning/machinery/manifold.py", "planning/machinery/propagation.py",
+                    "planning/requests/robustness.py", "planning/machinery/tree.py")
 """The modules with Numba-compiled functions (`@njit(cache=True)`)."""
 
 

@@ -14,7 +14,7 @@ from rearrangement_planner.model.robot import RobotModel
 def compiled_core() -> float:
     """Compile the Numba kernels (or load them from the disk cache) before any test, so that
     no test's timing includes the compiler (about half a minute on a fresh machine)."""
-    from rearrangement_planner.planning.warmup import warm_up
+    from rearrangement_planner.planning.requests.warmup import warm_up
 
     return warm_up()
 

@@ -85,6 +85,39 @@ def test_imports_point_down_the_layers(path: Path):
             assert not private, f"{me}:{line} imports private {private} from {module}"
 
 
+ROOMS = ["machinery", "planners", "requests"]
+"""planning/'s rooms, in order: the search machinery the planners share, the planners, and the
+pipeline around a search. A planning module may import from its own room and the rooms before
+it (the package's __init__ re-exports from all three)."""
+
+
+def _room(module: str) -> str | None:
+    parts = module.split(".")
+    return parts[2] if len(parts) > 3 and parts[1] == "planning" and parts[2] in ROOMS \
+        else None
+
+
+def test_every_planning_module_lives_in_a_room():
+    stray = [_module_name(p) for p in (ROOT / PACKAGE / "planning").glob("*.py")
+             if p.name != "__init__.py"]
+    assert stray == [], f"planning modules outside the rooms {ROOMS}: {stray}"
+
+
+@pytest.mark.parametrize("path", sorted((ROOT / PACKAGE / "planning").rglob("*.py")),
+                         ids=lambda p: _module_name(p))
+def test_planning_imports_point_down_the_rooms(path: Path):
+    known = {_module_name(p) for p in _sources()}
+    me = _module_name(path)
+    if _room(me) is None:
+        return                      # planning/__init__.py and the rooms' own __init__
+    for module, names, line in _imports(path):
+        for target in _internal_targets(module, names, known):
+            room = _room(target)
+            if room is not None:
+                assert ROOMS.index(room) <= ROOMS.index(_room(me)), \
+                    f"{me}:{line} imports {target} (room {room}) from room {_room(me)}"
+
+
 def test_no_import_cycles():
     known = {_module_name(p) for p in _sources()}
     graph = {_module_name(p): set() for p in _sources()}

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from rearrangement_planner.planning.request import request_settings
+from rearrangement_planner.planning.requests.request import request_settings
 from rearrangement_planner.ros.parameters import PARAMETERS
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -1,6 +1,6 @@
 """The closed loop in MuJoCo (docs/design.md "Closed loop"): execute a plan open loop, observe
 where the arm and the objects ended, and, while the goal object is outside its region, nothing
-toppled and re-plans remain, move the arm back out of contact (`planning.retreat`), observe
+toppled and re-plans remain, move the arm back out of contact (`planning.requests.retreat`), observe
 again and plan from what is observed. The CLI (`--check-execution --replan N`) and the
 benchmark (`--replan N`) run it; the ROS node runs the same loop against its controller.
 
@@ -37,10 +37,10 @@ from rearrangement_planner.physics.validation import (
     check_scene,
     separate_objects,
 )
-from rearrangement_planner.planning.pipeline import PlanOutput, plan_scene
-from rearrangement_planner.planning.request import PlanRequest
-from rearrangement_planner.planning.retreat import retreat_path
-from rearrangement_planner.planning.trajectory import time_parameterize
+from rearrangement_planner.planning.requests.pipeline import PlanOutput, plan_scene
+from rearrangement_planner.planning.requests.request import PlanRequest
+from rearrangement_planner.planning.requests.retreat import retreat_path
+from rearrangement_planner.planning.requests.trajectory import time_parameterize
 
 # Why an attempt ended (`Attempt.ended`)
 REACHED = "reached"              # the goal object is in its region, nothing toppled

@@ -44,7 +44,7 @@ from rearrangement_planner.model.perturbation import Perturbation
 from rearrangement_planner.model.robot import RobotModel
 from rearrangement_planner.model.scene import MovableObject, Obstacle, Scene
 from rearrangement_planner.model.state import State
-from rearrangement_planner.planning.trajectory import Trajectory
+from rearrangement_planner.planning.requests.trajectory import Trajectory
 
 ARM, OBJECT, STATIC = 1, 2, 4
 """Collision classes (contype bits). Arm: hits objects and the static world, not itself.

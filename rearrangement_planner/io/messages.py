@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 
 from rearrangement_planner.model.scene import Scene
-from rearrangement_planner.planning.trajectory import Trajectory
+from rearrangement_planner.planning.requests.trajectory import Trajectory
 
 Plain = dict[str, Any]
 _NANOSECONDS = 1_000_000_000

@@ -40,7 +40,7 @@ from rearrangement_planner.io.recording import McapRecorder, RecordingError
 from rearrangement_planner.model.errors import RearrangementError
 from rearrangement_planner.model.resources import NODE_NAME
 from rearrangement_planner.model.scene import Scene
-from rearrangement_planner.planning.pipeline import PlanOutput
+from rearrangement_planner.planning.requests.pipeline import PlanOutput
 
 NODE_NAMESPACE = f"/{NODE_NAME}"
 """The planner node's namespace: its topics are recorded under it."""

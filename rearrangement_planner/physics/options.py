@@ -2,7 +2,7 @@
 
 The planners that step the quasistatic physics (PC-RRT, the Static RRT) plan in a `Physics`
 built from these options, and so do shortcutting and the robustness rollouts of their plans;
-DARRT never steps the physics, so its requests refuse these settings (`planning.registry`).
+DARRT never steps the physics, so its requests refuse these settings (`planning.requests.registry`).
 A simulator that executes a trajectory (world_sim, `execution.open_loop`) lets objects slide
 however they are pushed: it uses `simulation_options`, with the planner's two validity rules,
 tipping and the turn limit, off.
@@ -39,7 +39,8 @@ class PhysicsOptions(Settings):
     """Judge rather than refuse a push that would tip its object: the step reports, per
     object, how far the pusher must carry it while it tips to topple it (`step._tip_travel`),
     and the robustness rollouts count a topple when a push goes on that far
-    (`planning.robustness`). With `tipping` on, such a push is refused whatever this says."""
+    (`planning.requests.robustness`). With `tipping` on, such a push is refused whatever this
+    says."""
     contact_tolerance: float = internal(0.002)
     """With object_contact: object-object penetration (m) still valid after a step (the
     contact problem is solved for the step's first-order motion; a rotation leaves a little

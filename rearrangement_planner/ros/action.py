@@ -26,9 +26,9 @@ from rearrangement_interfaces.msg import ErrorCode
 from rearrangement_planner.io.plan_record import NODE_NAMESPACE
 from rearrangement_planner.model.errors import InputError
 from rearrangement_planner.model.settings import parse_assignments
-from rearrangement_planner.planning.interface import Outcome, Progress
-from rearrangement_planner.planning.pipeline import PlanOutput
-from rearrangement_planner.planning.request import request_settings
+from rearrangement_planner.planning.machinery.interface import Outcome, Progress
+from rearrangement_planner.planning.requests.pipeline import PlanOutput
+from rearrangement_planner.planning.requests.request import request_settings
 
 NO_STATE = "NO_STATE"
 """The node's own outcome (docs/design.md): no joint state / object poses yet, or stale ones."""

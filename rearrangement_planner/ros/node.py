@@ -54,9 +54,9 @@ from msg_adapters import (
 )
 from rearrangement_planner.model.errors import RearrangementError
 from rearrangement_planner.model.resources import NODE_NAME
-from rearrangement_planner.planning.interface import Outcome, Progress
-from rearrangement_planner.planning.status import PlannerStatus
-from rearrangement_planner.planning.warmup import warm_up
+from rearrangement_planner.planning.machinery.interface import Outcome, Progress
+from rearrangement_planner.planning.requests.status import PlannerStatus
+from rearrangement_planner.planning.requests.warmup import warm_up
 from rearrangement_planner.ros.action import (
     DIVERGED,
     PlanActionServer,

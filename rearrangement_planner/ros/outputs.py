@@ -14,7 +14,7 @@ from visualization_msgs.msg import MarkerArray
 
 from msg_adapters import status_to_diagnostics, status_to_msg
 from rearrangement_interfaces.msg import PlannerStatus as PlannerStatusMsg
-from rearrangement_planner.planning.status import PlannerStatus
+from rearrangement_planner.planning.requests.status import PlannerStatus
 
 
 class Outputs:

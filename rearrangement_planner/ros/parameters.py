@@ -1,6 +1,6 @@
 """The node's parameters, declared once: the node's own (scene, inputs, outputs) are listed
 here; the settings of a plan request are read from the option dataclasses
-(`planning.request.request_settings`: the planners', the pushing model's and the pipeline
+(`planning.requests.request.request_settings`: the planners', the pushing model's and the pipeline
 stages'), so their default, range and description are written once, in the core, and the node
 plans the CLI's default request. `config/planner.yaml` holds the same defaults
 (a test checks it).
@@ -18,8 +18,8 @@ from rclpy.node import Node
 from rclpy.parameter import Parameter
 
 from rearrangement_planner.model.settings import SettingSpec
-from rearrangement_planner.planning.registry import PLANNER_NAMES
-from rearrangement_planner.planning.request import DEFAULT_PLANNER, request_settings
+from rearrangement_planner.planning.requests.registry import PLANNER_NAMES
+from rearrangement_planner.planning.requests.request import DEFAULT_PLANNER, request_settings
 
 _INT32_MAX = 2**31 - 1
 

@@ -31,15 +31,15 @@ from rearrangement_planner.physics.validation import (
     load_scene,
     separate_objects,
 )
-from rearrangement_planner.planning.interface import (
+from rearrangement_planner.planning.machinery.interface import (
     Outcome,
     PlanResult,
     Progress,
     ProgressCallback,
 )
-from rearrangement_planner.planning.pipeline import PlanOutput, plan_scene
-from rearrangement_planner.planning.request import PlanRequest, request_settings
-from rearrangement_planner.planning.status import PlannerStatus
+from rearrangement_planner.planning.requests.pipeline import PlanOutput, plan_scene
+from rearrangement_planner.planning.requests.request import PlanRequest, request_settings
+from rearrangement_planner.planning.requests.status import PlannerStatus
 from rearrangement_planner.ros.action import (
     NO_STATE,
     goal_origins,

@@ -1,6 +1,6 @@
 """The node's closed loop (docs/design.md "Closed loop"): after an action goal's plan has been
 executed, observe the object poses, and while the goal object is outside its region and
-re-plans remain, move the arm back out of contact (`planning.retreat`), plan again from the
+re-plans remain, move the arm back out of contact (`planning.requests.retreat`), plan again from the
 observed joint state and object poses, and execute. The same loop in MuJoCo is
 `execution.closed_loop` (the CLI's and the benchmark's).
 
@@ -33,10 +33,10 @@ import numpy as np
 from msg_adapters import trajectory_to_msg
 from rearrangement_planner.model.scene import Scene
 from rearrangement_planner.model.state import State
-from rearrangement_planner.planning.interface import Outcome
-from rearrangement_planner.planning.pipeline import PlanOutput
-from rearrangement_planner.planning.retreat import retreat_path
-from rearrangement_planner.planning.trajectory import time_parameterize
+from rearrangement_planner.planning.machinery.interface import Outcome
+from rearrangement_planner.planning.requests.pipeline import PlanOutput
+from rearrangement_planner.planning.requests.retreat import retreat_path
+from rearrangement_planner.planning.requests.trajectory import time_parameterize
 from rearrangement_planner.ros.action import DIVERGED, GOAL_NOT_REACHED, NO_OBSERVATION
 
 OBSERVE_SETTLE = 0.5
@@ -172,7 +172,8 @@ def _observe(job: Any, io: LoopIO, executed_at: float
 
 def _retreat(job: Any, io: LoopIO, scene: Scene, observed: np.ndarray,
              output: PlanOutput) -> tuple[str, str]:
-    """Back the arm out of contact (`planning.retreat`; sent and waited for): ('', '') when it
+    """Back the arm out of contact (`planning.requests.retreat`; sent and waited for): ('', '')
+    when it
     is clear, else the outcome and why the loop cannot go on."""
     assert output.trajectory is not None
     executed = output.trajectory.positions

@@ -10,7 +10,7 @@ from typing import Any
 from rclpy.callback_groups import CallbackGroup
 from std_srvs.srv import Trigger
 
-from rearrangement_planner.planning.interface import Outcome
+from rearrangement_planner.planning.machinery.interface import Outcome
 
 CANCEL_WAIT = 1.0
 """Seconds `~/cancel` waits for the planner to stop before answering."""

@@ -16,7 +16,7 @@
 
 `run` (the default) is the benchmark of King et al. 2015, §V (`benchmark.py`): each planner on each
 of the 35 scenes of config/benchmark/scenes with each seed, each trial the product's default plan
-request (`planning.request`; `--set NAME=VALUE` changes any of its settings, e.g. `--set
+request (`planning.requests.request`; `--set NAME=VALUE` changes any of its settings, e.g. `--set
 min_robustness=0 --set trees=1` for the first plan of one tree; `--robot` plans with another
 arm, from its home configuration). Each trial is a Ray task with
 its raced trees' worth of CPUs (`engine.py`), on an embedded local Ray or on the cluster at
@@ -65,10 +65,10 @@ from rearrangement_planner.model.settings import parse_assignments
 from rearrangement_planner.physics.options import simulation_options
 from rearrangement_planner.physics.step import Physics
 from rearrangement_planner.physics.validation import load_scene, parse_scene
-from rearrangement_planner.planning.parallel import RaceOptions
-from rearrangement_planner.planning.registry import PLANNER_NAMES as PLANNERS
-from rearrangement_planner.planning.request import request_settings
-from rearrangement_planner.planning.robustness import RobustOptions
+from rearrangement_planner.planning.requests.parallel import RaceOptions
+from rearrangement_planner.planning.requests.registry import PLANNER_NAMES as PLANNERS
+from rearrangement_planner.planning.requests.request import request_settings
+from rearrangement_planner.planning.requests.robustness import RobustOptions
 from rearrangement_planner.tools import benchmark, ompl_log
 from rearrangement_planner.tools.engine import EngineError
 
@@ -143,7 +143,7 @@ def measure_physics(scene: Scene, seconds: float) -> dict:
 
 
 def physics_benchmark(seconds: float) -> dict:
-    from rearrangement_planner.planning.warmup import warm_up
+    from rearrangement_planner.planning.requests.warmup import warm_up
 
     compile_s = warm_up()          # compile (or load) the core first: not part of the rate
     return {
@@ -161,8 +161,8 @@ def scene_trial(scene_name: str, planner: str, seed: int, time_limit: float,
                 settings: dict[str, Any] | None = None) -> dict:
     """One plan request on one shipped scene (the product's default, with `settings`):
     outcome, plan time and which objects moved."""
-    from rearrangement_planner.planning.pipeline import plan_scene
-    from rearrangement_planner.planning.request import PlanRequest
+    from rearrangement_planner.planning.requests.pipeline import plan_scene
+    from rearrangement_planner.planning.requests.request import PlanRequest
 
     scene = load_scene(scene_name)
     request = PlanRequest.from_settings(scene, planner,
@@ -395,7 +395,7 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def states_command(args: argparse.Namespace) -> int:
-    from rearrangement_planner.planning.learned_oracle import load_models, model_path
+    from rearrangement_planner.planning.planners.learned_oracle import load_models, model_path
     from rearrangement_planner.tools.bench_plots import plot_manipulation_states
 
     weights = args.weights or model_path(default_robot())
@@ -522,7 +522,7 @@ def candidates_command(args: argparse.Namespace) -> int:
 def request_overrides(items: list[str], planners: list[str]) -> dict[str, Any]:
     """The settings of --set NAME=VALUE items, checked by building each planner's request with
     them on a small scene; BenchmarkError names the item at fault."""
-    from rearrangement_planner.planning.request import PlanRequest
+    from rearrangement_planner.planning.requests.request import PlanRequest
 
     try:
         settings: dict[str, Any] = dict(parse_assignments(request_settings(), items))

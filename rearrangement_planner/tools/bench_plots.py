@@ -293,7 +293,8 @@ def plot_success_vs_iterations(rows: Sequence[dict], planners: Sequence[str],
 def plot_manipulation_states(models, path: Path, samples: int = 300, seed: int = 0) -> Path:
     """Fig. 2a of Haustein et al. 2018: tool poses the learned generator proposes around an
     object at the origin for the push drawn as an arrow, coloured by the tool's yaw (an arrow
-    per pose points where the hand faces). `models`: `planning.learned_oracle.OracleModels`."""
+    per pose points where the hand faces). `models`:
+    `planning.planners.learned_oracle.OracleModels`."""
     from matplotlib.patches import Circle, Rectangle
 
     rng = np.random.default_rng(seed)

@@ -54,7 +54,7 @@ from rearrangement_planner.model.errors import RearrangementError
 from rearrangement_planner.model.resources import config_dir, default_robot, default_start
 from rearrangement_planner.model.robot import RobotModel
 from rearrangement_planner.physics.validation import parse_scene
-from rearrangement_planner.planning.registry import PLANNERS
+from rearrangement_planner.planning.requests.registry import PLANNERS
 
 log = logging.getLogger(__name__)
 
@@ -571,17 +571,17 @@ def variant_settings(label: str, settings: dict[str, Any]) -> tuple[str, dict[st
     """The planner of `label` and the settings of its request: `settings` (the command's
     --set), then the label's own. ValueError names a bad setting."""
     from rearrangement_planner.model.settings import parse_assignments
-    from rearrangement_planner.planning.request import request_settings
+    from rearrangement_planner.planning.requests.request import request_settings
 
     name, items = planner_variant(label)
     return name, {**settings, **dict(parse_assignments(request_settings(), items))}
 
 
 def trial_request(trial: Trial, settings: dict[str, Any]):
-    """The plan request of a trial: the product's default request (`planning.request`) with
+    """The plan request of a trial: the product's default request (`planning.requests.request`) with
     `settings` (the command's --set), the planner label's settings, and the trial's planner,
     time limit and seed."""
-    from rearrangement_planner.planning.request import PlanRequest
+    from rearrangement_planner.planning.requests.request import PlanRequest
 
     name, values = variant_settings(trial.planner, settings)
     return PlanRequest.from_settings(load_trial_scene(trial.path, trial.robot), name,
@@ -592,7 +592,7 @@ def trial_request(trial: Trial, settings: dict[str, Any]):
 def run_trial(trial: Trial, settings: dict[str, Any]) -> dict:
     """Plan one trial (`trial_request`) and measure it: the CSV row (column -> text) of
     `CSV_COLUMNS`."""
-    from rearrangement_planner.planning.pipeline import plan_scene
+    from rearrangement_planner.planning.requests.pipeline import plan_scene
 
     t0 = time.monotonic()
     request = trial_request(trial, settings)
@@ -858,7 +858,7 @@ def usable_cores() -> int:
 
 def trial_cpus(trial: Trial, settings: dict[str, Any]) -> int:
     """The cores a trial occupies: its request's raced trees."""
-    from rearrangement_planner.planning.parallel import RaceOptions
+    from rearrangement_planner.planning.requests.parallel import RaceOptions
 
     _, values = variant_settings(trial.planner, settings)
     return RaceOptions(**{k: v for k, v in values.items() if k == "trees"}).trees
@@ -1036,7 +1036,7 @@ def _shortcut_summary(solved: Sequence[dict], budget: float) -> dict:
 
 def _shortcut_time(protocol: dict) -> float:
     """The shortcutting budget of the run's requests, s (its --set, else the default)."""
-    from rearrangement_planner.planning.shortcut import ShortcutOptions
+    from rearrangement_planner.planning.requests.shortcut import ShortcutOptions
 
     settings = protocol.get("request_settings", {})
     return float(settings.get("shortcut_time", ShortcutOptions().shortcut_time))
@@ -1149,7 +1149,7 @@ def rescore(out: Path, rollouts: int, perturbation: Any = None) -> list[dict]:
     the planner's default physics. With the plans' perturbed MuJoCo executions, which stay as
     they were, `calibration` then says how honest that perturbation set makes the score: the
     instrument for tuning it (docs/benchmark.md, "Calibration")."""
-    from rearrangement_planner.planning.robustness import arm_path_robustness
+    from rearrangement_planner.planning.requests.robustness import arm_path_robustness
 
     rows = []
     for row in read_trials(out / "trials.csv"):

@@ -1,7 +1,8 @@
 """`rearrangement-bench candidates`: how well robust selection chooses among candidate plans
 (docs/benchmark.md).
 
-Robust selection (`pipeline.robust_search`, `planning.robustness`) plans candidates one after
+Robust selection (`pipeline.robust_search`, `planning.requests.robustness`) plans candidates one
+after
 the other and answers with the best ranked. Whether a ranking picks plans that work when
 executed is measured here without re-planning for every rule:
 
@@ -38,10 +39,10 @@ def record_request(scene_path: Path, seed: int, candidates: int, time_limit: flo
     from rearrangement_planner.execution.mujoco_check import check_execution
     from rearrangement_planner.physics.step import Physics
     from rearrangement_planner.physics.validation import load_scene
-    from rearrangement_planner.planning.pipeline import Candidates, candidate_seed
-    from rearrangement_planner.planning.request import PlanRequest
-    from rearrangement_planner.planning.robustness import goal_travel
-    from rearrangement_planner.planning.trajectory import time_parameterize
+    from rearrangement_planner.planning.requests.pipeline import Candidates, candidate_seed
+    from rearrangement_planner.planning.requests.request import PlanRequest
+    from rearrangement_planner.planning.requests.robustness import goal_travel
+    from rearrangement_planner.planning.requests.trajectory import time_parameterize
 
     scene = load_scene(scene_path)
     request = PlanRequest.from_settings(
@@ -96,7 +97,7 @@ class Rule:
 def choose(records: Sequence[dict], rule: Rule, budget: float) -> dict | None:
     """The candidate `rule` answers with among one request's `records` within `budget` s, or
     None (no candidate solved in time)."""
-    from rearrangement_planner.planning.robustness import candidate_rank
+    from rearrangement_planner.planning.requests.robustness import candidate_rank
 
     spent, solved = 0.0, []
     for record in sorted(records, key=lambda r: r["k"]):

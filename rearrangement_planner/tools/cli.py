@@ -2,7 +2,7 @@
 
 Exit codes: 0 solved, 1 not solved (timeout, start invalid, ...), 2 bad input (one line naming
 the problem). The JSON result holds the fields the design lists; `--plot` writes a top view.
-The plan request is the product's default (`planning.request.PlanRequest`, the node's too),
+The plan request is the product's default (`planning.requests.request.PlanRequest`, the node's too),
 changed by the options given.
 """
 
@@ -24,10 +24,10 @@ from rearrangement_planner.model.files import quote
 from rearrangement_planner.model.scene import Scene
 from rearrangement_planner.model.settings import SettingError, parse_assignments
 from rearrangement_planner.physics.validation import load_scene
-from rearrangement_planner.planning.interface import Progress
-from rearrangement_planner.planning.pipeline import PlanOutput, plan_scene
-from rearrangement_planner.planning.registry import PLANNERS, planner_spec
-from rearrangement_planner.planning.request import (
+from rearrangement_planner.planning.machinery.interface import Progress
+from rearrangement_planner.planning.requests.pipeline import PlanOutput, plan_scene
+from rearrangement_planner.planning.requests.registry import PLANNERS, planner_spec
+from rearrangement_planner.planning.requests.request import (
     DEFAULT_PLANNER,
     STAGES,
     PlanRequest,
@@ -42,7 +42,7 @@ FLAGS = {"time_limit": "--time-limit", "trees": "--trees", "shortcut_time": "--s
 
 
 def _default(name: str) -> Any:
-    """The product default of a request setting (`planning.request`: written once)."""
+    """The product default of a request setting (`planning.requests.request`: written once)."""
     return next(s.default for s in request_settings() if s.name == name)
 
 

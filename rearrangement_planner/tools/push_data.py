@@ -1,6 +1,6 @@
 """Training data for the learned oracle (Haustein et al. 2018, §II "Learning the Policy"): single
 object pushes in an obstacle-free world, simulated by the planner's own compiled physics and
-Project step (`planning.propagation`), under noise in the object's pose and physical
+Project step (`planning.machinery.propagation`), under noise in the object's pose and physical
 properties.
 
 One sample is a tuple (x_r, ν_o, u) and the successor object states of `noise_draws`
@@ -39,15 +39,15 @@ from rearrangement_planner.model.scene import Goal, MovableObject, Scene
 from rearrangement_planner.model.state import State
 from rearrangement_planner.physics.step import OBJ_PUSHER_MU, OBJ_SUPPORT_MU, Physics
 from rearrangement_planner.physics.validation import load_scene
-from rearrangement_planner.planning.approach import approach_path
-from rearrangement_planner.planning.learned_oracle import (
+from rearrangement_planner.planning.machinery.approach import approach_path
+from rearrangement_planner.planning.machinery.manifold import tool_planar_pose
+from rearrangement_planner.planning.machinery.propagation import Action, constrained_prop
+from rearrangement_planner.planning.planners.learned_oracle import (
     PROPERTY_NAMES,
     object_properties,
     to_base,
     to_local,
 )
-from rearrangement_planner.planning.manifold import tool_planar_pose
-from rearrangement_planner.planning.propagation import Action, constrained_prop
 from rearrangement_planner.tools import benchmark
 
 DT = 0.1

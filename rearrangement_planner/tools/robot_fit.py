@@ -484,7 +484,7 @@ def search_posture(config: dict, base_dir: Path, heights: tuple[float, ...] = HE
     """The pushing posture (module doc, step 4) over `heights` x `rolls` and the share of
     targets it reaches."""
     from rearrangement_planner.model.robot import RobotConfig, RobotModel
-    from rearrangement_planner.planning.manifold import ik_on_manifold
+    from rearrangement_planner.planning.machinery.manifold import ik_on_manifold
 
     best: tuple[float, tuple[float, float, float]] | None = None
     targets = posture_targets()

@@ -1,6 +1,6 @@
 """`rearrangement-train`: learn the slice-based RRT's oracle for one robot (Haustein et al. 2018,
 §II), with JAX and optax on the CPU, and write it as the small .npz the planner reads with NumPy
-(`planning/learned_oracle.py`).
+(`planning/planners/learned_oracle.py`).
 
 Stages, each from the same seed (the same seed and options give the same weights):
 
@@ -34,7 +34,7 @@ from typing import Any
 import numpy as np
 
 from rearrangement_planner.model.resources import default_robot
-from rearrangement_planner.planning.learned_oracle import (
+from rearrangement_planner.planning.planners.learned_oracle import (
     NETWORKS,
     NOISE_SIZE,
     POSITION_SCALE,
@@ -440,7 +440,7 @@ def main(argv: list[str] | None = None) -> int:
                              f"3000 fresh pushes (seed {EVALUATION_SEED}) and print JSON")
     args = parser.parse_args(argv)
     if args.evaluate is not None:
-        from rearrangement_planner.planning.learned_oracle import load_models
+        from rearrangement_planner.planning.planners.learned_oracle import load_models
 
         held_out = generate(3000, EVALUATION_SEED, DataOptions(), workers=args.workers)
         print(json.dumps(evaluate(load_models(args.evaluate), held_out)))

@@ -12,8 +12,11 @@ from rearrangement_planner.execution.open_loop import Command, OpenLoopExecution
 from rearrangement_planner.physics.options import PhysicsOptions, simulation_options
 from rearrangement_planner.physics.step import Physics
 from rearrangement_planner.physics.validation import parse_scene
-from rearrangement_planner.planning.manifold import default_push_configuration, ik_on_manifold
-from rearrangement_planner.planning.trajectory import Trajectory
+from rearrangement_planner.planning.machinery.manifold import (
+    default_push_configuration,
+    ik_on_manifold,
+)
+from rearrangement_planner.planning.requests.trajectory import Trajectory
 
 
 @pytest.fixture(scope="module")

@@ -25,7 +25,7 @@ from rearrangement_planner.physics.options import simulation_options
 from rearrangement_planner.physics.step import Physics
 from rearrangement_planner.physics.validation import load_scene, parse_scene
 from rearrangement_planner.planning import PCRRTOptions, PlanRequest, plan_scene
-from rearrangement_planner.planning.trajectory import Trajectory
+from rearrangement_planner.planning.requests.trajectory import Trajectory
 
 BOX = {"name": "box", "shape": "box", "size": [0.06, 0.08, 0.12], "pose": [0.46, 0.0, 0.0],
        "mass": 0.4, "support_friction": 0.4, "pusher_friction": 0.3}

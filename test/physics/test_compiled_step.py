@@ -16,10 +16,13 @@ from rearrangement_planner.model.state import State
 from rearrangement_planner.physics.options import simulation_options
 from rearrangement_planner.physics.step import Invalid, Physics
 from rearrangement_planner.physics.validation import load_scene
-from rearrangement_planner.planning.interface import StopReason
-from rearrangement_planner.planning.manifold import default_push_configuration, project_step
-from rearrangement_planner.planning.propagation import Action, Stops, constrained_prop
-from rearrangement_planner.planning.termination import Termination
+from rearrangement_planner.planning.machinery.interface import StopReason
+from rearrangement_planner.planning.machinery.manifold import (
+    default_push_configuration,
+    project_step,
+)
+from rearrangement_planner.planning.machinery.propagation import Action, Stops, constrained_prop
+from rearrangement_planner.planning.machinery.termination import Termination
 
 SIM = simulation_options()
 """Plain mechanics: objects slide however pushed (no tipping check, no turn limit)."""
@@ -182,8 +185,8 @@ def test_the_compiled_replay_equals_physics_steps_and_stops_at_the_goal():
     shortcutting use it) gives the states of `Physics.step` taken one by one, the first
     invalid step's reason and detail, and with `until` ends at the first state in the goal
     region."""
-    from rearrangement_planner.planning.propagation import replay
-    from rearrangement_planner.planning.push_policy import push_policy_prop
+    from rearrangement_planner.planning.machinery.propagation import replay
+    from rearrangement_planner.planning.machinery.push_policy import push_policy_prop
 
     scene = load_scene("easy_push")
     physics = Physics(scene, SIM)

@@ -13,7 +13,7 @@ from rearrangement_planner.model.state import State
 from rearrangement_planner.physics.options import PhysicsOptions, simulation_options
 from rearrangement_planner.physics.step import OBJ_C, Invalid, Physics
 from rearrangement_planner.physics.validation import load_scene, parse_scene
-from rearrangement_planner.planning.manifold import default_push_configuration
+from rearrangement_planner.planning.machinery.manifold import default_push_configuration
 
 SIM = simulation_options()
 """Plain mechanics: objects slide however pushed (no tipping check, no turn limit)."""
@@ -62,7 +62,7 @@ def sweep(physics, state, joint, delta, steps):
 
 def _push_path(panda, end):
     """The tool on the pushing plane moving along +x from 0.40 m to `end` (IK every 5 mm)."""
-    from rearrangement_planner.planning.manifold import ik_on_manifold
+    from rearrangement_planner.planning.machinery.manifold import ik_on_manifold
 
     q = default_push_configuration(panda, 0.0)
     path = []

@@ -11,10 +11,10 @@ from rearrangement_planner.physics.options import PhysicsOptions
 from rearrangement_planner.physics.step import Invalid, Physics
 from rearrangement_planner.physics.validation import load_scene
 from rearrangement_planner.planning import DARRT, Outcome, PCRRTOptions, StaticRRT
-from rearrangement_planner.planning.propagation import replay
-from rearrangement_planner.planning.request import PlanRequest
-from rearrangement_planner.planning.shortcut import ShortcutOptions
-from rearrangement_planner.planning.termination import Termination
+from rearrangement_planner.planning.machinery.propagation import replay
+from rearrangement_planner.planning.machinery.termination import Termination
+from rearrangement_planner.planning.requests.request import PlanRequest
+from rearrangement_planner.planning.requests.shortcut import ShortcutOptions
 
 STATIC_SEED = 4   # a seed for which the Static RRT solves the default scene quickly
 
@@ -48,7 +48,7 @@ def _moved(states, index):
 
 def test_static_objects_in_the_physics_are_obstacles(default):
     """A sweep that pushes the `can` in the normal physics is invalid when the can is static."""
-    from rearrangement_planner.planning.manifold import ik_on_manifold
+    from rearrangement_planner.planning.machinery.manifold import ik_on_manifold
 
     can = default.object_index("can")
     x, y = default.object_poses[can, :2]
@@ -56,7 +56,7 @@ def test_static_objects_in_the_physics_are_obstacles(default):
                         default.robot.home, rng=np.random.default_rng(0))
     assert q0 is not None
     start = State(q0, default.object_poses)
-    from rearrangement_planner.planning.manifold import project_step
+    from rearrangement_planner.planning.machinery.manifold import project_step
 
     def sweep(physics):
         x = start
@@ -132,7 +132,7 @@ def test_darrt_solves_easy(easy, darrt_plan):
 def test_darrt_path_obeys_its_primitives(easy, darrt_plan):
     """Every step either moves no object (a transit: the arm clear of everything) or carries
     exactly one object rigidly: its pose relative to the tool is constant through the push."""
-    from rearrangement_planner.planning.manifold import tool_planar_pose
+    from rearrangement_planner.planning.machinery.manifold import tool_planar_pose
 
     planner = DARRT(easy)
     robot = easy.robot
@@ -172,7 +172,7 @@ def test_darrt_rrt_connect_finds_a_way_around(easy):
     robot = easy.robot
     objects = easy.object_poses
     rng = np.random.default_rng(0)
-    from rearrangement_planner.planning.manifold import ik_on_manifold
+    from rearrangement_planner.planning.machinery.manifold import ik_on_manifold
 
     target = objects[easy.goal_index]
     q_a = ik_on_manifold(robot, target[0], target[1] + 0.12, -np.pi / 2, 0.0, robot.home,

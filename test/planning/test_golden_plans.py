@@ -27,7 +27,7 @@ import pytest
 
 from rearrangement_planner.physics.validation import load_scene
 from rearrangement_planner.planning import PCRRTOptions, PlanRequest, plan_scene
-from rearrangement_planner.planning.shortcut import ShortcutOptions
+from rearrangement_planner.planning.requests.shortcut import ShortcutOptions
 
 GOLDEN = Path(__file__).parent / "data" / "golden_plans.npz"
 CASES = [("easy_push", "pc-rrt", 1), ("easy_push", "pc-rrt", 2), ("easy_push", "static-rrt", 1),

@@ -9,7 +9,7 @@ import math
 import numpy as np
 import pytest
 
-from rearrangement_planner.planning import manifold as mf
+from rearrangement_planner.planning.machinery import manifold as mf
 
 TABLE = 0.0
 DT = 0.02

@@ -17,8 +17,13 @@ from rearrangement_planner.planning import (
     make_planner,
     plan_scene,
 )
-from rearrangement_planner.planning.parallel import RaceOptions, plan_race, race_key, tree_seed
-from rearrangement_planner.planning.termination import Termination
+from rearrangement_planner.planning.machinery.termination import Termination
+from rearrangement_planner.planning.requests.parallel import (
+    RaceOptions,
+    plan_race,
+    race_key,
+    tree_seed,
+)
 
 PC_RRT = PLANNERS["pc-rrt"]
 RACE_SEED = 10
@@ -110,7 +115,7 @@ def test_a_failing_tree_stops_the_race(panda, easy, monkeypatch):
     """An exception in the calling process's tree propagates and cancels the workers (the
     worker's tree, on a scene it does not solve for a long while, would otherwise plan on to its
     deadline and hold up the next race), and the pool serves the next race."""
-    from rearrangement_planner.planning import pcrrt as planner_module
+    from rearrangement_planner.planning.planners import pcrrt as planner_module
 
     clutter = load_scene("clutter", robot=panda)
 

@@ -10,9 +10,9 @@ from rearrangement_planner.model.resources import scenes_dir
 from rearrangement_planner.physics.step import Invalid, Physics
 from rearrangement_planner.physics.validation import load_scene
 from rearrangement_planner.planning import PCRRT, Outcome, PCRRTOptions, StopReason
-from rearrangement_planner.planning.propagation import replay
-from rearrangement_planner.planning.termination import NEVER
-from rearrangement_planner.planning.warmup import warm_up
+from rearrangement_planner.planning.machinery.propagation import replay
+from rearrangement_planner.planning.machinery.termination import NEVER
+from rearrangement_planner.planning.requests.warmup import warm_up
 
 
 @pytest.fixture(scope="module")
@@ -114,7 +114,7 @@ def test_options_reject_nonsense():
 def test_timed_trajectory_replays_to_the_planned_final_poses(easy, easy_plan):
     """The controller-ready trajectory's joint motion, stepped through the physics from the
     start state, reproduces the planned final object poses."""
-    from rearrangement_planner.planning.trajectory import TimingOptions, time_parameterize
+    from rearrangement_planner.planning.requests.trajectory import TimingOptions, time_parameterize
 
     trajectory = time_parameterize(easy.robot, easy_plan.arm_path, TimingOptions())
     assert np.all(np.diff(trajectory.times) > 0)
@@ -129,8 +129,8 @@ def test_push_policy_moves_the_object_towards_its_target(easy):
     """The push-bias action lines the tool up behind the object and pushes it along the line
     to the target; every step is a valid physics step (replays exactly)."""
     from rearrangement_planner.model.state import State
-    from rearrangement_planner.planning.manifold import ik_on_manifold
-    from rearrangement_planner.planning.push_policy import push_policy_prop
+    from rearrangement_planner.planning.machinery.manifold import ik_on_manifold
+    from rearrangement_planner.planning.machinery.push_policy import push_policy_prop
 
     physics = Physics(easy)
     g = easy.goal_index
@@ -157,8 +157,8 @@ def test_a_facing_push_turns_the_hand_across_the_push_line(easy):
     contact; a plain push keeps its yaw, meets the box with a corner and turns it faster than
     the turn limit allows, so it stops there."""
     from rearrangement_planner.model.state import State
-    from rearrangement_planner.planning.manifold import ik_on_manifold, tool_planar_pose
-    from rearrangement_planner.planning.push_policy import push_policy_prop
+    from rearrangement_planner.planning.machinery.manifold import ik_on_manifold, tool_planar_pose
+    from rearrangement_planner.planning.machinery.push_policy import push_policy_prop
 
     physics = Physics(easy)
     g = easy.goal_index
@@ -187,7 +187,7 @@ def test_push_bias_is_switchable(easy, push_bias):
 
 @pytest.mark.parametrize("greedy", [True, False])
 def test_greedy_goal_push_runs_only_when_switched_on(easy, monkeypatch, greedy):
-    from rearrangement_planner.planning.push_policy import PushPolicy
+    from rearrangement_planner.planning.machinery.push_policy import PushPolicy
 
     calls = []
     original = PushPolicy.goal_push
@@ -265,7 +265,7 @@ def test_the_pushing_model_settings_reach_the_planners_physics(easy):
     default pushing model (tipping on, the turn limit at 5 rad/m)."""
     from rearrangement_planner.physics.options import PhysicsOptions
     from rearrangement_planner.physics.step import Physics
-    from rearrangement_planner.planning.registry import PLANNERS
+    from rearrangement_planner.planning.requests.registry import PLANNERS
 
     assert Physics(easy).options == PhysicsOptions(tipping=True, max_turn=5.0)
     given = Physics(easy, PhysicsOptions(max_turn=2.0, tipping=False))

@@ -1,4 +1,5 @@
-"""The plan request (`planning.request`): one value, the product's defaults written once, and a
+"""The plan request (`planning.requests.request`): one value, the product's defaults written once,
+and a
 setting a planner does not read refused."""
 
 from __future__ import annotations
@@ -8,10 +9,10 @@ import pytest
 from rearrangement_planner.physics.options import PhysicsOptions
 from rearrangement_planner.physics.validation import load_scene
 from rearrangement_planner.planning import PLANNERS, DARRTOptions, PCRRTOptions, PlanRequest
-from rearrangement_planner.planning.parallel import RaceOptions
-from rearrangement_planner.planning.request import request_settings
-from rearrangement_planner.planning.robustness import FIRST_PLAN, RobustOptions
-from rearrangement_planner.planning.shortcut import NO_SHORTCUT
+from rearrangement_planner.planning.requests.parallel import RaceOptions
+from rearrangement_planner.planning.requests.request import request_settings
+from rearrangement_planner.planning.requests.robustness import FIRST_PLAN, RobustOptions
+from rearrangement_planner.planning.requests.shortcut import NO_SHORTCUT
 
 
 @pytest.fixture(scope="module")

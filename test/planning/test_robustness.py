@@ -18,13 +18,20 @@ from rearrangement_planner.physics.options import PhysicsOptions
 from rearrangement_planner.physics.step import Invalid, Physics
 from rearrangement_planner.physics.validation import load_scene
 from rearrangement_planner.planning import PCRRTOptions, PlanRequest, StopReason, plan_scene
-from rearrangement_planner.planning.manifold import default_push_configuration, ik_on_manifold
-from rearrangement_planner.planning.parallel import tree_seed
-from rearrangement_planner.planning.pipeline import CANDIDATE_SEED_OFFSET
-from rearrangement_planner.planning.propagation import Stops
-from rearrangement_planner.planning.push_policy import push_policy_prop
-from rearrangement_planner.planning.robustness import RobustOptions, goal_travel, robustness
-from rearrangement_planner.planning.shortcut import ShortcutOptions
+from rearrangement_planner.planning.machinery.manifold import (
+    default_push_configuration,
+    ik_on_manifold,
+)
+from rearrangement_planner.planning.machinery.propagation import Stops
+from rearrangement_planner.planning.machinery.push_policy import push_policy_prop
+from rearrangement_planner.planning.requests.parallel import tree_seed
+from rearrangement_planner.planning.requests.pipeline import CANDIDATE_SEED_OFFSET
+from rearrangement_planner.planning.requests.robustness import (
+    RobustOptions,
+    goal_travel,
+    robustness,
+)
+from rearrangement_planner.planning.requests.shortcut import ShortcutOptions
 
 
 @pytest.fixture(scope="module")
@@ -73,7 +80,7 @@ def test_rollouts_judge_the_goal_not_the_planners_choice_of_pushes(easy):
     toppled?), so the planner's rules do not change its verdict. The box is 12 cm tall and
     pushed 7 cm up: in the worlds whose drawn support friction tips it and that carry it far
     enough, it topples (2 of these 20; MuJoCo toppled 4 of 20 other draws)."""
-    from rearrangement_planner.planning.robustness import (
+    from rearrangement_planner.planning.requests.robustness import (
         ROLLOUT_PERTURBATION,
         rollout,
         rollout_options,
@@ -147,7 +154,7 @@ def remembered_searches(monkeypatch):
     """The ranking tests choose among the same three searches under different options: each
     seed's search runs once (for real, inside the pipeline) and is remembered for the next
     request of this module, so that the tests spend their time on the selection."""
-    from rearrangement_planner.planning.pipeline import Candidates
+    from rearrangement_planner.planning.requests.pipeline import Candidates
 
     search = Candidates.plan
 
@@ -243,7 +250,7 @@ def test_the_rollouts_judge_the_shortcut_plan_and_count_in_its_plan_time(easy, m
     """With shortcutting, the robustness reported is the shortcut path's (the one the answer
     holds); the plan time includes the rollouts (here slowed to 0.3 s), and the phases say
     where the request's time went."""
-    from rearrangement_planner.planning import pipeline
+    from rearrangement_planner.planning.requests import pipeline
 
     options = PCRRTOptions(time_limit=60.0)
     robust = RobustOptions(min_robustness=0.1, rollouts=10, candidates=1)
@@ -274,7 +281,7 @@ def test_rollouts_leave_out_the_planners_restrictions():
     """The turn limit and the tipping rule, which choose the pushes the planner may use, are
     off in a rollout: objects meet and push each other, tipping is judged, not refused; the
     world's own options stay, the residual tolerance grows."""
-    from rearrangement_planner.planning.robustness import rollout_options
+    from rearrangement_planner.planning.requests.robustness import rollout_options
 
     planner = PhysicsOptions(tipping=True, max_turn=5.0, max_substep=0.003,
                              static_objects=frozenset({"box1"}))      # the Static RRT's rule
@@ -292,7 +299,7 @@ def test_a_tipping_push_topples_only_when_it_carries_the_object_far_enough(panda
     (docs/experiments.md). Objects that meet push each other instead of failing the
     rollout."""
     from rearrangement_planner.physics.validation import parse_scene
-    from rearrangement_planner.planning.robustness import rollout
+    from rearrangement_planner.planning.requests.robustness import rollout
 
     q0 = default_push_configuration(panda, 0.0)
     tool = panda.tool_pose(q0)[:3, 3]
@@ -332,7 +339,7 @@ def test_a_cancel_ends_the_selection_not_only_the_candidate(panda, cancel_after,
     """A cancelled search is not one more unsolved candidate: the selection answers CANCELLED
     at once instead of planning the next candidate (whose start waits for the cancelled
     race's workers to wind down)."""
-    from rearrangement_planner.planning.pipeline import Candidates
+    from rearrangement_planner.planning.requests.pipeline import Candidates
 
     planned = []
     plan = Candidates.plan
@@ -352,7 +359,7 @@ def test_a_fragile_plan_says_so_and_never_rounds_up_to_its_floor(easy):
     """PlanOutput.fragile: solved, scored, below min_robustness; the note rounds the share
     down, so that 999 of 1000 rollouts never reads as 100% below 100%."""
     from rearrangement_planner.planning import Outcome, PlanResult
-    from rearrangement_planner.planning.pipeline import PlanOutput
+    from rearrangement_planner.planning.requests.pipeline import PlanOutput
 
     solved = PlanResult(Outcome.SUCCEEDED, "reached", 0, states=(easy.initial_state(),))
     almost = PlanOutput(easy, "pc-rrt", solved, robustness=0.999, min_robustness=1.0)

@@ -6,15 +6,15 @@ import pytest
 from rearrangement_planner.physics.step import Physics
 from rearrangement_planner.physics.validation import load_scene
 from rearrangement_planner.planning import PCRRT, PathMetrics, PCRRTOptions, PlanRequest, plan_scene
-from rearrangement_planner.planning.manifold import manifold_error
-from rearrangement_planner.planning.propagation import replay
-from rearrangement_planner.planning.shortcut import (
+from rearrangement_planner.planning.machinery.manifold import manifold_error
+from rearrangement_planner.planning.machinery.propagation import replay
+from rearrangement_planner.planning.machinery.termination import Termination
+from rearrangement_planner.planning.requests.shortcut import (
     ShortcutOptions,
     connect,
     path_length,
     shortcut,
 )
-from rearrangement_planner.planning.termination import Termination
 
 
 @pytest.fixture(scope="module")

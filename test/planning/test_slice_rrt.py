@@ -12,12 +12,12 @@ from rearrangement_planner.model.state import State
 from rearrangement_planner.physics.step import Physics
 from rearrangement_planner.physics.validation import load_scene
 from rearrangement_planner.planning import PLANNERS, Outcome
-from rearrangement_planner.planning.learned_oracle import MIN_DURATION, LearnedOracle
-from rearrangement_planner.planning.manifold import ik_on_manifold, tool_planar_pose
-from rearrangement_planner.planning.propagation import replay
-from rearrangement_planner.planning.push_policy import support_distance
-from rearrangement_planner.planning.slice_rrt import HandOracle, SliceRRT, SliceRRTOptions
-from rearrangement_planner.planning.termination import NEVER
+from rearrangement_planner.planning.machinery.manifold import ik_on_manifold, tool_planar_pose
+from rearrangement_planner.planning.machinery.propagation import replay
+from rearrangement_planner.planning.machinery.push_policy import support_distance
+from rearrangement_planner.planning.machinery.termination import NEVER
+from rearrangement_planner.planning.planners.learned_oracle import MIN_DURATION, LearnedOracle
+from rearrangement_planner.planning.planners.slice_rrt import HandOracle, SliceRRT, SliceRRTOptions
 
 
 @pytest.fixture(scope="module")
@@ -151,8 +151,8 @@ def test_the_learned_oracle_proposes_states_beside_the_object_and_bounded_pushes
 def test_a_push_is_judged_where_it_ends(panda):
     """A push that passes through the goal region and leaves it is no plan; one that ends
     inside is, and the push's propagation carries no goal test that would cut it short."""
-    from rearrangement_planner.planning.propagation import Propagation
-    from rearrangement_planner.planning.slice_rrt import _SliceRun
+    from rearrangement_planner.planning.machinery.propagation import Propagation
+    from rearrangement_planner.planning.planners.slice_rrt import _SliceRun
 
     scene = load_scene("easy_push", robot=panda)
     planner = SliceRRT(scene, SliceRRTOptions(oracle="hand"))
@@ -178,7 +178,7 @@ def test_the_learned_oracle_is_refused_for_an_arm_it_has_no_weights_for():
     """The learned oracle ships per arm; a request for another arm names the setting and the
     way out when it is made, before any planning."""
     from rearrangement_planner.planning import PlanRequest
-    from rearrangement_planner.planning.slice_rrt import SliceRRTOptions
+    from rearrangement_planner.planning.planners.slice_rrt import SliceRRTOptions
 
     scene = load_scene("default_xarm7")
     with pytest.raises(ValueError, match=r"oracle: no learned oracle for robot 'xarm7'.*"

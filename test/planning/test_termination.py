@@ -1,4 +1,4 @@
-"""The one termination condition of a search (`planning.termination`)."""
+"""The one termination condition of a search (`planning.machinery.termination`)."""
 
 from __future__ import annotations
 
@@ -6,8 +6,8 @@ import math
 import threading
 import time
 
-from rearrangement_planner.planning.interface import SUPERSEDED, Outcome, StopReason
-from rearrangement_planner.planning.termination import NEVER, Termination
+from rearrangement_planner.planning.machinery.interface import SUPERSEDED, Outcome, StopReason
+from rearrangement_planner.planning.machinery.termination import NEVER, Termination
 
 
 def test_the_cancel_comes_first_then_the_clock_then_the_iterations_then_the_gate():

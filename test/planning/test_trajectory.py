@@ -5,8 +5,8 @@ Project step like the planner's."""
 import numpy as np
 import pytest
 
-from rearrangement_planner.planning import manifold as mf
-from rearrangement_planner.planning.trajectory import (
+from rearrangement_planner.planning.machinery import manifold as mf
+from rearrangement_planner.planning.requests.trajectory import (
     TimingOptions,
     Trajectory,
     remove_duplicates,

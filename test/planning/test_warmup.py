@@ -10,7 +10,7 @@ import textwrap
 from pathlib import Path
 
 import rearrangement_planner
-from rearrangement_planner.planning import warmup
+from rearrangement_planner.planning.requests import warmup
 
 
 def test_the_core_is_warmed_up_once_before_the_first_plan():
@@ -59,10 +59,10 @@ def test_no_plan_compiles_anything_after_the_warm_up():
     script = textwrap.dedent("""
         import gc, json
         from numba.core.registry import CPUDispatcher
-        from rearrangement_planner.planning.warmup import warm_up
+        from rearrangement_planner.planning.requests.warmup import warm_up
         from rearrangement_planner.physics.validation import load_scene
         from rearrangement_planner.planning import PCRRTOptions, PlanRequest, plan_scene
-        from rearrangement_planner.planning.shortcut import ShortcutOptions
+        from rearrangement_planner.planning.requests.shortcut import ShortcutOptions
 
         def signatures():
             return {f"{d.py_func.__module__}.{d.py_func.__name__}": len(d.signatures)

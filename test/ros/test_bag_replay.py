@@ -32,7 +32,7 @@ from rearrangement_interfaces.action import PlanRearrangement  # noqa: E402
 from rearrangement_planner.model.state import wrap_angle  # noqa: E402
 from rearrangement_planner.physics.step import Physics  # noqa: E402
 from rearrangement_planner.physics.validation import parse_scene  # noqa: E402
-from rearrangement_planner.planning.propagation import replay  # noqa: E402
+from rearrangement_planner.planning.machinery.propagation import replay  # noqa: E402
 from rearrangement_planner.ros.sim.make_bags import BAGS as BAG_SPECS  # noqa: E402
 from rearrangement_planner.ros.sim.make_bags import write_bag  # noqa: E402
 from rearrangement_planner.ros.sim.replay import (  # noqa: E402

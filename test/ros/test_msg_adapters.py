@@ -32,8 +32,8 @@ from msg_adapters import (
     trajectory_to_msg,
 )
 from rearrangement_planner.model.errors import InputError
-from rearrangement_planner.planning.status import STATES, PlannerStatus
-from rearrangement_planner.planning.trajectory import Trajectory
+from rearrangement_planner.planning.requests.status import STATES, PlannerStatus
+from rearrangement_planner.planning.requests.trajectory import Trajectory
 
 CASES = 200
 FRAME = "panda_link0"

@@ -52,8 +52,8 @@ from rearrangement_planner.model.resources import NODE_NAME, config_dir  # noqa:
 from rearrangement_planner.model.state import State  # noqa: E402
 from rearrangement_planner.physics.step import Physics  # noqa: E402
 from rearrangement_planner.physics.validation import load_scene  # noqa: E402
-from rearrangement_planner.planning.propagation import replay  # noqa: E402
-from rearrangement_planner.planning.request import request_settings  # noqa: E402
+from rearrangement_planner.planning.machinery.propagation import replay  # noqa: E402
+from rearrangement_planner.planning.requests.request import request_settings  # noqa: E402
 from rearrangement_planner.ros import plan_request as plan_request_module  # noqa: E402
 from rearrangement_planner.ros.node import (  # noqa: E402
     EXECUTOR_THREADS,
@@ -677,7 +677,7 @@ def test_a_fragile_plan_is_said_to_be_fragile_and_not_executed_unless_asked(ros,
     from diagnostic_msgs.msg import DiagnosticStatus
     from mcap.reader import make_reader
 
-    from rearrangement_planner.planning import pipeline
+    from rearrangement_planner.planning.requests import pipeline
 
     monkeypatch.setattr(pipeline.Candidates, "judge", lambda self, candidate, seed: 0.25)
     client = ros["client"]
@@ -978,7 +978,7 @@ def test_action_error_codes(ros, goal, code, words):
 def test_action_answers_fragile_and_internal(ros, monkeypatch):
     """FRAGILE_PLAN: a plan below min_robustness comes back with its trajectory, not executed;
     INTERNAL: a defect is an error code, and the node keeps serving."""
-    from rearrangement_planner.planning import pipeline
+    from rearrangement_planner.planning.requests import pipeline
 
     client = ros["client"]
     client.wait_inputs_flowing()

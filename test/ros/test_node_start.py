@@ -57,7 +57,10 @@ def test_ctrl_c_while_a_goal_plans_is_quiet(tmp_path):
     node = subprocess.Popen([sys.executable, "-m", "rearrangement_planner.ros.node",
                              "--ros-args", "-p", "scene:=easy_push", "-p", "state_timeout:=5.0",
                              "-p", "record:=false"],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env,
+                            # Ctrl-C in a terminal: a suite run as a shell's background job
+                            # starts with SIGINT ignored, and a child would inherit that
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     context = Context()
     rclpy.init(context=context, domain_id=domain)
     client = Node("ctrl_c_client", context=context)

@@ -13,7 +13,7 @@ from rearrangement_planner.model.settings import SettingSpec
 from rearrangement_planner.physics.options import PhysicsOptions
 from rearrangement_planner.physics.validation import load_scene
 from rearrangement_planner.planning import PLANNERS, DARRTOptions, PCRRTOptions, PlannerOptions
-from rearrangement_planner.planning.request import STAGES, PlanRequest, request_settings
+from rearrangement_planner.planning.requests.request import STAGES, PlanRequest, request_settings
 from rearrangement_planner.ros.parameters import DEFAULTS, PARAMETERS
 from rearrangement_planner.ros.plan_request import node_request
 from rearrangement_planner.tools.cli import build_parser, plan_request

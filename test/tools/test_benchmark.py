@@ -17,7 +17,7 @@ import pytest
 from rearrangement_planner.physics.options import simulation_options
 from rearrangement_planner.physics.step import Physics
 from rearrangement_planner.physics.validation import load_scene
-from rearrangement_planner.planning.registry import PLANNERS
+from rearrangement_planner.planning.requests.registry import PLANNERS
 from rearrangement_planner.tools import bench, benchmark
 from rearrangement_planner.tools.benchmark import CSV_COLUMNS
 
@@ -69,7 +69,7 @@ def test_goal_region_and_goal_object_are_the_same_everywhere_and_its_start_rando
 
 def test_objects_are_varied_in_reach_on_the_table_and_apart(scene_set, panda):
     from rearrangement_planner.physics.collision import CollisionWorld
-    from rearrangement_planner.planning.manifold import ik_on_manifold
+    from rearrangement_planner.planning.machinery.manifold import ik_on_manifold
 
     shapes, masses = set(), set()
     for name, scene in scene_set.items():

@@ -6,7 +6,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from rearrangement_planner.planning import learned_oracle as lo
+from rearrangement_planner.planning.planners import learned_oracle as lo
 from rearrangement_planner.tools import push_data, train
 
 

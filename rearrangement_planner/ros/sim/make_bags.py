@@ -51,7 +51,7 @@ import yaml
 from rearrangement_planner.io.recording import McapRecorder
 from rearrangement_planner.model.scene import Scene
 from rearrangement_planner.physics.validation import load_scene, parse_scene
-from rearrangement_planner.planning.interface import PlannerOptions
+from rearrangement_planner.planning.machinery.interface import PlannerOptions
 
 EPOCH_NS = 1_700_000_000 * 1_000_000_000
 """Log time of the first message of every bag (2023-11-14 22:13:20 UTC)."""

@@ -15,7 +15,11 @@ import numpy as np
 
 from rearrangement_planner.model.state import State
 from rearrangement_planner.physics.step import Physics
-from rearrangement_planner.planning.manifold import ik_on_manifold, on_manifold, tool_planar_pose
+from rearrangement_planner.planning.machinery.manifold import (
+    ik_on_manifold,
+    on_manifold,
+    tool_planar_pose,
+)
 
 APPROACH_STEP = 0.02   # rad, largest joint change between two approach waypoints
 

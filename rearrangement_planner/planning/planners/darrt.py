@@ -31,17 +31,21 @@ from rearrangement_planner.model.scene import Scene
 from rearrangement_planner.model.settings import setting
 from rearrangement_planner.model.state import State
 from rearrangement_planner.physics.step import Physics
-from rearrangement_planner.planning.interface import (
+from rearrangement_planner.planning.machinery.interface import (
     Outcome,
     PlannerOptions,
     PlanResult,
     ProgressCallback,
 )
-from rearrangement_planner.planning.manifold import ik_on_manifold, project_step, tool_planar_pose
-from rearrangement_planner.planning.push_policy import support_distance
-from rearrangement_planner.planning.search import Search
-from rearrangement_planner.planning.termination import Termination
-from rearrangement_planner.planning.tree import Tree
+from rearrangement_planner.planning.machinery.manifold import (
+    ik_on_manifold,
+    project_step,
+    tool_planar_pose,
+)
+from rearrangement_planner.planning.machinery.push_policy import support_distance
+from rearrangement_planner.planning.machinery.search import Search
+from rearrangement_planner.planning.machinery.termination import Termination
+from rearrangement_planner.planning.machinery.tree import Tree
 
 TRANSIT_STEP = 0.02      # rad, joint-space resolution of transit motions (collision checks)
 PUSH_STEP = 0.01         # m, tool travel per push step

@@ -2,7 +2,7 @@
 shortcut asks (after OMPL's `base::PlannerTerminationCondition`).
 
 A `Termination` composes a deadline (`time.monotonic()`), a cancel flag, an iteration bound and
-a race's gate (`planning.parallel`: may this tree still win?). The pipeline builds one per
+a race's gate (`planning.requests.parallel`: may this tree still win?). The pipeline builds one per
 request from its time limit and the user's cancel, and hands parts of it on: `split` gives a
 sub-budget that ends no later than its parent (a candidate of robust selection, a transit of
 DARRT), `extended` one that runs a given time past it (shortcutting after a search). Every
@@ -21,7 +21,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Protocol
 
-from rearrangement_planner.planning.outcome import SUPERSEDED, Outcome, StopReason
+from rearrangement_planner.planning.machinery.outcome import SUPERSEDED, Outcome, StopReason
 
 
 class CancelFlag(Protocol):

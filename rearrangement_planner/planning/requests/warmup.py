@@ -40,21 +40,21 @@ def _exercise() -> None:
     from rearrangement_planner.physics.collision import prism_penetration
     from rearrangement_planner.physics.step import Physics
     from rearrangement_planner.physics.validation import load_scene
-    from rearrangement_planner.planning.manifold import (
+    from rearrangement_planner.planning.machinery.manifold import (
         default_push_configuration,
         joint_limit_gradient,
         manifold_error,
         project_step,
     )
-    from rearrangement_planner.planning.propagation import (
+    from rearrangement_planner.planning.machinery.propagation import (
         Action,
         Stops,
         constrained_prop,
         replay,
     )
-    from rearrangement_planner.planning.push_policy import push_policy_prop
-    from rearrangement_planner.planning.robustness import rollout, rollout_options
-    from rearrangement_planner.planning.tree import Tree
+    from rearrangement_planner.planning.machinery.push_policy import push_policy_prop
+    from rearrangement_planner.planning.machinery.tree import Tree
+    from rearrangement_planner.planning.requests.robustness import rollout, rollout_options
 
     scene = load_scene("easy_push")
     physics = Physics(scene)

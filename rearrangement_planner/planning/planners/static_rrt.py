@@ -12,8 +12,8 @@ import numpy as np
 
 from rearrangement_planner.model.scene import Scene
 from rearrangement_planner.physics.step import Physics
-from rearrangement_planner.planning.interface import PlannerOptions
-from rearrangement_planner.planning.pcrrt import PCRRT
+from rearrangement_planner.planning.machinery.interface import PlannerOptions
+from rearrangement_planner.planning.planners.pcrrt import PCRRT
 
 
 def static_physics(scene: Scene, physics: Physics | None = None) -> Physics:

@@ -25,7 +25,7 @@ import numpy as np
 from rearrangement_planner.model.scene import MovableObject
 from rearrangement_planner.model.state import State
 from rearrangement_planner.physics.step import Physics
-from rearrangement_planner.planning.propagation import (
+from rearrangement_planner.planning.machinery.propagation import (
     Propagation,
     PushTarget,
     Stops,

@@ -43,14 +43,14 @@ from rearrangement_planner.model.settings import Settings, setting
 from rearrangement_planner.model.state import State
 from rearrangement_planner.physics.options import PhysicsOptions
 from rearrangement_planner.physics.step import Physics
-from rearrangement_planner.planning.interface import (
+from rearrangement_planner.planning.machinery.interface import (
     Outcome,
     PlannerOptions,
     PlanResult,
     ProgressCallback,
 )
-from rearrangement_planner.planning.registry import PlannerSpec
-from rearrangement_planner.planning.termination import Termination
+from rearrangement_planner.planning.machinery.termination import Termination
+from rearrangement_planner.planning.requests.registry import PlannerSpec
 
 
 @dataclass(frozen=True)
@@ -140,7 +140,7 @@ def _exit_with_parent(parent: int) -> None:
 def _serve(conn, best, cancel) -> None:
     """A worker process: plan one tree per task until the pipe closes. It loads the compiled
     core first (`warm_up`), while the first task is on its way."""
-    from rearrangement_planner.planning.warmup import warm_up
+    from rearrangement_planner.planning.requests.warmup import warm_up
 
     threading.Thread(target=_exit_with_parent, args=(os.getppid(),), daemon=True,
                      name="parent-watch").start()

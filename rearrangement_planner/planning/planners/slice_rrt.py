@@ -44,8 +44,8 @@ from rearrangement_planner.model.scene import Scene
 from rearrangement_planner.model.settings import setting
 from rearrangement_planner.model.state import State, wrap_angle
 from rearrangement_planner.physics.step import Physics
-from rearrangement_planner.planning.approach import approach_path
-from rearrangement_planner.planning.interface import (
+from rearrangement_planner.planning.machinery.approach import approach_path
+from rearrangement_planner.planning.machinery.interface import (
     Outcome,
     PlannerOptions,
     PlanResult,
@@ -53,14 +53,19 @@ from rearrangement_planner.planning.interface import (
     PushingPlannerOptions,
     StopReason,
 )
-from rearrangement_planner.planning.learned_oracle import LearnedOracle, shipped_models
-from rearrangement_planner.planning.manifold import tool_planar_pose
-from rearrangement_planner.planning.pcrrt import sample_arrangement
-from rearrangement_planner.planning.propagation import Action, Propagation, Stops, constrained_prop
-from rearrangement_planner.planning.push_policy import support_distance
-from rearrangement_planner.planning.search import Search
-from rearrangement_planner.planning.termination import Termination
-from rearrangement_planner.planning.tree import Tree
+from rearrangement_planner.planning.machinery.manifold import tool_planar_pose
+from rearrangement_planner.planning.machinery.propagation import (
+    Action,
+    Propagation,
+    Stops,
+    constrained_prop,
+)
+from rearrangement_planner.planning.machinery.push_policy import support_distance
+from rearrangement_planner.planning.machinery.search import Search
+from rearrangement_planner.planning.machinery.termination import Termination
+from rearrangement_planner.planning.machinery.tree import Tree
+from rearrangement_planner.planning.planners.learned_oracle import LearnedOracle, shipped_models
+from rearrangement_planner.planning.planners.pcrrt import sample_arrangement
 
 MAX_YAW_RATE = 0.5
 """rad/s: the largest tool yaw rate of a transit or a random control."""
@@ -151,7 +156,7 @@ def _unit(v: np.ndarray) -> np.ndarray | None:
 def check_oracle(scene: Scene, options: PlannerOptions) -> None:
     """ValueError when the learned oracle is asked for and has no weights for the scene's arm
     (`PlannerSpec.check`)."""
-    from rearrangement_planner.planning.learned_oracle import model_path
+    from rearrangement_planner.planning.planners.learned_oracle import model_path
 
     if SliceRRTOptions.adopt(options).oracle != "learned":
         return

@@ -4,8 +4,9 @@ codes and the reasons a propagation stops (one planner interface, like OMPL's
 
 A planner is built from the models and its options, `Planner(scene, options, physics)`, and
 answers `plan(start, seed, stop, progress) -> PlanResult`, `stop` the one condition that ends
-it (`planning.termination.Termination`: deadline, cancel, iteration bound, a race's gate). The
-registry (`planning.registry`) maps names to planners; nothing else branches on a planner's
+it (`planning.machinery.termination.Termination`: deadline, cancel, iteration bound, a race's
+gate). The
+registry (`planning.requests.registry`) maps names to planners; nothing else branches on a planner's
 name.
 """
 
@@ -23,8 +24,12 @@ from rearrangement_planner.model.scene import Scene
 from rearrangement_planner.model.settings import Settings, setting
 from rearrangement_planner.model.state import State
 from rearrangement_planner.physics.step import Physics
-from rearrangement_planner.planning.outcome import SUPERSEDED, Outcome, StopReason
-from rearrangement_planner.planning.termination import CancelFlag, IterationGate, Termination
+from rearrangement_planner.planning.machinery.outcome import SUPERSEDED, Outcome, StopReason
+from rearrangement_planner.planning.machinery.termination import (
+    CancelFlag,
+    IterationGate,
+    Termination,
+)
 
 __all__ = ["SUPERSEDED", "CancelFlag", "IterationGate", "Outcome", "StopReason", "Termination"]
 

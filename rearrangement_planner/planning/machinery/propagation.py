@@ -34,9 +34,9 @@ from numba import njit
 from rearrangement_planner.model.state import State
 from rearrangement_planner.physics.kernels import tool_kinematics
 from rearrangement_planner.physics.step import Invalid, Physics, step_kernel
-from rearrangement_planner.planning.interface import StopReason
-from rearrangement_planner.planning.manifold import project_arrays, project_kernel
-from rearrangement_planner.planning.termination import NEVER, Termination
+from rearrangement_planner.planning.machinery.interface import StopReason
+from rearrangement_planner.planning.machinery.manifold import project_arrays, project_kernel
+from rearrangement_planner.planning.machinery.termination import NEVER, Termination
 
 _GOAL, _ARRIVED, _CHECK_EVERY = 1, 2, 64
 PUSH_BAND = 0.02

@@ -18,11 +18,15 @@ from rearrangement_planner.model.scene import Scene
 from rearrangement_planner.model.settings import SettingError, Settings, SettingSpec
 from rearrangement_planner.physics.options import PhysicsOptions
 from rearrangement_planner.physics.step import Physics
-from rearrangement_planner.planning.darrt import DARRT, DARRTOptions
-from rearrangement_planner.planning.interface import Planner, PlannerOptions
-from rearrangement_planner.planning.pcrrt import PCRRT, PCRRTOptions
-from rearrangement_planner.planning.slice_rrt import SliceRRT, SliceRRTOptions, check_oracle
-from rearrangement_planner.planning.static_rrt import StaticRRT, static_physics
+from rearrangement_planner.planning.machinery.interface import Planner, PlannerOptions
+from rearrangement_planner.planning.planners.darrt import DARRT, DARRTOptions
+from rearrangement_planner.planning.planners.pcrrt import PCRRT, PCRRTOptions
+from rearrangement_planner.planning.planners.slice_rrt import (
+    SliceRRT,
+    SliceRRTOptions,
+    check_oracle,
+)
+from rearrangement_planner.planning.planners.static_rrt import StaticRRT, static_physics
 
 
 def _own_physics(scene: Scene, physics: Physics | None) -> Physics:

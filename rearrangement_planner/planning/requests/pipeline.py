@@ -21,22 +21,26 @@ import numpy as np
 from rearrangement_planner.model.scene import Scene
 from rearrangement_planner.model.state import State
 from rearrangement_planner.physics.step import Physics
-from rearrangement_planner.planning.interface import (
+from rearrangement_planner.planning.machinery.interface import (
     Outcome,
     PlanResult,
     ProgressCallback,
 )
-from rearrangement_planner.planning.parallel import plan_race, tree_seed
-from rearrangement_planner.planning.request import PlanRequest
-from rearrangement_planner.planning.robustness import candidate_rank, goal_travel, robustness
-from rearrangement_planner.planning.shortcut import shortcut
-from rearrangement_planner.planning.termination import Termination
-from rearrangement_planner.planning.trajectory import (
+from rearrangement_planner.planning.machinery.termination import Termination
+from rearrangement_planner.planning.requests.parallel import plan_race, tree_seed
+from rearrangement_planner.planning.requests.request import PlanRequest
+from rearrangement_planner.planning.requests.robustness import (
+    candidate_rank,
+    goal_travel,
+    robustness,
+)
+from rearrangement_planner.planning.requests.shortcut import shortcut
+from rearrangement_planner.planning.requests.trajectory import (
     DUPLICATE_TOLERANCE,
     Trajectory,
     time_parameterize,
 )
-from rearrangement_planner.planning.warmup import warm_up
+from rearrangement_planner.planning.requests.warmup import warm_up
 
 CANDIDATE_SEED_OFFSET = 1000
 """Candidate k > 0 of a robust search plans with `tree_seed(seed, CANDIDATE_SEED_OFFSET + k)`

@@ -31,7 +31,7 @@ import numpy as np
 
 from rearrangement_planner.model.resources import config_dir
 from rearrangement_planner.model.scene import MovableObject, Scene
-from rearrangement_planner.planning.propagation import Action
+from rearrangement_planner.planning.machinery.propagation import Action
 
 PROPERTY_NAMES = ("cylinder", "size_x", "size_y", "size_z", "mass", "support_friction",
                   "pusher_friction")

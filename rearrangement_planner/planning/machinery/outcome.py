@@ -5,7 +5,7 @@ from __future__ import annotations
 from enum import Enum
 
 SUPERSEDED = "superseded: another tree of the race found a plan in fewer iterations"
-"""The message of a tree that a race (`planning.parallel`) stopped because another won."""
+"""The message of a tree that a race (`planning.requests.parallel`) stopped because another won."""
 
 
 class Outcome(str, Enum):

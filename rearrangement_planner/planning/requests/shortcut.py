@@ -24,9 +24,13 @@ import numpy as np
 from rearrangement_planner.model.settings import Settings, setting
 from rearrangement_planner.model.state import State, wrap_angle
 from rearrangement_planner.physics.step import Physics
-from rearrangement_planner.planning.manifold import on_manifold, project_step, tool_planar_pose
-from rearrangement_planner.planning.propagation import Stops, replay
-from rearrangement_planner.planning.termination import Termination
+from rearrangement_planner.planning.machinery.manifold import (
+    on_manifold,
+    project_step,
+    tool_planar_pose,
+)
+from rearrangement_planner.planning.machinery.propagation import Stops, replay
+from rearrangement_planner.planning.machinery.termination import Termination
 
 LANDING_STEP = 0.05     # rad, largest joint step allowed to land exactly on q_j
 STEP_LENGTH = 0.01      # m, tool travel per connection step

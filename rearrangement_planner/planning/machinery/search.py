@@ -1,5 +1,5 @@
 """The bookkeeping of one `plan()` call that every planner shares: the seeded generator, the
-termination condition (`planning.termination`), progress reports, the counters, and the
+termination condition (`planning.machinery.termination`), progress reports, the counters, and the
 results it ends with (Algorithm 1 of King et al. stops "on success, time limit, iteration limit
 or cancel, checked every iteration", docs/design.md "Planners")."""
 
@@ -13,15 +13,15 @@ import numpy as np
 
 from rearrangement_planner.model.state import State
 from rearrangement_planner.physics.step import Physics
-from rearrangement_planner.planning.interface import (
+from rearrangement_planner.planning.machinery.interface import (
     Outcome,
     PlannerOptions,
     PlanResult,
     Progress,
     ProgressCallback,
 )
-from rearrangement_planner.planning.termination import Termination
-from rearrangement_planner.planning.tree import Tree
+from rearrangement_planner.planning.machinery.termination import Termination
+from rearrangement_planner.planning.machinery.tree import Tree
 
 
 class Search:

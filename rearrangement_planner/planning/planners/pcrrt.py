@@ -34,8 +34,8 @@ from rearrangement_planner.model.settings import SettingError, setting
 from rearrangement_planner.model.state import State
 from rearrangement_planner.physics.collision import CollisionWorld
 from rearrangement_planner.physics.step import Physics
-from rearrangement_planner.planning.approach import approach_path
-from rearrangement_planner.planning.interface import (
+from rearrangement_planner.planning.machinery.approach import approach_path
+from rearrangement_planner.planning.machinery.interface import (
     Outcome,
     PlannerOptions,
     PlanResult,
@@ -43,16 +43,16 @@ from rearrangement_planner.planning.interface import (
     PushingPlannerOptions,
     StopReason,
 )
-from rearrangement_planner.planning.propagation import (
+from rearrangement_planner.planning.machinery.propagation import (
     Action,
     Propagation,
     Stops,
     constrained_prop,
 )
-from rearrangement_planner.planning.push_policy import PushPolicy
-from rearrangement_planner.planning.search import Search
-from rearrangement_planner.planning.termination import Termination
-from rearrangement_planner.planning.tree import Tree
+from rearrangement_planner.planning.machinery.push_policy import PushPolicy
+from rearrangement_planner.planning.machinery.search import Search
+from rearrangement_planner.planning.machinery.termination import Termination
+from rearrangement_planner.planning.machinery.tree import Tree
 
 
 @dataclass(frozen=True)

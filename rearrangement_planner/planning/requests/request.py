@@ -24,17 +24,17 @@ from rearrangement_planner.model.scene import Scene
 from rearrangement_planner.model.settings import SettingError, Settings, SettingSpec
 from rearrangement_planner.model.state import State
 from rearrangement_planner.physics.options import PhysicsOptions
-from rearrangement_planner.planning.interface import PlannerOptions
-from rearrangement_planner.planning.parallel import RaceOptions
-from rearrangement_planner.planning.registry import (
+from rearrangement_planner.planning.machinery.interface import PlannerOptions
+from rearrangement_planner.planning.requests.parallel import RaceOptions
+from rearrangement_planner.planning.requests.registry import (
     PLANNERS,
     PlannerSpec,
     planner_settings,
     planner_spec,
 )
-from rearrangement_planner.planning.robustness import FIRST_PLAN, RobustOptions
-from rearrangement_planner.planning.shortcut import NO_SHORTCUT, ShortcutOptions
-from rearrangement_planner.planning.trajectory import TimingOptions
+from rearrangement_planner.planning.requests.robustness import FIRST_PLAN, RobustOptions
+from rearrangement_planner.planning.requests.shortcut import NO_SHORTCUT, ShortcutOptions
+from rearrangement_planner.planning.requests.trajectory import TimingOptions
 
 DEFAULT_PLANNER = "pc-rrt"
 
