@@ -1,0 +1,41 @@
+"""The search tree's Nearest (`planning.machinery.tree`)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from rearrangement_planner.model.state import State
+from rearrangement_planner.planning.machinery.tree import Tree
+
+
+def _brute_force(tree: Tree, arm, objects, arm_weight, weights) -> int:
+    best, best_node = math.inf, 0
+    for i in range(tree.n):
+        total = arm_weight * math.sqrt(float(np.sum((tree.arm[i] - arm) ** 2))) + sum(
+            weights[j] * math.hypot(*(tree.objects[i, j, :2] - objects[j, :2]))
+            for j in range(len(weights)))
+        if total < best:
+            best, best_node = total, i
+    return best_node
+
+
+def test_nearest_is_the_node_of_least_weighted_distance_ties_to_the_first():
+    """The compiled scan against the metric written out (King et al. 2015, §III-D), over
+    random trees with a repeated node for a tie (the first wins)."""
+    rng = np.random.default_rng(0)
+    for trial in range(20):
+        m = 1 + trial % 4
+        root = State(rng.uniform(-1, 1, 7), rng.uniform(0, 1, (m, 3)))
+        tree = Tree(root, rng.uniform(0, 1, 2), capacity=8)
+        for _ in range(300):
+            objects = rng.uniform(0, 1, (m, 3))
+            tree.add(State(rng.uniform(-1, 1, 7), objects), rng.uniform(0, 1, 2), 0, ())
+        tree.add(tree.state(17), tree.arm[17].copy(), 0, ())          # a tie with node 17
+        weights = rng.uniform(0.5, 5.0, m)
+        for _ in range(20):
+            arm, objects = rng.uniform(0, 1, 2), rng.uniform(0, 1, (m, 3))
+            expected = _brute_force(tree, arm, objects, 0.3, weights)
+            assert tree.nearest(arm, objects, 0.3, weights) == expected
+        assert tree.nearest(tree.arm[17], tree.objects[17], 0.3, weights) == 17
