@@ -58,10 +58,13 @@ import time
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from rearrangement_planner.model.errors import RearrangementError
 from rearrangement_planner.model.resources import default_robot, scenes_dir
 from rearrangement_planner.model.scene import Scene
 from rearrangement_planner.model.settings import parse_assignments
+from rearrangement_planner.model.state import State
 from rearrangement_planner.physics.options import simulation_options
 from rearrangement_planner.physics.step import Physics
 from rearrangement_planner.physics.validation import load_scene, parse_scene
@@ -80,7 +83,9 @@ wrist sweep at object height, rotates about joint 1 through 1 and through 7 obje
 its path, again and again. It prints a JSON record: physics steps per second (one
 `Physics.step` call moving joint 1 by `STEP_RAD`), substeps per second, the share of the time
 spent in contact and collision queries, and how many steps moved an object (so that the figure
-is measured in contact, not in free space).
+is measured in contact, not in free space); and `compiled_steps_per_second`, the same sweeps
+stepped in one compiled call each (`propagation.replay`), as the planner's propagation, its
+replays and the robustness rollouts step: the kernel without a Python call per step.
 """
 
 # Joint configuration with the forearm sloping down to 7 cm and the wrist at object height.
@@ -135,11 +140,27 @@ def measure_physics(scene: Scene, seconds: float) -> dict:
         "objects": len(scene.objects),
         "steps": steps,
         "steps_per_second": round(steps / elapsed, 1),
+        "compiled_steps_per_second": round(compiled_rate(physics, start_state, seconds), 1),
         "substeps_per_second": round(substeps / elapsed, 1),
         "steps_pushing_share": round(pushing_steps / steps, 3),
         "invalid_steps": invalid,
         "pushing_links": sorted(links),
     }
+
+
+def compiled_rate(physics: Physics, start: State, seconds: float) -> float:
+    """Steps per second of the benchmark's sweep stepped in one compiled call per sweep
+    (`propagation.replay`, up to the first invalid step, as `measure_physics` stops)."""
+    from rearrangement_planner.planning.machinery.propagation import replay
+
+    sweep = np.array([start.q + np.eye(len(start.q))[0] * STEP_RAD * k
+                      for k in range(SWEEP_STEPS + 1)])
+    steps = 0
+    t0 = time.perf_counter()
+    while time.perf_counter() - t0 < seconds:
+        states, _ = replay(physics, start, sweep)
+        steps += max(len(states) - 1, 1)
+    return steps / (time.perf_counter() - t0)
 
 
 def physics_benchmark(seconds: float) -> dict:

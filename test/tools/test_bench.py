@@ -17,6 +17,7 @@ def test_physics_benchmark_writes_a_complete_record(tmp_path, capsys):
     assert record["warm_up_s"] >= 0.0      # compiled before the clock, reported apart
     for result in (one, seven):
         assert result["steps"] > 0 and result["steps_per_second"] > 0
+        assert result["compiled_steps_per_second"] > 0
         # the sweep really pushes, and not with the hand alone
         assert result["steps_pushing_share"] > 0.5
         assert "panda_link5" in result["pushing_links"]
