@@ -21,7 +21,12 @@ from rearrangement_planner.planning.machinery.manifold import (
     default_push_configuration,
     project_step,
 )
-from rearrangement_planner.planning.machinery.propagation import Action, Stops, constrained_prop
+from rearrangement_planner.planning.machinery.propagation import (
+    Action,
+    Propagation,
+    Stops,
+    constrained_prop,
+)
 from rearrangement_planner.planning.machinery.termination import Termination
 
 SIM = simulation_options()
@@ -112,7 +117,14 @@ def test_the_compiled_propagation_takes_the_same_steps_as_python():
             stops = stop if k % 2 else None
             result = constrained_prop(physics, start, action, 0.05, stops)
             states, stopped, links = _one_by_one(physics, start, action, 0.05, stops)
-            assert len(result.states) == len(states)
+            assert len(result.states) == len(states) == result.count
+            if states:      # the end without building the states, and the arrays read-only
+                np.testing.assert_array_equal(result.end.q, states[-1].q)
+                np.testing.assert_array_equal(result.end.objects, states[-1].objects)
+                assert not result.arm.flags.writeable and not result.objects.flags.writeable
+                again = Propagation.of_states(states, result.duration, None, frozenset())
+                np.testing.assert_array_equal(again.objects, result.objects)
+                np.testing.assert_array_equal(result.prefix(1, 0.05).arm, result.arm[:1])
             for got, want in zip(result.states, states, strict=True):
                 np.testing.assert_array_equal(got.q, want.q)
                 np.testing.assert_array_equal(got.objects, want.objects)

@@ -167,9 +167,9 @@ def test_a_push_is_judged_where_it_ends(panda):
         return State(root.q, objects)
 
     goal = np.asarray(scene.goal.position)
-    through = Propagation((at(goal), at(goal + [0.3, 0.0])), 0.2, None, frozenset())
+    through = Propagation.of_states((at(goal), at(goal + [0.3, 0.0])), 0.2, None, frozenset())
     assert run.extend(0, through, goal_at_end=True) is None
-    into = Propagation((at(goal + [0.3, 0.0]), at(goal)), 0.2, None, frozenset())
+    into = Propagation.of_states((at(goal + [0.3, 0.0]), at(goal)), 0.2, None, frozenset())
     result = run.extend(0, into, goal_at_end=True)
     assert result is not None and result.solved
 

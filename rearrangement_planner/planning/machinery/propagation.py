@@ -27,6 +27,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 from numba import njit
@@ -83,14 +84,45 @@ class Action:
     nullspace: np.ndarray   # (nq,) rad/s, projected into the task nullspace by Project
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class Propagation:
-    """The valid prefix of one action: `states[i]` after step i+1 (the start is not included)."""
+    """The valid prefix of one action: step i+1 brought the arm to `arm[i]` and the objects to
+    `objects[i]` (the start is not included). Kept as two arrays, not a State per step: most
+    propagations are never chosen, and a tree of a long search holds a million steps, which as
+    objects took a quarter of a second to free when the search ended (past its deadline)."""
 
-    states: tuple[State, ...]
+    arm: np.ndarray                 # (steps, nq), read-only
+    objects: np.ndarray             # (steps, objects, 3), read-only
     duration: float                 # s actually applied (a multiple of dt)
     stopped: Invalid | StopReason | None   # why it stopped early, None if it did not
     pushing_links: frozenset[str]
+
+    @classmethod
+    def of_states(cls, states: Sequence[State], duration: float,
+                  stopped: Invalid | StopReason | None,
+                  pushing_links: frozenset[str]) -> Propagation:
+        arm = np.array([s.q for s in states], dtype=float).reshape(len(states), -1)
+        objects = np.array([s.objects for s in states], dtype=float)
+        return cls(arm, objects, duration, stopped, pushing_links)
+
+    @property
+    def count(self) -> int:
+        """Steps in the prefix."""
+        return len(self.arm)
+
+    @property
+    def end(self) -> State:
+        """The state after the last step (there must be one)."""
+        return State.trusted(self.arm[-1], self.objects[-1])
+
+    @cached_property
+    def states(self) -> tuple[State, ...]:
+        """The state after every step."""
+        return tuple(State.trusted(self.arm[i], self.objects[i]) for i in range(self.count))
+
+    def prefix(self, k: int, duration: float) -> Propagation:
+        """The first k steps (`duration` s), stopped for no reason of their own."""
+        return Propagation(self.arm[:k], self.objects[:k], duration, None, frozenset())
 
 
 def constrained_prop(physics: Physics, state: State, action: Action, dt: float,
@@ -154,8 +186,10 @@ def propagate(physics: Physics, state: State, steps: int, dt: float, nullspace: 
             break
         if stop is not None:
             stopped = stop.interrupted() or stopped
-    states = tuple(State.trusted(arm[i], objects[i]) for i in range(done))
-    return Propagation(states, done * dt, stopped, physics.pushing_links(flags))
+    arm, objects = arm[:done], objects[:done]
+    arm.setflags(write=False)
+    objects.setflags(write=False)
+    return Propagation(arm, objects, done * dt, stopped, physics.pushing_links(flags))
 
 
 FACING_YAW_RATE = 1.0

@@ -10,13 +10,15 @@ import numpy as np
 from numba import njit
 
 from rearrangement_planner.model.state import State
+from rearrangement_planner.planning.machinery.propagation import Propagation
 
 
 class Tree:
     """Nodes of an RRT over full states x = (q, o^1 ... o^M).
 
     `arm[i]` is what the metric compares of node i's arm (its joint vector, or its tool
-    position); `segments[i]` the states of the edge from `parent[i]` to node i, ending at it."""
+    position); `segments[i]` the edge from `parent[i]` to node i, ending at it: its states, or
+    the propagation that made it (its states are built only for the plan's path)."""
 
     def __init__(self, root: State, root_arm: np.ndarray, capacity: int = 1024):
         self.n = 0
@@ -24,10 +26,11 @@ class Tree:
         self.arm = np.empty((capacity, root_arm.size))
         self.objects = np.empty((capacity, *root.objects.shape))
         self.parent: list[int] = []
-        self.segments: list[tuple[State, ...]] = []
+        self.segments: list[tuple[State, ...] | Propagation] = []
         self.add(root, root_arm, -1, ())
 
-    def add(self, state: State, arm: np.ndarray, parent: int, segment: tuple[State, ...]) -> int:
+    def add(self, state: State, arm: np.ndarray, parent: int,
+            segment: tuple[State, ...] | Propagation) -> int:
         """Add a node reached from `parent` along `segment`; returns its index."""
         if self.n == len(self.arm):
             self.q = np.concatenate([self.q, np.empty_like(self.q)])
@@ -63,7 +66,7 @@ class Tree:
             node = self.parent[node]
         states = [root]
         for piece in reversed(pieces):
-            states.extend(piece)
+            states.extend(piece.states if isinstance(piece, Propagation) else piece)
         return states
 
 

@@ -168,10 +168,10 @@ class PCRRT:
             else:
                 result = constrained_prop(self.physics, x_near, self._sample_action(rng),
                                           opts.dt, run.stop)
-            run.steps += len(result.states)
-            if not result.states:
+            run.steps += result.count
+            if not result.count:
                 continue
-            end = result.states[-1]
+            end = result.end
             cost = -math.inf if result.stopped is StopReason.GOAL else self._distance(
                 self._arm_feature(end.q), end.objects, sample_arm, sample_objects)
             if cost < chosen_cost:
@@ -184,8 +184,8 @@ class PCRRT:
         """Add the chosen edge; from a new best goal distance, push the goal object on for the
         goal (`greedy_goal`) and add that edge too, as long as each brings a new best."""
         while True:
-            end = chosen.states[-1]
-            node = run.tree.add(end, self._arm_feature(end.q), parent, chosen.states)
+            end = chosen.end
+            node = run.tree.add(end, self._arm_feature(end.q), parent, chosen)
             if chosen.stopped is StopReason.GOAL:
                 return run.reached(node, self._goal_distance(end))
             distance = self._goal_distance(end)
@@ -195,8 +195,8 @@ class PCRRT:
                 return None
             run.best = distance
             chosen = run.policy.goal_push(end, run.rng, run.stop)
-            run.steps += len(chosen.states)
-            if not chosen.states:
+            run.steps += chosen.count
+            if not chosen.count:
                 return None
             parent = node
 

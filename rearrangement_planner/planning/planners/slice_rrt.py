@@ -230,9 +230,9 @@ class SliceRRT:
                                                      opts.dt, run.stop))
         transit = self._transit(x_a, pose, run.stop)
         found = run.extend(node, transit)
-        if found is not None or t is None or not transit.states:
+        if found is not None or t is None or not transit.count:
             return found
-        end = transit.states[-1]
+        end = transit.end
         tool = tool_planar_pose(self.robot, end.q)
         if (np.hypot(*(tool[:2] - pose[:2])) > ARRIVED[0]
                 or abs(float(wrap_angle(tool[2] - pose[2]))) > ARRIVED[1]):
@@ -264,9 +264,9 @@ class SliceRRT:
         result = constrained_prop(self.physics, x, Action(velocity, steps * opts.dt,
                                                           np.zeros(self.robot.nq)),
                                   opts.dt, stop)
-        for k, state in enumerate(result.states):
-            if not np.array_equal(state.objects, x.objects):
-                return Propagation(result.states[:k], k * opts.dt, None, frozenset())
+        for k in range(result.count):
+            if not np.array_equal(result.objects[k], x.objects):
+                return result.prefix(k, k * opts.dt)
         return result
 
     def _random(self, rng: np.random.Generator) -> Action:
@@ -346,11 +346,11 @@ class _SliceRun(Search):
         """Add the end of `result` (its states the edge) as a node; the plan when it is in the
         goal region: stopped there (GOAL), or, with `goal_at_end`, ending there (unless the
         budget ran out or the plan was cancelled)."""
-        self.steps += len(result.states)
-        if not result.states:
+        self.steps += result.count
+        if not result.count:
             return None
-        end = result.states[-1]
-        node = self.tree.add(end, self._tool_xy(end.q), parent, result.states)
+        end = result.end
+        node = self.tree.add(end, self._tool_xy(end.q), parent, result)
         self._join(node, end.objects)
         distance = float(np.hypot(*(end.objects[self.planner.scene.goal_index, :2]
                                     - self.planner._goal_xy)))
