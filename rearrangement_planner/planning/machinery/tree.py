@@ -17,30 +17,48 @@ class Tree:
     """Nodes of an RRT over full states x = (q, o^1 ... o^M).
 
     `arm[i]` is what the metric compares of node i's arm (its joint vector, or its tool
-    position); `segments[i]` the edge from `parent[i]` to node i, ending at it: its states, or
-    the propagation that made it (its states are built only for the plan's path)."""
+    position). The edge from `parent[i]` to node i, ending at it, is kept as its steps in two
+    growing arrays shared by all edges (`path_to` builds States only for a plan's path): a long
+    search's million steps as objects took a quarter of a second to free when it ended, past
+    its deadline; as two arrays they take nothing."""
 
     def __init__(self, root: State, root_arm: np.ndarray, capacity: int = 1024):
         self.n = 0
         self.q = np.empty((capacity, root.q.size))
         self.arm = np.empty((capacity, root_arm.size))
         self.objects = np.empty((capacity, *root.objects.shape))
-        self.parent: list[int] = []
-        self.segments: list[tuple[State, ...] | Propagation] = []
+        self.parent = np.empty(capacity, dtype=np.int64)
+        self._spans = np.empty((capacity, 2), dtype=np.int64)     # node i's steps: [start, end)
+        self._step_q = np.empty((8 * capacity, root.q.size))
+        self._step_objects = np.empty((8 * capacity, *root.objects.shape))
+        self._steps = 0
         self.add(root, root_arm, -1, ())
 
     def add(self, state: State, arm: np.ndarray, parent: int,
             segment: tuple[State, ...] | Propagation) -> int:
-        """Add a node reached from `parent` along `segment`; returns its index."""
+        """Add a node reached from `parent` along `segment` (its states, or the propagation
+        that made it); returns its index."""
         if self.n == len(self.arm):
-            self.q = np.concatenate([self.q, np.empty_like(self.q)])
-            self.arm = np.concatenate([self.arm, np.empty_like(self.arm)])
-            self.objects = np.concatenate([self.objects, np.empty_like(self.objects)])
+            self.q, self.arm, self.objects, self.parent, self._spans = (
+                _doubled(a) for a in (self.q, self.arm, self.objects, self.parent, self._spans))
+        if isinstance(segment, Propagation):
+            seg_q, seg_objects = segment.arm, segment.objects
+        else:
+            seg_q = np.array([s.q for s in segment]).reshape(len(segment), self.q.shape[1])
+            seg_objects = np.array([s.objects for s in segment]).reshape(
+                len(segment), *self.objects.shape[1:])
+        count = len(seg_q)
+        while self._steps + count > len(self._step_q):
+            self._step_q, self._step_objects = _doubled(self._step_q), _doubled(
+                self._step_objects)
+        self._step_q[self._steps:self._steps + count] = seg_q
+        self._step_objects[self._steps:self._steps + count] = seg_objects
+        self._spans[self.n] = self._steps, self._steps + count
+        self._steps += count
         self.q[self.n] = state.q
         self.arm[self.n] = arm
         self.objects[self.n] = state.objects
-        self.parent.append(parent)
-        self.segments.append(segment)
+        self.parent[self.n] = parent
         self.n += 1
         return self.n - 1
 
@@ -62,12 +80,17 @@ class Tree:
         """Every state from the root to `node`, the root first."""
         pieces = []
         while node > 0:
-            pieces.append(self.segments[node])
-            node = self.parent[node]
+            pieces.append(self._spans[node])
+            node = int(self.parent[node])
         states = [root]
-        for piece in reversed(pieces):
-            states.extend(piece.states if isinstance(piece, Propagation) else piece)
+        for start, end in reversed(pieces):
+            states.extend(State.trusted(self._step_q[k].copy(), self._step_objects[k].copy())
+                          for k in range(start, end))
         return states
+
+
+def _doubled(a: np.ndarray) -> np.ndarray:
+    return np.concatenate([a, np.empty_like(a)])
 
 
 @njit(cache=True)
