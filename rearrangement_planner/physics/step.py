@@ -214,7 +214,10 @@ class Physics:
         # object (moved); value: the detail's number.
         info = np.zeros(4 + self._flags, dtype=np.int64)
         value = np.zeros(1)
-        code = step_kernel(state.q, q_next, state.objects, *self.arrays, out, info, value)
+        # Writable copies: the kernels are compiled for writable arrays only (a read-only
+        # argument, as a State holds, would compile the whole step a second time).
+        code = step_kernel(np.array(state.q), q_next, np.array(state.objects), *self.arrays,
+                           out, info, value)
         flags = info[4:]
         key = flags.tobytes()
         named = self._named.get(key)
@@ -252,8 +255,8 @@ class Physics:
         """Validity of a resting state, or None when valid."""
         info = np.zeros(4, dtype=np.int64)
         value = np.zeros(1)
-        q = np.ascontiguousarray(state.q, dtype=float)
-        code = check_state_kernel(q, np.ascontiguousarray(state.objects, dtype=float),
+        q = np.array(state.q, dtype=float)     # writable copies, as in `step`
+        code = check_state_kernel(q, np.array(state.objects, dtype=float),
                                   *self.arrays, info, value)
         if code == _VALID:
             return None

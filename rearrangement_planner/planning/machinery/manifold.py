@@ -231,7 +231,8 @@ def joint_limit_gradient(robot: RobotModel, q: np.ndarray, gain: float) -> np.nd
     joint nearest its limit dominates and mid-range joints are left alone (with the square, a
     joint can sit on its limit while the others pull the self-motion the other way). `gain` is
     the speed at which a joint at its limit is pulled back."""
-    return _limit_gradient(np.array(q, dtype=float), robot.lower, robot.upper, float(gain))
+    return _limit_gradient(np.array(q, dtype=float), np.array(robot.lower),
+                           np.array(robot.upper), float(gain))
 
 
 @njit(cache=True)
@@ -344,7 +345,7 @@ def project_arrays(robot: RobotModel, table_height: float) -> tuple:
     chain = kernels.compiled_chain(robot)
     return (chain.arrays[:4], chain.tool_joint, chain.tool_local,
             np.array(_up_in_tool(robot.config.push_posture)), push_height(robot, table_height),
-            np.array([robot.lower, robot.upper]), robot.velocity_limits)
+            np.array([robot.lower, robot.upper]), np.array(robot.velocity_limits))
 
 
 @njit(cache=True)
