@@ -199,19 +199,17 @@ FACING_YAW_RATE = 1.0
 def _policy_array(physics: Physics, push: PushTarget | None) -> np.ndarray:
     """The push for `_propagate_kernel`: (object, target x, y, speed, cylinder (0/1), size x,
     size y, footprint radius, push band, the rows of R0, the posture's tool rotation, the
-    facing yaw rate (0: the hand keeps its yaw), the largest angle between a box's face normal
-    and the push at which the hand faces the box's face: atan of the arm-object friction);
-    object -1: no push (the velocity is held)."""
+    facing yaw rate (0: the hand keeps its yaw)); object -1: no push (the velocity is
+    held)."""
     posture = physics.robot.config.push_posture.rotation
     if push is None:
         return np.concatenate([[-1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, PUSH_BAND],
-                               posture.ravel(), [0.0, 0.0]])
+                               posture.ravel(), [0.0]])
     obj = physics.scene.objects[push.obj]
     return np.concatenate([[push.obj, push.target[0], push.target[1], push.speed,
                             float(obj.shape == "cylinder"), obj.size[0], obj.size[1],
                             obj.footprint_radius, PUSH_BAND], posture.ravel(),
-                           [FACING_YAW_RATE if push.facing else 0.0,
-                            math.atan(obj.pusher_friction)]])
+                           [FACING_YAW_RATE if push.facing else 0.0]])
 
 
 @njit(cache=True)
@@ -223,11 +221,7 @@ def _push_velocity(tool_x: float, tool_y: float, tool_yaw: float, cx: float, cy:
     policy[18] rad/s, until its flat face lies across the push line (tool yaw = the push's
     heading, or that plus pi: the hand is symmetric), so that it meets a face along a line
     rather than at a corner: the stable push of Lynch & Mason 1996, which sticks and does not
-    turn the object whatever its support pressure (test_pushing). Against a box whose face
-    normal is within policy[19] (the friction angle) of the push, the hand lies flat on that
-    face instead and pushes obliquely: the line contact sticks inside its friction cone, so
-    the box goes where the hand goes without turning, where a hand across the push line would
-    meet its corner first and turn it until a face lies flush (Lynch & Mason 1996, §5)."""
+    turn the object whatever its support pressure (test_pushing)."""
     tx, ty, speed, band = policy[1], policy[2], policy[3], policy[8]
     dx, dy = tx - cx, ty - cy
     distance = math.hypot(dx, dy)
@@ -244,10 +238,8 @@ def _push_velocity(tool_x: float, tool_y: float, tool_yaw: float, cx: float, cy:
         c, s = math.cos(yaw), math.sin(yaw)
         extent = 0.5 * (abs(c * ux + s * uy) * policy[5] + abs(-s * ux + c * uy) * policy[6])
     if abs(across) <= band and -(extent + 0.06) <= along <= -extent + 0.005:
-        # Push, staying on the line: the correction at most a third of the speed, so the
-        # hand stays within 18 degrees of the push and inside a stable push's friction cone.
-        lateral = max(-speed / 3.0, min(speed / 3.0, -(0.5 / dt) * across))
-        vx, vy = ux * speed + lateral * px, uy * speed + lateral * py
+        vx = ux * speed - (0.5 / dt) * across * px         # push, staying on the line
+        vy = uy * speed - (0.5 / dt) * across * py
     elif along > -extent - 0.005 and abs(across) < radius + 0.04:
         side = 1.0 if across >= 0 else -1.0                # go round it, on the tool's side
         vx = (cx + px * side * (radius + 0.07) - ux * (extent + 0.03) - tool_x) / dt
@@ -260,12 +252,7 @@ def _push_velocity(tool_x: float, tool_y: float, tool_yaw: float, cx: float, cy:
         vx, vy = vx * (speed / norm), vy * (speed / norm)
     rate = 0.0
     if policy[18] > 0.0:
-        heading = math.atan2(uy, ux)
-        if policy[4] == 0.0:                               # a box: its face nearest the push
-            off = (heading - yaw + 0.25 * math.pi) % (0.5 * math.pi) - 0.25 * math.pi
-            if abs(off) <= policy[19]:
-                heading -= off
-        error = (heading - tool_yaw + 0.5 * math.pi) % math.pi - 0.5 * math.pi
+        error = (math.atan2(uy, ux) - tool_yaw + 0.5 * math.pi) % math.pi - 0.5 * math.pi
         rate = max(-policy[18], min(policy[18], 0.5 * error / dt))
     out[0], out[1], out[2] = vx, vy, rate
     return True
