@@ -64,12 +64,20 @@ SLOW_FILES = {"test_golden_plans.py", "test_parallel.py", "test_benchmark.py",
 """Test files whose tests plan whole scenes or spawn worker processes (marker `slow`)."""
 
 
+RAY_FILES = {"test_bench.py", "test_benchmark.py", "test_engine.py"}
+"""Test files that start Ray clusters: one process runs them all, one after another."""
+
+
 def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
     """Marks by file, so that `pytest -m "not slow and not ros"` is the quick loop; `make test`
-    runs everything."""
+    runs everything, in two processes (pytest-xdist, `--dist loadgroup`): each file's tests in
+    one process, in their order, sharing its fixtures, and the files that start Ray clusters
+    in the same process."""
     for item in items:
         name = item.path.name
         if name in ROS_FILES:
             item.add_marker(pytest.mark.ros)
         if name in SLOW_FILES:
             item.add_marker(pytest.mark.slow)
+        group = "ray" if name in RAY_FILES else str(item.path)
+        item.add_marker(pytest.mark.xdist_group(group))

@@ -17,7 +17,7 @@ import time
 from pathlib import Path
 
 os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
-DOMAIN_ID = 190 + os.getpid() % 30
+DOMAIN_ID = 150 + os.getpid() % 40
 
 import numpy as np  # noqa: E402
 import pytest  # noqa: E402

@@ -16,7 +16,7 @@ import time
 from pathlib import Path
 
 os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
-DOMAIN_ID = 10 + os.getpid() % 150
+DOMAIN_ID = 10 + os.getpid() % 100
 
 import numpy as np  # noqa: E402
 import pytest  # noqa: E402
@@ -402,7 +402,7 @@ def test_another_domain_does_not_see_this_node(ros):
     from std_srvs.srv import Trigger
 
     other = Context()
-    rclpy.init(context=other, domain_id=(DOMAIN_ID + 1 - 10) % 150 + 10)
+    rclpy.init(context=other, domain_id=(DOMAIN_ID + 1 - 10) % 100 + 10)
     try:
         stranger = rclpy.create_node("stranger", context=other)
         client = stranger.create_client(Trigger, f"{NS}/plan")

@@ -19,7 +19,7 @@ from pathlib import Path
 from types import SimpleNamespace
 
 os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
-DOMAIN_ID = 160 + os.getpid() % 30
+DOMAIN_ID = 110 + os.getpid() % 40
 
 import numpy as np  # noqa: E402
 import pytest  # noqa: E402

@@ -103,21 +103,26 @@ def _ray_start(*args: str) -> subprocess.Popen:
                             env=CLUSTER_ENV, start_new_session=True)
 
 
-def _stop(proc: subprocess.Popen) -> None:
-    """End a node: SIGTERM to its process group, then SIGKILL to whatever is left."""
+def _stop(*procs: subprocess.Popen) -> None:
+    """End nodes: SIGTERM to their process groups at once, then SIGKILL to whatever is left."""
     for sig, wait in ((signal.SIGTERM, 10.0), (signal.SIGKILL, 5.0)):
+        left = [p for p in procs if p.poll() is None]
+        for proc in left:
+            try:
+                os.killpg(proc.pid, sig)
+            except ProcessLookupError:
+                pass
+        deadline = time.monotonic() + wait
+        for proc in left:
+            try:
+                proc.wait(max(0.0, deadline - time.monotonic()))
+            except subprocess.TimeoutExpired:
+                pass
+    for proc in procs:
         try:
-            os.killpg(proc.pid, sig)
+            os.killpg(proc.pid, signal.SIGKILL)              # the nodes' children
         except ProcessLookupError:
-            return
-        try:
-            proc.wait(wait)
-        except subprocess.TimeoutExpired:
-            continue
-    try:
-        os.killpg(proc.pid, signal.SIGKILL)                  # the node's children
-    except ProcessLookupError:
-        pass
+            pass
 
 
 def _alive_nodes(address: str) -> int:
@@ -152,9 +157,7 @@ def two_node_cluster():
             time.sleep(1.0)
         yield address
     finally:
-        for proc in (worker, head):
-            if proc is not None:
-                _stop(proc)
+        _stop(*(proc for proc in (worker, head) if proc is not None))
 
 
 def test_a_benchmark_runs_on_both_nodes_of_a_local_cluster(two_node_cluster, tmp_path):
