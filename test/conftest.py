@@ -70,14 +70,34 @@ RAY_FILES = {"test_bench.py", "test_benchmark.py", "test_engine.py"}
 
 def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
     """Marks by file, so that `pytest -m "not slow and not ros"` is the quick loop; `make test`
-    runs everything, in two processes (pytest-xdist, `--dist loadgroup`): each file's tests in
-    one process, in their order, sharing its fixtures, and the files that start Ray clusters
-    in the same process."""
+    runs everything."""
     for item in items:
         name = item.path.name
         if name in ROS_FILES:
             item.add_marker(pytest.mark.ros)
         if name in SLOW_FILES:
             item.add_marker(pytest.mark.slow)
-        group = "ray" if name in RAY_FILES else str(item.path)
-        item.add_marker(pytest.mark.xdist_group(group))
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    """With several test processes (`make test`: pytest-xdist, `-n 2`), the main process
+    compiles the core before it starts them, so that they load it from the disk cache instead
+    of each compiling it at once."""
+    if config.getoption("numprocesses", None) and not hasattr(config, "workerinput"):
+        from rearrangement_planner.planning.requests.warmup import warm_up
+
+        warm_up()
+
+
+def pytest_xdist_make_scheduler(config: pytest.Config, log):
+    """pytest-xdist's scheduling by file (`--dist loadfile`: a file's tests in one process, in
+    their order, sharing its fixtures), except that the files that start Ray clusters run in
+    the same process, one after another."""
+    from xdist.scheduler import LoadScopeScheduling
+
+    class ByFile(LoadScopeScheduling):
+        def _split_scope(self, nodeid: str) -> str:
+            file = nodeid.split("::", 1)[0]
+            return "ray clusters" if file.rsplit("/", 1)[-1] in RAY_FILES else file
+
+    return ByFile(config, log)
