@@ -105,7 +105,7 @@ def _ray_start(*args: str) -> subprocess.Popen:
 
 def _stop(*procs: subprocess.Popen) -> None:
     """End nodes: SIGTERM to their process groups at once, then SIGKILL to whatever is left."""
-    for sig, wait in ((signal.SIGTERM, 10.0), (signal.SIGKILL, 5.0)):
+    for sig, wait in ((signal.SIGTERM, 3.0), (signal.SIGKILL, 5.0)):
         left = [p for p in procs if p.poll() is None]
         for proc in left:
             try:
