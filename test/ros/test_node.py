@@ -249,11 +249,13 @@ def ros(tmp_path_factory):
     planner.stop()
     executor.shutdown()
     client_executor.shutdown()
+    # The spin threads leave their wait before the nodes and the context go: a thread still
+    # waiting on a destroyed context raises in its wait set.
+    for thread in threads:
+        thread.join(timeout=5.0)
     planner.destroy_node()
     client.node.destroy_node()
     rclpy.shutdown(context=context)
-    for thread in threads:
-        thread.join(timeout=5.0)
 
 
 def check_controller_contract(msg: JointTrajectory, joint_names) -> None:
