@@ -1,6 +1,7 @@
 """One plan request end to end, shared by the CLI, the ROS node and the benchmarks: planner
-(raced trees) -> shortcutting -> (robust selection among candidates) -> timed trajectory ->
-predicted object poses along it -> the result record of docs/design.md ("CLI").
+(raced trees) -> shortcutting -> the finishing push -> (robust selection among candidates) ->
+timed trajectory -> predicted object poses along it -> the result record of docs/design.md
+("CLI").
 
     output = plan_scene(PlanRequest(scene, "pc-rrt", seed=0))
     output.result.outcome, output.trajectory, output.to_dict()
@@ -25,8 +26,10 @@ from rearrangement_planner.planning.machinery.interface import (
     Outcome,
     PlanResult,
     ProgressCallback,
+    PushingPlannerOptions,
 )
 from rearrangement_planner.planning.machinery.termination import Termination
+from rearrangement_planner.planning.requests.finish import FINISH_TIME, finish
 from rearrangement_planner.planning.requests.parallel import plan_race, tree_seed
 from rearrangement_planner.planning.requests.request import PlanRequest
 from rearrangement_planner.planning.requests.robustness import (
@@ -291,24 +294,32 @@ class Candidates:
     def shortcut(self, result: PlanResult, seed: int) -> Candidate:
         """A solved `result` shortcut for up to shortcut_time s (ending at most that long
         after the request's budget) or shortcut_attempts attempts (whichever ends first; an
-        attempt bound that ends first makes it reproducible); as it is when the planner's
-        paths are not shortcut."""
+        attempt bound that ends first makes it reproducible), then finished (`finish.finish`:
+        the goal object pushed on to the goal point); as it is when the planner's paths are
+        not shortcut."""
         if not result.solved:
             return Candidate(result)
         request = self.request
         before = PathMetrics.of(request.scene, result.states)
-        seconds = request.shortcut.shortcut_time
-        if seconds <= 0 or len(result.states) <= 2 or not request.planner.shortcut:
+        if not request.planner.shortcut:
             return Candidate(result, before)
-        # Shortcutting re-simulates the pushes in the planner's own world (the Static RRT's
-        # non-goal objects stay obstacles there, so a shortcut cannot push them either).
-        stop = self.stop.extended(seconds, request.shortcut.shortcut_attempts or None)
-        with self.phases.timed("shortcut"):
-            short = shortcut(request.planner.physics(request.scene, self.physics),
-                             result.states, stop, seed=seed,
-                             goal_radius=request.options.goal_radius(request.scene))
-        return Candidate(dataclasses.replace(result, states=tuple(short.states)), before,
-                         short.elapsed)
+        # Shortcutting and the finishing push re-simulate the pushes in the planner's own world
+        # (the Static RRT's non-goal objects stay obstacles there, so neither pushes them).
+        physics = request.planner.physics(request.scene, self.physics)
+        states, elapsed = result.states, 0.0
+        seconds = request.shortcut.shortcut_time
+        if seconds > 0 and len(states) > 2:
+            stop = self.stop.extended(seconds, request.shortcut.shortcut_attempts or None)
+            with self.phases.timed("shortcut"):
+                short = shortcut(physics, states, stop, seed=seed,
+                                 goal_radius=request.options.goal_radius(request.scene))
+            states, elapsed = tuple(short.states), short.elapsed
+        if request.finish.finish_radius > 0 and isinstance(request.options,
+                                                           PushingPlannerOptions):
+            with self.phases.timed("shortcut"):
+                states = finish(physics, states, request.options, request.finish.finish_radius,
+                                self.stop.extended(FINISH_TIME))
+        return Candidate(dataclasses.replace(result, states=states), before, elapsed)
 
     def judge(self, candidate: Candidate, seed: int) -> float:
         """The candidate's robustness: the share of `request.robust.rollouts` perturbed

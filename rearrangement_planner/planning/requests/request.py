@@ -25,6 +25,7 @@ from rearrangement_planner.model.settings import SettingError, Settings, Setting
 from rearrangement_planner.model.state import State
 from rearrangement_planner.physics.options import PhysicsOptions
 from rearrangement_planner.planning.machinery.interface import PlannerOptions
+from rearrangement_planner.planning.requests.finish import NO_FINISH, FinishOptions
 from rearrangement_planner.planning.requests.parallel import RaceOptions
 from rearrangement_planner.planning.requests.registry import (
     PLANNERS,
@@ -38,10 +39,10 @@ from rearrangement_planner.planning.requests.trajectory import TimingOptions
 
 DEFAULT_PLANNER = "pc-rrt"
 
-STAGES: tuple[type[Settings], ...] = (RaceOptions, ShortcutOptions, TimingOptions,
-                                      RobustOptions)
+STAGES: tuple[type[Settings], ...] = (RaceOptions, ShortcutOptions, FinishOptions,
+                                      TimingOptions, RobustOptions)
 """The settings of a request around its planner, in pipeline order: the race, shortcutting,
-trajectory timing, robust selection."""
+the finishing push, trajectory timing, robust selection."""
 
 
 def request_settings() -> tuple[SettingSpec, ...]:
@@ -63,6 +64,7 @@ class PlanRequest:
     """The pushing model the planner plans in (planners that step the physics)."""
     race: RaceOptions = field(default_factory=RaceOptions)
     shortcut: ShortcutOptions = field(default_factory=ShortcutOptions)
+    finish: FinishOptions = field(default_factory=FinishOptions)
     timing: TimingOptions = field(default_factory=TimingOptions)
     robust: RobustOptions = field(default_factory=RobustOptions)
     seed: int = 0
@@ -94,10 +96,10 @@ class PlanRequest:
     def first_plan(cls, scene: Scene, planner: PlannerSpec | str = DEFAULT_PLANNER,
                    options: PlannerOptions | None = None, seed: int = 0,
                    **changes: Any) -> PlanRequest:
-        """The planner alone through the pipeline: one tree, no shortcutting, the first plan
-        found (`changes` replace any other field)."""
+        """The planner alone through the pipeline: one tree, no shortcutting, no finishing
+        push, the first plan found (`changes` replace any other field)."""
         fields: dict[str, Any] = dict(race=RaceOptions(trees=1), shortcut=NO_SHORTCUT,
-                                      robust=FIRST_PLAN)
+                                      finish=NO_FINISH, robust=FIRST_PLAN)
         fields.update(changes)
         return cls(scene, planner, options, seed=seed, **fields)  # type: ignore[arg-type]
 
@@ -121,13 +123,13 @@ class PlanRequest:
 
         return cls(scene, spec, pick(spec.options_type),
                    pick(PhysicsOptions) if spec.steps_physics else PhysicsOptions(),
-                   pick(RaceOptions), pick(ShortcutOptions), pick(TimingOptions),
-                   pick(RobustOptions), seed, start)
+                   pick(RaceOptions), pick(ShortcutOptions), pick(FinishOptions),
+                   pick(TimingOptions), pick(RobustOptions), seed, start)
 
     def settings(self) -> dict[str, Any]:
         """Every setting the request reads, by name (the recording's metadata)."""
         parts: list[Settings] = [self.options]
         if self.planner.steps_physics:
             parts.append(self.physics)
-        parts += [self.race, self.shortcut, self.timing, self.robust]
+        parts += [self.race, self.shortcut, self.finish, self.timing, self.robust]
         return {s.name: getattr(part, s.name) for part in parts for s in part.describe()}
