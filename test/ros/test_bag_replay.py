@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 import os
+import re
 import sys
 import threading
 import time
@@ -389,7 +390,9 @@ def test_make_bags_cli_writes_a_bag_and_its_reference_plan(tmp_path, monkeypatch
 
     assert make_bags.main(["--out", str(tmp_path), "--only", "easy_push_1obj",
                            "--search-seeds", "1"]) == 0
-    assert "easy_push_1obj seed 1: SUCCESS in" in capsys.readouterr().out
+    # Its searches have 10 s: on a loaded machine robust selection may answer a fragile plan.
+    assert re.search(r"easy_push_1obj seed 1: (SUCCESS|FRAGILE_PLAN) in [0-9.]+ s; open loop",
+                     capsys.readouterr().out)
     assert make_bags.main(["--only", "no_such_bag"]) == 2
     assert "unknown bags ['no_such_bag']" in capsys.readouterr().err
 

@@ -84,8 +84,9 @@ class PathMetrics:
 class Phases:
     """Where a request's wall time went (s), phase by phase (docs/benchmark.md, "Where the
     time goes"): the searches (every candidate's, raced trees and the wait on their workers
-    included), shortcutting, the robustness rollouts, trajectory timing, and loading or
-    compiling the compiled core (once per process, outside the plan's clock)."""
+    included), shortcutting and the finishing push, the robustness rollouts, trajectory
+    timing, and loading or compiling the compiled core (once per process, outside the plan's
+    clock)."""
 
     search: float = 0.0
     shortcut: float = 0.0
