@@ -2,11 +2,8 @@
 is pushed on towards the goal point, in the planner's own physics."""
 
 import numpy as np
-import pytest
 
-from rearrangement_planner.physics.step import Physics
-from rearrangement_planner.physics.validation import load_scene
-from rearrangement_planner.planning import PCRRT, PCRRTOptions, PlanRequest, plan_scene
+from rearrangement_planner.planning import PCRRTOptions, PlanRequest, plan_scene
 from rearrangement_planner.planning.machinery.propagation import replay
 from rearrangement_planner.planning.machinery.termination import Termination
 from rearrangement_planner.planning.requests.finish import (
@@ -18,23 +15,6 @@ from rearrangement_planner.planning.requests.finish import (
 )
 
 OPTIONS = PCRRTOptions(time_limit=60.0)
-
-
-@pytest.fixture(scope="module")
-def easy(panda):
-    return load_scene("easy_push", robot=panda)
-
-
-@pytest.fixture(scope="module")
-def physics(easy):
-    return Physics(easy)
-
-
-@pytest.fixture(scope="module")
-def plan(easy, physics):
-    result = PCRRT(easy, OPTIONS, physics).plan(seed=1)
-    assert result.solved
-    return result
 
 
 def _distance(scene, state) -> float:

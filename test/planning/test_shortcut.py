@@ -3,9 +3,8 @@
 import numpy as np
 import pytest
 
-from rearrangement_planner.physics.step import Physics
 from rearrangement_planner.physics.validation import load_scene
-from rearrangement_planner.planning import PCRRT, PathMetrics, PCRRTOptions, PlanRequest, plan_scene
+from rearrangement_planner.planning import PathMetrics, PCRRTOptions, PlanRequest, plan_scene
 from rearrangement_planner.planning.machinery.manifold import manifold_error
 from rearrangement_planner.planning.machinery.propagation import replay
 from rearrangement_planner.planning.machinery.termination import Termination
@@ -15,23 +14,6 @@ from rearrangement_planner.planning.requests.shortcut import (
     path_length,
     shortcut,
 )
-
-
-@pytest.fixture(scope="module")
-def easy(panda):
-    return load_scene("easy_push", robot=panda)
-
-
-@pytest.fixture(scope="module")
-def physics(easy):
-    return Physics(easy)
-
-
-@pytest.fixture(scope="module")
-def plan(easy, physics):
-    result = PCRRT(easy, PCRRTOptions(time_limit=60.0), physics).plan(seed=1)
-    assert result.solved
-    return result
 
 
 @pytest.fixture(scope="module")
