@@ -365,24 +365,60 @@ class _Execution:
         joints = scene.robot.joint_names
         self.qadr = np.array([model.joint(n).qposadr[0] for n in joints])
         self.vadr = np.array([model.joint(n).dofadr[0] for n in joints])
-        self.bodies = [model.body(o.name).id for o in scene.objects]
+        self.bodies = np.array([model.body(o.name).id for o in scene.objects], dtype=int)
         self.geom_body = model.geom_bodyid
         self.is_arm = model.geom_contype == ARM
         self.is_static = model.geom_contype == STATIC
+        # The geom pairs `_contacts` records: arm-obstacle collisions and objects that touch
+        # (the rest, objects on the table, are most of every step's contacts).
+        kind = np.where(self.is_arm, 1, np.where(self.is_static, 2, 0))
+        self.recorded = ((kind[:, None] == 1) & (kind[None, :] == 2)) \
+            | ((kind[:, None] == 2) & (kind[None, :] == 1)) \
+            | ((kind[:, None] == 0) & (kind[None, :] == 0))
         # kv/kp of the servos as compiled (a position actuator's bias is -kp q - kv qdot).
         self.feedforward = -model.actuator_biasprm[:, 2] / model.actuator_gainprm[:, 0]
         m = len(scene.objects)
-        self.max_tilt, self.max_error = np.zeros(m), np.zeros(m)
+        self.lowest_up, self.max_error = np.ones(m), np.zeros(m)
+        """The least z component of each object's own z axis so far (the cosine of its
+        largest tilt, `_tilt`)."""
         self.error_from: list[float | None] = [None] * m
         self.next_point = 0
         self.executed: list[list[tuple[float, float, float]]] = []
         self.contacts: set[str] = set()
+        self.touching: set[tuple[int, int]] = set()
+        """The body pairs behind `contacts`."""
         self.collisions: dict[str, float] = {}
         self.tracking = 0.0
         self.steps = 0
         self.hold: np.ndarray | None = None
         """Where the arm holds once the watch stopped it."""
         self.stopped, self.stopped_at = "", 0.0
+        self.reference, self.slope = self._sampled(command, options)
+
+    @staticmethod
+    def _sampled(command: Command, options: ExecutionOptions) -> tuple[np.ndarray, np.ndarray]:
+        """The command at every step's start time, from the settling to the end of the hold
+        (`Command.sample`, `Command.velocity`): positions (K + 1, n) and segment slopes (K, n),
+        sampled once instead of at every step."""
+        dt = options.timestep
+        count = int(math.ceil((options.settle + command.duration + options.hold) / dt)) + 2
+        t = np.arange(count + 1) * dt - options.settle
+        times, positions = command.times, command.positions
+        reference = np.stack([np.interp(t, times, positions[:, j])
+                              for j in range(positions.shape[1])], axis=1)
+        slope = np.zeros((count, positions.shape[1]))
+        if times.size > 1:
+            segment = np.clip(np.searchsorted(times, t[:-1], side="right") - 1, 0,
+                              times.size - 2)
+            rates = np.diff(positions, axis=0) / np.diff(times)[:, None]
+            moving = (t[:-1] >= 0.0) & (t[:-1] < command.duration)
+            slope[moving] = rates[segment[moving]]
+        return reference, slope
+
+    @property
+    def max_tilt(self) -> np.ndarray:
+        """Each object's largest tilt so far (rad)."""
+        return np.arccos(np.clip(self.lowest_up, -1.0, 1.0))
 
     def begin(self) -> None:
         """The arm at the trajectory's first point, the objects where the scene has them."""
@@ -399,20 +435,21 @@ class _Execution:
             t = self.steps * opts.timestep - opts.settle    # trajectory time at the step's start
             if self.hold is not None and t > self.stopped_at + opts.hold:
                 break                     # stopped by the watch, and the objects have settled
-            self._drive(t)
+            self._drive(self.steps, t)
             mujoco.mj_step(self.model, self.data)
             self.steps += 1
             taken += 1
-            self._observe(t + opts.timestep)
+            self._observe(self.steps, t + opts.timestep)
         return taken
 
     def poses(self) -> np.ndarray:
         """(M, 3) object poses (x, y, yaw) now."""
         return np.array([_planar_pose(self.data, body) for body in self.bodies]).reshape(-1, 3)
 
-    def _drive(self, t: float) -> None:
-        """Ideal: jump to the reference and move along it through the step. Servo: track
-        q_ref + kv/kp * qdot_ref (the feed-forward cancels the damping's lag)."""
+    def _drive(self, k: int, t: float) -> None:
+        """Step k (at trajectory time t). Ideal: jump to the reference and move along it
+        through the step. Servo: track q_ref + kv/kp * qdot_ref (the feed-forward cancels the
+        damping's lag)."""
         command, data, dt = self.command, self.data, self.options.timestep
         if self.hold is not None:
             if self.options.arm == "ideal":
@@ -420,20 +457,25 @@ class _Execution:
             else:
                 data.ctrl[:] = self.hold
             return
+        sampled = k < len(self.slope)
         if self.options.arm == "ideal":
-            here, there = command.sample(t), command.sample(t + dt)
+            here, there = ((self.reference[k], self.reference[k + 1]) if sampled
+                           else (command.sample(t), command.sample(t + dt)))
             data.qpos[self.qadr] = here
             data.qvel[self.vadr] = (there - here) / dt
+        elif sampled:
+            data.ctrl[:] = self.reference[k] + self.feedforward * self.slope[k]
         else:
             data.ctrl[:] = command.sample(t) + self.feedforward * command.velocity(t)
 
-    def _observe(self, t: float) -> None:
+    def _observe(self, k: int, t: float) -> None:
+        """After step k - 1, at trajectory time t."""
         data = self.data
         if 0.0 <= t <= self.command.duration and self.hold is None:
+            reference = self.reference[k] if k < len(self.reference) else self.command.sample(t)
             self.tracking = max(self.tracking, float(np.max(np.abs(
-                data.qpos[self.qadr] - self.command.sample(t)))))
-        for i, body in enumerate(self.bodies):
-            self.max_tilt[i] = max(self.max_tilt[i], _tilt(data, body))
+                data.qpos[self.qadr] - reference))))
+        np.minimum(self.lowest_up, data.xmat[self.bodies, 8], out=self.lowest_up)
         if data.ncon:
             self._contacts()
         times = self.command.times       # predicted[i] is the state at times[i]
@@ -460,17 +502,30 @@ class _Execution:
                                 f"{len(self.predicted)} ({t:.2f} s)")
 
     def _contacts(self) -> None:
-        model, body_of = self.model, self.geom_body
-        for (g1, g2), distance in zip(self.data.contact.geom, self.data.contact.dist,
-                                      strict=True):
-            if self.is_arm[g1] or self.is_arm[g2]:
-                arm, other = (g1, g2) if self.is_arm[g1] else (g2, g1)
-                if self.is_static[other]:
-                    key = f"{model.body(body_of[arm]).name}->{model.geom(other).name}"
-                    self.collisions[key] = max(self.collisions.get(key, 0.0), -float(distance))
-            elif not (self.is_static[g1] or self.is_static[g2]):
-                pair = sorted((model.body(body_of[g1]).name, model.body(body_of[g2]).name))
-                self.contacts.add("<->".join(pair))
+        """Records this step's arm-obstacle collisions (deepest penetration per pair) and the
+        object pairs that touch. Most steps hold only the objects' contacts with the table and
+        pairs seen before, so those are filtered out with array operations first."""
+        model, body_of, n = self.model, self.geom_body, self.data.ncon
+        geoms = self.data.contact.geom[:n]
+        g1, g2 = geoms[:, 0], geoms[:, 1]
+        if not self.recorded[g1, g2].any():
+            return
+        arm1, arm2 = self.is_arm[g1], self.is_arm[g2]
+        static1, static2 = self.is_static[g1], self.is_static[g2]
+        collide = (arm1 & static2) | (arm2 & static1)
+        touch = ~(arm1 | arm2 | static1 | static2)
+        if collide.any():
+            depth = -self.data.contact.dist[:n]
+            for i in np.flatnonzero(collide):
+                arm, other = (g1[i], g2[i]) if arm1[i] else (g2[i], g1[i])
+                key = f"{model.body(body_of[arm]).name}->{model.geom(other).name}"
+                self.collisions[key] = max(self.collisions.get(key, 0.0), float(depth[i]))
+        for i in np.flatnonzero(touch):
+            a, b = body_of[g1[i]], body_of[g2[i]]
+            pair = (a, b) if a < b else (b, a)
+            if pair not in self.touching:
+                self.touching.add(pair)
+                self.contacts.add("<->".join(sorted((model.body(a).name, model.body(b).name))))
 
     def report(self, wall_time: float) -> ExecutionReport:
         scene, data, opts = self.scene, self.data, self.options

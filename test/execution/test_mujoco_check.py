@@ -138,6 +138,22 @@ def test_the_servo_feed_forward_is_kv_over_kp_of_the_compiled_servos(straight_pu
     np.testing.assert_allclose(run.feedforward, [150 / 3000] * 4 + [40 / 1000] * 3)
 
 
+
+def test_the_command_is_sampled_once_at_every_step_as_the_controller_plays_it(straight_push):
+    """The execution samples the command once for all its steps (the settling, the
+    trajectory, the hold): each step's reference and slope are `Command.sample` and
+    `Command.velocity` at that step's start time."""
+    scene, trajectory, _ = straight_push
+    options = ExecutionOptions(arm="servo", settle=0.05, hold=0.05)
+    command = Command(trajectory.times, trajectory.positions)
+    run = _Execution(build_model(scene, options), scene, command, None, options)
+    steps = len(run.slope)
+    assert steps * options.timestep >= options.settle + command.duration + options.hold
+    for k in range(0, steps, 7):
+        t = k * options.timestep - options.settle
+        np.testing.assert_allclose(run.reference[k], command.sample(t), atol=1e-12)
+        np.testing.assert_allclose(run.slope[k], command.velocity(t), atol=1e-9)
+
 def test_a_real_plan_is_compared_with_its_prediction_point_by_point(panda):
     scene = load_scene("easy_push", robot=panda)
     output = plan_scene(PlanRequest.first_plan(scene, "pc-rrt", PCRRTOptions(time_limit=60),
