@@ -391,7 +391,7 @@ def test_the_tipping_condition_depends_on_height_friction_and_footprint(panda):
 
 
 def test_a_tipping_push_is_invalid_and_the_same_push_slides_without_the_check(panda):
-    """The hand, on the pushing plane (tool 6 cm up), pushes a tall narrow box on a grippy
+    """The hand, on the pushing plane (tool 7 cm up), pushes a tall narrow box on a grippy
     table along +x: with the tipping check the first pushing step is invalid (object_would_tip);
     without it the box slides (the model of King et al.)."""
     path = _push_path(panda, 0.50)
