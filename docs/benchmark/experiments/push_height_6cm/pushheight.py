@@ -10,7 +10,7 @@ while len(targets) < 150:
     x, y = r * math.cos(a), r * math.sin(a)
     if x >= 0.25: targets.append((x, y, rng.uniform(-math.pi, math.pi)))
 p0 = base.config.push_posture
-for h in ():
+for h in (0.07, 0.065, 0.06, 0.055, 0.05, 0.045, 0.04):
     robot = RobotModel(dataclasses.replace(base.config, push_posture=PushPosture(h, p0.roll, p0.pitch)), urdf_xml=base.urdf_xml)
     found = clear = 0; lows = []
     for x, y, yaw in targets:
