@@ -110,10 +110,31 @@ def test_a_row_of_objects_moves_as_in_mujoco(pushed, row):
                        for name, spec, (x, y) in row]
     scene, trajectory, predicted = pushed(objects)
     executed = check_execution(scene, trajectory)
+    touched = {name for pair in executed.object_contacts for name in pair.split("<->")}
+    assert touched == {o["name"] for o in objects}, executed.object_contacts   # recorded
     for i, outcome in enumerate(executed.objects):
         assert outcome.moved_m > 0.05, outcome.name            # all of them pushed along
         error = np.hypot(*(np.asarray(outcome.pose[:2]) - predicted.objects[i, :2]))
         assert error < 0.005, (outcome.name, outcome.pose, predicted.objects[i])
+
+
+def test_the_arm_meeting_an_obstacle_is_recorded_with_its_depth(panda, push_path):
+    """A post stands in the straight push's way: the execution names the link that meets it
+    and how deep it went (`ExecutionReport.arm_collisions`); the objects on the table are not
+    collisions."""
+    times, positions = push_path
+    scene = parse_scene({
+        "table": {"center": [0.55, 0.0], "size": [0.8, 1.2], "height": 0.0},
+        "start_configuration": positions[0].tolist(), "objects": [BYSTANDER],
+        "obstacles": [{"name": "post", "shape": "box", "size": [0.04, 0.2, 0.2],
+                       "pose": [0.54, 0.0, 0.0]}],
+        "goal": {"object": "bystander", "position": [0.5, 0.3], "radius": 0.05}}, robot=panda)
+    trajectory = Trajectory(panda.joint_names, times, positions, np.zeros_like(positions))
+    report = check_execution(scene, trajectory)
+    assert report.arm_collisions, "the hand drives into the post"
+    assert all(key.endswith("->post") and depth > 0.0
+               for key, depth in report.arm_collisions.items()), report.arm_collisions
+    assert report.object_contacts == ()
 
 
 def test_servo_arm_tracks_the_straight_push_like_the_ideal_arm(straight_push):
