@@ -78,7 +78,7 @@ GOAL_OBJECT = {"name": "target", "shape": "box", "size": (0.06, 0.08, 0.12), "ma
 
 # The workspace: object centres at a distance from the base (the z axis of the base frame) in
 # [REACH_MIN, REACH_MAX] and at least WORKSPACE_MIN_X in front of it, and the whole footprint on
-# the table. The default robot's tool reaches the pushing plane (7 cm above the table) out to
+# the table. The default robot's tool reaches the pushing plane (6 cm above the table) out to
 # about 0.88 m; REACH_MAX leaves room for the hand to get behind an object and push it
 # back towards the base. A test checks the tool reaches every object's centre by IK.
 REACH_MIN = 0.30                # m

@@ -176,7 +176,7 @@ def test_a_sphere_shape_is_a_capsule_of_length_zero_and_a_box_shape_is_refused(p
         Physics(scene, robot=RobotModel(config))
     # A sphere at the finger tips pushes as a capsule of length 0 there does.
     offset = np.eye(4)
-    offset[:3, 3] = [0.0, 0.0, 0.1034]          # at the tool point (0.5, 0), 7 cm up
+    offset[:3, 3] = [0.0, 0.0, 0.1034]          # at the tool point (0.5, 0), on the pushing plane
     sphere = ContactShape("panda_hand", "sphere", (0.012,), offset)
     capsule = ContactShape("panda_hand", "capsule", (0.012, 0.0), offset)
     results = []

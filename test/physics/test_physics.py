@@ -315,7 +315,7 @@ def test_invalid_contact_from_above(panda, push_q):
     poses = panda.shape_poses(push_q)
     wrist = [i for i, s in enumerate(panda.contact_shapes) if s.link == "panda_link7"][0]
     centre = poses[wrist, :3, 3]
-    flat = box("flat", [centre[0], centre[1] + 0.1, 0.0], size=(0.06, 0.06, 0.03))
+    flat = box("flat", [centre[0], centre[1] + 0.1, 0.0], size=(0.06, 0.06, 0.02))
     scene = make_scene([flat], push_q, robot=panda)
     _, results = sweep(Physics(scene, SIM), scene.initial_state(), 0, 0.004, 100)
     assert results[-1].reason is Invalid.CONTACT_FROM_ABOVE and "from above" in results[-1].detail
@@ -391,7 +391,7 @@ def test_the_tipping_condition_depends_on_height_friction_and_footprint(panda):
 
 
 def test_a_tipping_push_is_invalid_and_the_same_push_slides_without_the_check(panda):
-    """The hand, on the pushing plane (tool 7 cm up), pushes a tall narrow box on a grippy
+    """The hand, on the pushing plane (tool 6 cm up), pushes a tall narrow box on a grippy
     table along +x: with the tipping check the first pushing step is invalid (object_would_tip);
     without it the box slides (the model of King et al.)."""
     path = _push_path(panda, 0.50)

@@ -197,8 +197,8 @@ def test_greedy_goal_push_runs_only_when_switched_on(easy, monkeypatch, greedy):
         return original(self, x, rng, stop)
 
     monkeypatch.setattr(PushPolicy, "goal_push", counting)
-    result = PCRRT(easy, PCRRTOptions(time_limit=60.0, max_iterations=40,
-                                        greedy_goal=greedy)).plan(seed=0)
+    result = PCRRT(easy, PCRRTOptions(time_limit=60.0, max_iterations=150,
+                                        greedy_goal=greedy)).plan(seed=2)
     if greedy:
         # Each greedy push starts from a new best: strictly decreasing goal distances.
         assert calls and all(b < a for a, b in pairwise(calls)), calls

@@ -357,11 +357,11 @@ def test_preemption_goal_updates_empty_trajectory_and_reset(session, reference):
 
 
 # Perturbations that make a good reference plan fail (chosen for these recorded plans: pose
-# noise of 1 cm std dev with seed 3 leaves the easy_push box 0.13 m from the goal, with seed 1
-# it aborts the default scene's plan on an invalid step). Each plan succeeds unperturbed; the
-# plans, made with the 5 cm goal margin, survive five times the friction.
-PERTURBATIONS = (("easy_push_1obj", {"pose_noise": 0.01, "seed": 3}),
-                 ("default_3obj", {"pose_noise": 0.01, "seed": 4}))
+# noise of 3 cm std dev with seed 8 leaves the easy_push box 0.10 m from the goal, 1 cm with
+# seed 1 aborts the default scene's plan on an invalid step). Each plan succeeds unperturbed;
+# the plans, made with the 5 cm goal margin, survive five times the friction.
+PERTURBATIONS = (("easy_push_1obj", {"pose_noise": 0.03, "seed": 8}),
+                 ("default_3obj", {"pose_noise": 0.01, "seed": 1}))
 
 
 @pytest.mark.parametrize(("name", "parameters"), PERTURBATIONS, ids=lambda v: str(v))
@@ -442,14 +442,14 @@ def test_node_demo_exit_code_is_the_open_loop_outcome(tmp_path, monkeypatch, cap
     recording = out.split("recording: ")[1].split()[0]
     assert Path(recording).is_file() and plot.stat().st_size > 10_000
 
-    assert node_demo.main([*common, "--pose-noise", "0.01", "--world-seed", "3"]) == 1
+    assert node_demo.main([*common, "--pose-noise", "0.03", "--world-seed", "8"]) == 1
     out = capsys.readouterr().out
     assert "outcome: execution 1: GOAL_NOT_REACHED" in out and "outside radius" in out
 
     # The closed loop mends that miss: the arm backs out of contact (execution 2), the node
     # plans again from the observed poses, and the goal object ends inside. (Without the
     # watch: at time scale 20 on a loaded machine, when it fires would depend on the load.)
-    assert node_demo.main([*common, "--pose-noise", "0.01", "--world-seed", "3",
+    assert node_demo.main([*common, "--pose-noise", "0.03", "--world-seed", "8",
                            "--replan", "2", "--divergence-bound", "0"]) == 0
     out = capsys.readouterr().out
     assert "re-planning up to 2 times" in out and "goal reached after 1 re-plans" in out
