@@ -311,8 +311,8 @@ def test_a_tipping_push_topples_only_when_it_carries_the_object_far_enough(panda
     """The tip judgement (`rollout_kernel`): a 16 cm box pushed 6 cm up on a grippy table
     tips; carried 6 cm it falls (toppled), carried 2 cm it falls back upright and the rollout
     goes on: as in MuJoCo, which toppled it pushed 7 cm up and carried 6 cm, and tilted it
-    4 degrees carried 2 cm (docs/experiments.md). Objects that meet push each other instead of failing the
-    rollout."""
+    4 degrees carried 2 cm (docs/experiments.md). Objects that meet push each other instead
+    of failing the rollout."""
     from rearrangement_planner.physics.validation import parse_scene
     from rearrangement_planner.planning.requests.robustness import rollout
 
