@@ -529,9 +529,14 @@ def candidates_command(args: argparse.Namespace) -> int:
                                    settings, args.address)
     wanted = {(path.stem, seed) for path, seed in requests}
     records = [r for r in candidates.read_records(out) if (r["scene"], r["seed"]) in wanted]
-    travel_penalty = RobustOptions(**{k: v for k, v in settings.items()
-                                      if k in RobustOptions.__dataclass_fields__}).travel_penalty
-    print(candidates.replay_table(records, candidates.rules(args.candidates, travel_penalty),
+    robust = RobustOptions(**{k: v for k, v in settings.items()
+                              if k in RobustOptions.__dataclass_fields__})
+    print(candidates.replay_table(records, candidates.rules(args.candidates,
+                                                            robust.travel_penalty,
+                                                            robust.candidate_effort
+                                                            if all("iterations" in r
+                                                                   for r in records)
+                                                            else 0.0),
                                   args.time_limit))
     if failed:
         print(f"rearrangement-bench: {failed} requests failed with an internal error (not in "

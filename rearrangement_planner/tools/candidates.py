@@ -13,9 +13,10 @@ executed is measured here without re-planning for every rule:
   seconds, its robustness, how far it pushes and turns the goal object, and the executed outcome.
 - `choose` replays a selection `Rule` over a request's records within a time budget: a
   candidate counts if its search fits in what the budget has left when it starts (a search is
-  determined by its seed: one that finished in t s finishes the same under any limit above t),
-  up to the rule's number of candidates, stopping at one robust in every rollout, as
-  `pipeline.robust_search` does.
+  determined by its seed: one that finished in t s finishes the same under any limit above t)
+  and, with the rule's `effort`, within the iteration bound the first plan sets
+  (`robustness.candidate_iterations`), up to the rule's number of candidates, stopping at one
+  robust in every rollout, as `pipeline.robust_search` does.
 """
 
 from __future__ import annotations
@@ -43,7 +44,9 @@ def record_request(scene_path: Path, seed: int, candidates: int, time_limit: flo
     from rearrangement_planner.planning.requests.request import PlanRequest
     from rearrangement_planner.planning.requests.robustness import goal_travel
     from rearrangement_planner.planning.requests.trajectory import time_parameterize
+    from rearrangement_planner.planning.requests.warmup import warm_up
 
+    warm_up()               # compiling the core is not a search's time (as in `plan_scene`)
     scene = load_scene(scene_path)
     request = PlanRequest.from_settings(
         scene, "pc-rrt", {**(settings or {}), "time_limit": time_limit, "trees": 1}, seed)
@@ -58,7 +61,8 @@ def record_request(scene_path: Path, seed: int, candidates: int, time_limit: flo
         search = Candidates(request, physics, request.options.termination())   # its own budget
         found = search.plan(k_seed)
         record: dict = {"scene": Path(scene_path).stem, "seed": seed, "k": k,
-                        "solved": found.solved, "search_s": round(found.plan_time, 3)}
+                        "solved": found.solved, "search_s": round(found.plan_time, 3),
+                        "iterations": found.iterations}
         spent += found.plan_time
         if found.solved:
             candidate = search.shortcut(found, k_seed)
@@ -92,21 +96,38 @@ class Rule:
     travel_penalty: float | None = 0.0
     """None: the first plan found (no rollouts, no early stop)."""
     oracle: bool = False
+    effort: float = 0.0
+    """The candidates after the first search at most this many times its iterations
+    (`RobustOptions.candidate_effort`; 0: no bound but the budget)."""
 
 
 def choose(records: Sequence[dict], rule: Rule, budget: float) -> dict | None:
     """The candidate `rule` answers with among one request's `records` within `budget` s, or
     None (no candidate solved in time)."""
-    from rearrangement_planner.planning.requests.robustness import candidate_rank
+    from rearrangement_planner.planning.requests.robustness import (
+        RobustOptions,
+        candidate_iterations,
+        candidate_rank,
+    )
 
-    spent, solved = 0.0, []
+    spent = 0.0
+    solved: list[dict] = []
+    bound: int | None = None
     for record in sorted(records, key=lambda r: r["k"]):
         left = budget - spent
-        if record["k"] >= rule.candidates or left <= 0.001 or record["search_s"] > left:
+        cut = bound is not None and record["iterations"] > bound
+        search = record["search_s"] * bound / record["iterations"] if cut else \
+            record["search_s"]                  # a search cut at its bound: that share of it
+        if record["k"] >= rule.candidates or left <= 0.001 or search > left:
             break
-        spent += record["search_s"]
+        spent += search
+        if cut:
+            continue
         if not record["solved"]:
             continue
+        if not solved and rule.effort > 0:
+            bound = candidate_iterations(RobustOptions(candidate_effort=rule.effort),
+                                         record["iterations"])
         solved.append(record)
         if rule.travel_penalty is None:
             break
@@ -124,15 +145,18 @@ def choose(records: Sequence[dict], rule: Rule, budget: float) -> dict | None:
                                                      penalty), -r["k"]))
 
 
-def rules(candidates: int, travel_penalty: float) -> list[Rule]:
+def rules(candidates: int, travel_penalty: float, effort: float = 0.0) -> list[Rule]:
     """The first plan, then for 3 and `candidates` candidates: the most robust, the shipped
-    ranking with `travel_penalty`, and the oracle."""
+    ranking with `travel_penalty` (without, and with `effort`, the bound on the later
+    searches), and the oracle."""
     out = [Rule("first plan", 1, None)]
     for n in sorted({min(3, candidates), candidates}):
-        out += [Rule(f"most robust of {n}", n, 0.0),
-                Rule(f"robustness - {travel_penalty:g} x push path, of {n}", n,
-                     travel_penalty),
-                Rule(f"best of {n} by MuJoCo (oracle)", n, oracle=True)]
+        ranked = f"robustness - {travel_penalty:g} x push path, of {n}"
+        out += [Rule(f"most robust of {n}", n, 0.0), Rule(ranked, n, travel_penalty)]
+        if effort > 0:
+            out.append(Rule(f"{ranked}, later searches <= {effort:g} x the first's iterations",
+                            n, travel_penalty, effort=effort))
+        out.append(Rule(f"best of {n} by MuJoCo (oracle)", n, oracle=True))
     return out
 
 

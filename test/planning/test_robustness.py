@@ -17,7 +17,13 @@ from rearrangement_planner.model.state import State
 from rearrangement_planner.physics.options import PhysicsOptions
 from rearrangement_planner.physics.step import Invalid, Physics
 from rearrangement_planner.physics.validation import load_scene
-from rearrangement_planner.planning import PCRRTOptions, PlanRequest, StopReason, plan_scene
+from rearrangement_planner.planning import (
+    Outcome,
+    PCRRTOptions,
+    PlanRequest,
+    StopReason,
+    plan_scene,
+)
 from rearrangement_planner.planning.machinery.manifold import (
     default_push_configuration,
     ik_on_manifold,
@@ -27,7 +33,9 @@ from rearrangement_planner.planning.machinery.push_policy import push_policy_pro
 from rearrangement_planner.planning.requests.parallel import tree_seed
 from rearrangement_planner.planning.requests.pipeline import CANDIDATE_SEED_OFFSET
 from rearrangement_planner.planning.requests.robustness import (
+    MIN_CANDIDATE_ITERATIONS,
     RobustOptions,
+    candidate_iterations,
     goal_travel,
     robustness,
 )
@@ -194,13 +202,15 @@ def test_with_accept_best_the_most_robust_candidate_answers_when_none_is_robust_
     expected = three_candidates[int(np.argmax(scores))]
     best = plan_scene(PlanRequest.first_plan(easy, "pc-rrt", options, seed=11,
                                              robust=RobustOptions(
-        min_robustness=1.0, rollouts=10, candidates=3, travel_penalty=0.0, accept_best=True)))
+        min_robustness=1.0, rollouts=10, candidates=3, candidate_effort=0.0, travel_penalty=0.0,
+        accept_best=True)))
     assert best.solved and best.robustness == expected[1], (best.robustness, scores)
     assert best.result.seed == 11          # the request's seed, which reproduces the choice
     assert _same_path(best, expected[0])
     refused = plan_scene(PlanRequest.first_plan(easy, "pc-rrt", options, seed=11,
                                                 robust=RobustOptions(min_robustness=1.0,
                                                                      rollouts=10, candidates=3,
+                                                                     candidate_effort=0.0,
                                                                      accept_best=False)))
     assert not refused.solved and refused.robustness == max(scores)
     assert "the most robust reached the goal in 90% of 10" in refused.result.message
@@ -219,10 +229,54 @@ def test_candidates_are_ranked_by_robustness_less_the_travel_penalty(slim, remem
         picks[penalty] = int(np.argmax(ranks))
         chosen = plan_scene(PlanRequest.first_plan(slim, "pc-rrt", options, seed=23,
                                                    robust=RobustOptions(
-            min_robustness=1.0, rollouts=10, candidates=3, travel_penalty=penalty)))
+            min_robustness=1.0, rollouts=10, candidates=3, candidate_effort=0.0,
+            travel_penalty=penalty)))
         expected = three_candidates[picks[penalty]]
         assert chosen.robustness == expected[1] and _same_path(chosen, expected[0]), penalty
     assert picks == {0.0: 0, 0.5: 0, 10.0: 2}, picks
+
+
+def test_later_candidates_search_at_most_candidate_effort_times_the_first_plans_iterations(
+        slim, monkeypatch):
+    """The slim box with seed 23: the first plan takes 696 iterations, the next two seeds
+    5,830 and 2,070 (tests above). With candidate_effort 1 both later searches end at 696
+    iterations without a plan, and the first answers; with 10 (6,960) both find theirs, and
+    the three are ranked. Only the searches after the first are bounded."""
+    from rearrangement_planner.planning.requests.pipeline import Candidates, candidate_seed
+
+    searched: dict[int, tuple] = {}
+    search = Candidates.plan
+
+    def plan(self, seed):
+        result = search(self, seed)
+        searched[seed] = (self.stop.max_iterations, result.iterations, result.outcome)
+        return result
+
+    monkeypatch.setattr(Candidates, "plan", plan)
+    options = PCRRTOptions(time_limit=60.0)
+    later = [candidate_seed(23, k) for k in (1, 2)]
+    for effort, bound in ((1.0, 696), (10.0, 6960)):
+        searched.clear()
+        robust = RobustOptions(min_robustness=1.0, rollouts=10, candidates=3,
+                               candidate_effort=effort)
+        assert candidate_iterations(robust, 696) == bound
+        answer = plan_scene(PlanRequest.first_plan(slim, "pc-rrt", options, seed=23,
+                                                   robust=robust))
+        assert answer.solved and answer.phases.candidates == 3
+        assert searched[23][:2] == (options.max_iterations, 696)
+        assert [searched[seed][0] for seed in later] == [bound, bound]
+        solved = [searched[seed][2] is Outcome.SUCCEEDED for seed in later]
+        assert solved == ([False, False] if effort == 1.0 else [True, True]), searched
+    assert [searched[seed][1] for seed in later] == [5830, 2070]
+
+
+def test_the_candidate_effort_bound_has_a_floor_and_can_be_lifted():
+    """A first plan found in a handful of iterations still leaves the next candidates
+    MIN_CANDIDATE_ITERATIONS; candidate_effort 0 leaves them only the time limit."""
+    assert candidate_iterations(RobustOptions(candidate_effort=1.0), 7) == \
+        MIN_CANDIDATE_ITERATIONS
+    assert candidate_iterations(RobustOptions(candidate_effort=1.5), 1001) == 1502
+    assert candidate_iterations(RobustOptions(candidate_effort=0.0), 1001) is None
 
 
 def test_a_grown_arm_meets_objects_sooner_but_keeps_its_table_clearance(easy):

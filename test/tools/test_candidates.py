@@ -40,6 +40,20 @@ def test_choose_ranks_within_the_budget_as_the_robust_search_does():
     assert choose(unsolved, Rule("first", 1, None), 60.0) is None
 
 
+def test_choose_bounds_the_later_searches_by_the_first_plans_iterations():
+    """With effort 1 a later search that needs more iterations than the first plan took
+    (at least 100) ends at that bound without a plan, after the share of its time."""
+    records = [_candidate(0, 2.0, robustness=0.4) | {"iterations": 300},
+               _candidate(1, 10.0, robustness=0.9) | {"iterations": 1500},
+               _candidate(2, 1.0, robustness=0.6) | {"iterations": 150}]
+    assert choose(records, Rule("all", 3, 0.0), 60.0)["k"] == 1
+    assert choose(records, Rule("bounded", 3, 0.0, effort=1.0), 60.0)["k"] == 2
+    assert choose(records, Rule("bounded", 3, 0.0, effort=5.0), 60.0)["k"] == 1
+    # 2 s + 0.5 + 0.5, then 10 s x 300 / 1500: the second search is cut after 2 s.
+    assert choose(records, Rule("bounded", 3, 0.0, effort=1.0), 5.1)["k"] == 0
+    assert choose(records, Rule("bounded", 3, 0.0, effort=1.0), 6.1)["k"] == 2
+
+
 def test_replay_table_counts_the_chosen_plans():
     records = [_candidate(0, 5.0, robustness=0.2, reached=False, toppled=1),
                _candidate(1, 5.0, robustness=0.6, reached=True)]

@@ -33,6 +33,7 @@ from rearrangement_planner.planning.requests.finish import FINISH_TIME, finish
 from rearrangement_planner.planning.requests.parallel import plan_race, tree_seed
 from rearrangement_planner.planning.requests.request import PlanRequest
 from rearrangement_planner.planning.requests.robustness import (
+    candidate_iterations,
     candidate_rank,
     goal_travel,
     robustness,
@@ -292,6 +293,15 @@ class Candidates:
             return request.planner.make(request.scene, request.options, self.physics).plan(
                 start=request.start, seed=seed, stop=self.stop, progress=self.progress)
 
+    def bounded(self, max_iterations: int | None) -> Candidates:
+        """The same candidates, each search ending after `max_iterations` too (None: as
+        they are)."""
+        if max_iterations is None:
+            return self
+        bound = min(max_iterations, self.stop.max_iterations or max_iterations)
+        return dataclasses.replace(self, stop=dataclasses.replace(self.stop,
+                                                                  max_iterations=bound))
+
     def shortcut(self, result: PlanResult, seed: int) -> Candidate:
         """A solved `result` shortcut for up to shortcut_time s (ending at most that long
         after the request's budget) or shortcut_attempts attempts (whichever ends first; an
@@ -345,7 +355,10 @@ def robust_search(candidates: Candidates) -> tuple[Candidate, float | None]:
     enough; else the best ranked: its robustness less travel_penalty per metre it pushes the
     goal object. The rollouts judge the shortcut path: the one the answer holds. Searches stop
     at the time limit, shortcuts at the time limit plus shortcut_time (a request takes no
-    longer than without robust selection). The answer's plan time is all of it but its own
+    longer than without robust selection); the searches after the first plan also after
+    `candidate_effort` times its iterations (`robustness.candidate_iterations`: a plan the
+    first search took long to find is not worth as long again to better, a quick one is worth
+    a quick look). The answer's plan time is all of it but its own
     shortcutting (reported apart, as without robust selection), and its seed the request's
     (which reproduces the whole selection). A cancel ends it with the cancelled search."""
     request = candidates.request
@@ -354,15 +367,18 @@ def robust_search(candidates: Candidates) -> tuple[Candidate, float | None]:
     best: tuple[Candidate, float, float] | None = None    # candidate, robustness, rank
     most_robust = 0.0
     last: PlanResult | None = None
+    searches = candidates
     for k in range(robust.candidates):
         if candidates.stop.remaining() <= 0.001:
             break
         k_seed = candidate_seed(seed, k)
-        last = candidates.plan(k_seed)
+        last = searches.plan(k_seed)
         if last.outcome is Outcome.CANCELLED:
             return Candidate(last), None        # the user's cancel ends the selection too
         if not last.solved:
             continue
+        if best is None:
+            searches = candidates.bounded(candidate_iterations(robust, last.iterations))
         candidate = candidates.shortcut(last, k_seed)
         score = candidates.judge(candidate, k_seed)
         if score >= robust.min_robustness:

@@ -48,6 +48,12 @@ class RobustOptions(Settings):
     candidates: int = setting(3, low=1, high=20)
     """Most candidate plans for min_robustness, all within the one time limit (a hard scene's
     searches use it up after one or two)."""
+    candidate_effort: float = setting(1.0, low=0.0, high=1000.0)
+    """A candidate after the first may search at most this many times the iterations the
+    first plan took (at least `MIN_CANDIDATE_ITERATIONS`), so a request does not spend its
+    whole budget looking for a better plan than the one its first seconds gave; counted in
+    iterations, so the answer does not depend on the machine's speed. 0 = only the time
+    limit bounds them. Measured: docs/benchmark.md ("A robust plan sooner")."""
     travel_penalty: float = setting(0.5, low=0.0, high=100.0)
     """Candidates are ranked by robustness less this much per metre their goal object is
     pushed (`goal_travel`): the model's error grows along every push, so of two nearly equally
@@ -56,6 +62,19 @@ class RobustOptions(Settings):
     """When no candidate reaches min_robustness, answer with the best ranked one (its
     robustness reported) instead of failing: a request then fails only when no plan is found
     at all."""
+
+
+MIN_CANDIDATE_ITERATIONS = 100
+"""The least iterations a candidate after the first may search (`candidate_effort`): a first
+plan found in a handful of iterations still leaves the next candidates a real search."""
+
+
+def candidate_iterations(options: RobustOptions, first: int) -> int | None:
+    """The iteration bound of every candidate after a first plan found in `first` iterations
+    (`candidate_effort`), or None (no bound but the time limit)."""
+    if options.candidate_effort <= 0:
+        return None
+    return max(MIN_CANDIDATE_ITERATIONS, math.ceil(options.candidate_effort * first))
 
 
 ROLLOUT_PERTURBATION = Perturbation()
