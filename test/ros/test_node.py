@@ -26,12 +26,20 @@ from action_msgs.msg import GoalStatus  # noqa: E402
 from diagnostic_msgs.msg import DiagnosticArray  # noqa: E402
 from geometry_msgs.msg import PoseArray, PoseStamped, Quaternion  # noqa: E402
 from rclpy.action import ActionClient  # noqa: E402
+from rclpy.callback_groups import ReentrantCallbackGroup  # noqa: E402
 from rclpy.context import Context  # noqa: E402
-from rclpy.executors import MultiThreadedExecutor, SingleThreadedExecutor  # noqa: E402
+from rclpy.exceptions import InvalidHandle  # noqa: E402
+from rclpy.executors import (  # noqa: E402
+    ExternalShutdownException,
+    MultiThreadedExecutor,
+    ShutdownException,
+    SingleThreadedExecutor,
+)
 from rclpy.node import Node  # noqa: E402
 from rclpy.parameter import Parameter  # noqa: E402
 from rclpy.parameter_client import AsyncParameterClient  # noqa: E402
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy  # noqa: E402
+from rclpy.waitable import NumberOfEntities, Waitable  # noqa: E402
 from sensor_msgs.msg import JointState  # noqa: E402
 from std_srvs.srv import Trigger  # noqa: E402
 from trajectory_msgs.msg import JointTrajectory  # noqa: E402
@@ -223,6 +231,21 @@ def parse_summary(message: str) -> tuple[str, str, float, int, str]:
     return plan_id, outcome, float(t), int(n), mcap
 
 
+def _spin(executor, stop: threading.Event) -> None:
+    """`executor.spin()` until `stop`, except that a wait set built while another thread
+    destroys one of its entities spins on: rclpy raises InvalidHandle from the QoS event
+    handler of a subscription whose destruction was requested (a test's late subscriber, a
+    removed node). Under a loaded clean-clone run that killed the client's spin thread once,
+    and every later test of the module waited in vain for an answer."""
+    while not stop.is_set() and executor.context.ok():
+        try:
+            executor.spin_once(timeout_sec=0.1)
+        except InvalidHandle:
+            continue
+        except (ShutdownException, ExternalShutdownException):
+            return
+
+
 @pytest.fixture(scope="module")
 def ros(tmp_path_factory):
     context = Context()
@@ -240,13 +263,16 @@ def ros(tmp_path_factory):
     client = Client(context, scene)
     client_executor = SingleThreadedExecutor(context=context)
     client_executor.add_node(client.node)
-    threads = [threading.Thread(target=e.spin, daemon=True) for e in (executor, client_executor)]
+    stop = threading.Event()
+    threads = [threading.Thread(target=_spin, args=(e, stop), daemon=True)
+               for e in (executor, client_executor)]
     for thread in threads:
         thread.start()
     client.wait_inputs_flowing()
     yield {"context": context, "planner": planner, "client": client, "scene": scene,
            "record_dir": record_dir, "executor": executor}
     planner.stop()
+    stop.set()
     executor.shutdown()
     client_executor.shutdown()
     # The spin threads leave their wait before the nodes and the context go: a thread still
@@ -272,6 +298,69 @@ def check_controller_contract(msg: JointTrajectory, joint_names) -> None:
 
 
 # --------------------------------------------------------------------------------------------
+
+
+class _DestroyedWhileWaiting(Waitable):
+    """An entity whose destruction another thread requests while the executor builds its
+    wait set: the first wait set it joins raises InvalidHandle, as rclpy's QoS event handler
+    of such a subscription does."""
+
+    def __init__(self):
+        super().__init__(ReentrantCallbackGroup())
+        self.raised = 0
+
+    def is_ready(self, wait_set) -> bool:
+        return False
+
+    def take_data(self):
+        return None
+
+    async def execute(self, taken_data) -> None:
+        return None
+
+    def get_num_entities(self) -> NumberOfEntities:
+        return NumberOfEntities()
+
+    def add_to_wait_set(self, wait_set) -> None:
+        if not self.raised:
+            self.raised += 1
+            raise InvalidHandle("cannot use Destroyable because destruction was requested")
+
+
+def test_the_spin_threads_survive_entities_destroyed_while_they_wait():
+    """The module's spin threads (`_spin`) outlive an entity destroyed while they build a
+    wait set (`executor.spin()` itself dies of the InvalidHandle), and a subscriber created
+    and destroyed from the test's thread two hundred times while messages flow."""
+    context = Context()
+    rclpy.init(context=context, domain_id=DOMAIN_ID)
+    node = Node("spin_survivor", context=context)
+    executor = SingleThreadedExecutor(context=context)
+    executor.add_node(node)
+    publisher = node.create_publisher(JointState, "~/ticks", 10)
+    node.create_timer(0.001, lambda: publisher.publish(JointState()))
+    destroyed = _DestroyedWhileWaiting()
+    node.add_waitable(destroyed)
+    stop = threading.Event()
+    thread = threading.Thread(target=_spin, args=(executor, stop), daemon=True)
+    thread.start()
+    try:
+        assert wait_until(lambda: destroyed.raised, 5.0)
+        node.remove_waitable(destroyed)
+        for _ in range(200):
+            sub = node.create_subscription(JointState, "~/ticks", lambda m: None, 10)
+            time.sleep(0.0005)
+            node.destroy_subscription(sub)
+        received: list[JointState] = []
+        node.create_subscription(JointState, "~/ticks", received.append, 10)
+        assert wait_until(lambda: received, 5.0)
+        assert thread.is_alive()
+    finally:
+        stop.set()
+        executor.shutdown()
+        thread.join(timeout=5.0)
+        node.destroy_node()
+        rclpy.shutdown(context=context)
+    assert not thread.is_alive()
 
 
 def test_parameters_declared_once_with_descriptions_and_yaml_defaults(ros):
