@@ -17,7 +17,8 @@ it could still win (`key(iteration, t) < best key found`) and stops as soon as i
 race ends shortly after the first plan, and the same scene, options and seed give the same plan
 whatever the machine's speed. The one exception is the time limit: a plan found by one tree
 before the budget runs out is returned even if a tree that might have beaten it in iterations
-was cut off by the budget.
+was cut off by the budget (or did not report within `RESULT_GRACE` of it: a worker still
+starting on a loaded machine).
 
     result = plan_race(PLANNERS["pc-rrt"], scene, PCRRTOptions(), trees=2, seed=0)
 """
@@ -68,7 +69,13 @@ NO_PLAN = 2 ** 62
 
 RESULT_GRACE = 5.0
 """Seconds past the budget a worker tree gets to report (it stops within one propagation
-step of its deadline; this only bounds a wait on a hung worker)."""
+step of its deadline). A worker that misses it (a fresh one still loading the compiled core on
+a loaded machine, or a hung one) is left out of the race's result and waited for by the next
+race (`STRAGGLER_WAIT`)."""
+
+STRAGGLER_WAIT = 30.0
+"""Seconds the next race waits for a worker still busy with a race it did not report to in
+time; one that takes longer is hung: it is terminated and replaced."""
 
 SCENE_CACHE = 4
 """Scenes (robot model + physics) a worker keeps built."""
@@ -215,7 +222,10 @@ class _Pool:
         for w in self.workers:
             if w.busy:
                 try:
-                    w.collect(None)
+                    if w.collect(STRAGGLER_WAIT) is None:
+                        w.process.terminate()
+                        w.process.join(1.0)
+                        w.busy = False
                 except RuntimeError:
                     pass
         self.workers = [w for w in self.workers if w.process.is_alive()]
@@ -300,8 +310,10 @@ def plan_race(planner: PlannerSpec, scene: Scene, options: PlannerOptions, trees
         for worker in workers:
             reply = worker.collect(stop.remaining() + RESULT_GRACE)
             if reply is None:
+                # Its tree did not run within the budget (see RESULT_GRACE): the race ends
+                # without it, the cancel stops it at its first check, and the next race waits
+                # for it (`_Pool.take`).
                 pool.cancel.set()
-                errors.append("a tree worker did not report within the budget")
             elif isinstance(reply, str):
                 errors.append(reply)
             else:   # states rebuilt here: read-only arrays, like every State
