@@ -531,12 +531,10 @@ def candidates_command(args: argparse.Namespace) -> int:
     records = [r for r in candidates.read_records(out) if (r["scene"], r["seed"]) in wanted]
     robust = RobustOptions(**{k: v for k, v in settings.items()
                               if k in RobustOptions.__dataclass_fields__})
+    # Records made before the tool recorded iterations cannot replay the candidate bound.
+    effort = robust.candidate_effort if all("iterations" in r for r in records) else 0.0
     print(candidates.replay_table(records, candidates.rules(args.candidates,
-                                                            robust.travel_penalty,
-                                                            robust.candidate_effort
-                                                            if all("iterations" in r
-                                                                   for r in records)
-                                                            else 0.0),
+                                                            robust.travel_penalty, effort),
                                   args.time_limit))
     if failed:
         print(f"rearrangement-bench: {failed} requests failed with an internal error (not in "

@@ -121,9 +121,7 @@ def choose(records: Sequence[dict], rule: Rule, budget: float) -> dict | None:
         if record["k"] >= rule.candidates or left <= 0.001 or search > left:
             break
         spent += search
-        if cut:
-            continue
-        if not record["solved"]:
+        if cut or not record["solved"]:
             continue
         if not solved and rule.effort > 0:
             bound = candidate_iterations(RobustOptions(candidate_effort=rule.effort),
