@@ -41,7 +41,7 @@ radius, half height, unused)."""
 
 _GOLDEN = 0.6180339887498949
 _ITERATIONS = 60                     # 0.618**60 = 3e-13 of the axis
-_RESOLUTION = 1e-10
+RESOLUTION = 1e-10
 """m: the golden-section bracket along a capsule's axis ends below this (at most _ITERATIONS
 steps); the distance then errs by at most this, the axis' slope being at most 1."""
 
@@ -158,12 +158,12 @@ def capsule_prism_below(a: np.ndarray, b: np.ndarray, radius: float, limit: floa
     lo, hi = 0.0, 1.0
     t1, t2 = hi - _GOLDEN, _GOLDEN
     f1, f2 = _sd_along(kind, qa, d, t1, dims), _sd_along(kind, qa, d, t2, dims)
-    # Stop once the bracket is shorter than _RESOLUTION along the axis (or after _ITERATIONS).
+    # Stop once the bracket is shorter than RESOLUTION along the axis (or after _ITERATIONS).
     length = math.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
     iterations = _ITERATIONS
     if length > 0.0:
         iterations = min(_ITERATIONS, max(0, int(math.ceil(
-            math.log(_RESOLUTION / length) / math.log(_GOLDEN)))))
+            math.log(RESOLUTION / length) / math.log(_GOLDEN)))))
     for _ in range(iterations):
         if f1 <= f2:
             hi, t2, f2 = t2, t1, f1

@@ -8,7 +8,10 @@ the state invalid).
 
 A step q -> q' is cut into substeps so that no point of any contact shape moves more than
 `PhysicsOptions.max_substep` (the result then hardly depends on how a caller chops a motion).
-Each substep:
+Only the (contact shape, object) pairs the step can reach are asked: a box test, then the exact
+distance at the step's start (`_clear_far`); a step that reaches no object is one substep, and
+the substeps before the nearest pair could close its distance are skipped (they would touch
+nothing). Each substep:
 
 1. joint limits at q', arm vs table and obstacles at q' (no penetration allowed);
 2. contacts: every arm contact shape vs every object at q' (`kernels.capsule_prism` after a
@@ -427,6 +430,36 @@ def _reach(poses: np.ndarray, shapes: np.ndarray, objects: np.ndarray, obj_size:
             near_static[s, k] = kernels.near_prism(a, b, r + margin, kernels.BOX,
                                                    static_centre[k], static_dims[k])
     return anything
+
+
+@njit(cache=True)
+def _clear_far(poses: np.ndarray, shapes: np.ndarray, objects: np.ndarray,
+               obj_kind: np.ndarray, obj_dims: np.ndarray, obj_props: np.ndarray,
+               margin: float, near: np.ndarray) -> float:
+    """The narrow phase of `_reach`: clears each pair it allowed whose capsule is farther than
+    `margin` from the object at the step's start (`kernels.capsule_prism_below`: a cheap
+    lower bound first, else the distance to within `kernels.RESOLUTION`), as that pair cannot
+    touch within the step. The boxes of `_reach` are loose around a long link, so most steps
+    they call near touch nothing. Returns the least distance of the pairs left (inf: none is
+    left, free space)."""
+    a, b, point, normal, centre = (np.empty(3), np.empty(3), np.empty(3), np.empty(3),
+                                   np.empty(3))
+    limit = margin + kernels.RESOLUTION
+    least = math.inf
+    for s in range(poses.shape[0]):
+        kernels.segment(poses, s, shapes[s, 0], a, b)
+        for m in range(objects.shape[0]):
+            if not near[s, m]:
+                continue
+            centre[0], centre[1] = objects[m, 0], objects[m, 1]
+            centre[2] = obj_props[m, OBJ_CENTRE_Z]
+            d = kernels.capsule_prism_below(a, b, shapes[s, 1], limit, obj_kind[m], centre,
+                                            objects[m, 2], obj_dims[m], point, normal)
+            if d >= limit:
+                near[s, m] = False
+            else:
+                least = min(least, d - kernels.RESOLUTION)
+    return least
 
 
 @njit(cache=True)
@@ -1088,16 +1121,31 @@ def step_kernel(q0: np.ndarray, q1: np.ndarray, objects: np.ndarray, chain: tupl
     _poses(q1, chain, poses_b)
     sweep = _sweep(poses_a, poses_b, shapes)
     n = max(1, math.ceil(sweep / options[OPT_MAX_SUBSTEP] - 1e-9))
+    q_b = np.empty_like(q1)
     near = np.empty((S, objects.shape[0]), dtype=np.bool_)
     near_static = np.empty((S, static_centre.shape[0]), dtype=np.bool_)
-    if not _reach(poses_a, shapes, objects, obj_size, obj_props, static_centre, static_dims,
-                  sweep + options[OPT_FREE_SPACE], near, near_static):
+    margin = sweep + options[OPT_FREE_SPACE]
+    least = math.inf
+    if _reach(poses_a, shapes, objects, obj_size, obj_props, static_centre, static_dims,
+              margin, near, near_static):
+        least = _clear_far(poses_a, shapes, objects, obj_kind, obj_dims, obj_props, margin,
+                           near)
+    first = 1
+    if least == math.inf:
         # Free space: no substep can touch an object, so the substeps would only repeat the
         # static check. One substep at q1 (substeps are for contacts).
         n = 1
+    elif n > 1:
+        # No point moves more than sweep / n per substep (plus the bulge): the substeps before
+        # the nearest pair can close its distance touch nothing, so start at the one before.
+        first = max(1, min(n, int(math.floor((least - options[OPT_FREE_SPACE])
+                                             / (sweep / n)))))
+        if first > 1:
+            for j in range(q1.shape[0]):
+                q_b[j] = q0[j] + (q1[j] - q0[j]) * ((first - 1) / n)
+            _poses(q_b, chain, poses_a)
     current, following = objects.copy(), np.empty_like(objects)
-    q_b = np.empty_like(q1)
-    for i in range(1, n + 1):
+    for i in range(first, n + 1):
         if i < n:
             for j in range(q1.shape[0]):
                 q_b[j] = q0[j] + (q1[j] - q0[j]) * (i / n)
