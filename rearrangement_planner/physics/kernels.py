@@ -41,7 +41,7 @@ radius, half height, unused)."""
 
 _GOLDEN = 0.6180339887498949
 _ITERATIONS = 60                     # 0.618**60 = 3e-13 of the axis
-RESOLUTION = 1e-10
+_RESOLUTION = 1e-10
 """m: the golden-section bracket along a capsule's axis ends below this (at most _ITERATIONS
 steps); the distance then errs by at most this, the axis' slope being at most 1."""
 
@@ -158,12 +158,12 @@ def capsule_prism_below(a: np.ndarray, b: np.ndarray, radius: float, limit: floa
     lo, hi = 0.0, 1.0
     t1, t2 = hi - _GOLDEN, _GOLDEN
     f1, f2 = _sd_along(kind, qa, d, t1, dims), _sd_along(kind, qa, d, t2, dims)
-    # Stop once the bracket is shorter than RESOLUTION along the axis (or after _ITERATIONS).
+    # Stop once the bracket is shorter than _RESOLUTION along the axis (or after _ITERATIONS).
     length = math.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
     iterations = _ITERATIONS
     if length > 0.0:
         iterations = min(_ITERATIONS, max(0, int(math.ceil(
-            math.log(RESOLUTION / length) / math.log(_GOLDEN)))))
+            math.log(_RESOLUTION / length) / math.log(_GOLDEN)))))
     for _ in range(iterations):
         if f1 <= f2:
             hi, t2, f2 = t2, t1, f1
@@ -192,6 +192,44 @@ def capsule_prism_below(a: np.ndarray, b: np.ndarray, radius: float, limit: floa
     out_normal[1] = s * normal[0] + c * normal[1]
     out_normal[2] = normal[2]
     return best - radius
+
+
+@njit(cache=True)
+def capsule_prism_bound(a: np.ndarray, b: np.ndarray, radius: float, kind: int,
+                        centre: np.ndarray, yaw: float, dims: np.ndarray) -> float:
+    """A lower bound (m) of `capsule_prism`'s signed distance, at most BOUND_RESOLUTION below
+    it: the same golden-section search along the axis, stopped once its bracket is shorter
+    than BOUND_RESOLUTION. The prism's signed distance is convex along the axis, so the
+    bracket holds the minimum, and 1-Lipschitz in space, so nowhere in the bracket is it
+    lower than the better sample minus the bracket's length."""
+    c, s = math.cos(yaw), math.sin(yaw)
+    qa, d = np.empty(3), np.empty(3)
+    ax, ay = a[0] - centre[0], a[1] - centre[1]
+    bx, by = b[0] - centre[0], b[1] - centre[1]
+    qa[0], qa[1], qa[2] = c * ax + s * ay, -s * ax + c * ay, a[2] - centre[2]
+    d[0] = c * bx + s * by - qa[0]
+    d[1] = -s * bx + c * by - qa[1]
+    d[2] = b[2] - centre[2] - qa[2]
+    length = math.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
+    if length <= BOUND_RESOLUTION:
+        return _sd_along(kind, qa, d, 0.0, dims) - length - radius
+    lo, hi = 0.0, 1.0
+    t1, t2 = hi - _GOLDEN, _GOLDEN
+    f1, f2 = _sd_along(kind, qa, d, t1, dims), _sd_along(kind, qa, d, t2, dims)
+    while (hi - lo) * length > BOUND_RESOLUTION:
+        if f1 <= f2:
+            hi, t2, f2 = t2, t1, f1
+            t1 = hi - _GOLDEN * (hi - lo)
+            f1 = _sd_along(kind, qa, d, t1, dims)
+        else:
+            lo, t1, f1 = t1, t2, f2
+            t2 = lo + _GOLDEN * (hi - lo)
+            f2 = _sd_along(kind, qa, d, t2, dims)
+    return min(f1, f2) - (hi - lo) * length - radius
+
+
+BOUND_RESOLUTION = 1e-3
+"""m: how far below the distance `capsule_prism_bound` may be."""
 
 
 # -- forward kinematics of the contact shapes -----------------------------------------------------

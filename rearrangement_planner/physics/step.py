@@ -437,14 +437,11 @@ def _clear_far(poses: np.ndarray, shapes: np.ndarray, objects: np.ndarray,
                obj_kind: np.ndarray, obj_dims: np.ndarray, obj_props: np.ndarray,
                margin: float, near: np.ndarray) -> float:
     """The narrow phase of `_reach`: clears each pair it allowed whose capsule is farther than
-    `margin` from the object at the step's start (`kernels.capsule_prism_below`: a cheap
-    lower bound first, else the distance to within `kernels.RESOLUTION`), as that pair cannot
-    touch within the step. The boxes of `_reach` are loose around a long link, so most steps
-    they call near touch nothing. Returns the least distance of the pairs left (inf: none is
-    left, free space)."""
-    a, b, point, normal, centre = (np.empty(3), np.empty(3), np.empty(3), np.empty(3),
-                                   np.empty(3))
-    limit = margin + kernels.RESOLUTION
+    `margin` from the object at the step's start (by `kernels.capsule_prism_bound`, a lower
+    bound of their distance), as that pair cannot touch within the step. The boxes of
+    `_reach` are loose around a long link, so most steps they call near touch nothing.
+    Returns the least bound of the pairs left (inf: none is left, free space)."""
+    a, b, centre = np.empty(3), np.empty(3), np.empty(3)
     least = math.inf
     for s in range(poses.shape[0]):
         kernels.segment(poses, s, shapes[s, 0], a, b)
@@ -453,12 +450,12 @@ def _clear_far(poses: np.ndarray, shapes: np.ndarray, objects: np.ndarray,
                 continue
             centre[0], centre[1] = objects[m, 0], objects[m, 1]
             centre[2] = obj_props[m, OBJ_CENTRE_Z]
-            d = kernels.capsule_prism_below(a, b, shapes[s, 1], limit, obj_kind[m], centre,
-                                            objects[m, 2], obj_dims[m], point, normal)
-            if d >= limit:
+            d = kernels.capsule_prism_bound(a, b, shapes[s, 1], obj_kind[m], centre,
+                                            objects[m, 2], obj_dims[m])
+            if d > margin:
                 near[s, m] = False
             else:
-                least = min(least, d - kernels.RESOLUTION)
+                least = min(least, d)
     return least
 
 

@@ -10,7 +10,13 @@ import fcl
 import numpy as np
 import pytest
 
-from rearrangement_planner.physics.kernels import BOX, CYLINDER, capsule_prism
+from rearrangement_planner.physics.kernels import (
+    BOUND_RESOLUTION,
+    BOX,
+    CYLINDER,
+    capsule_prism,
+    capsule_prism_bound,
+)
 
 
 def _axis_rotation(axis: np.ndarray) -> np.ndarray:
@@ -124,6 +130,22 @@ def test_the_minimum_along_the_axis_is_found(kind):
             dr, dz = np.hypot(q[:, 0], q[:, 1]) - dims[0], np.abs(q[:, 2]) - dims[1]
             sd = np.hypot(np.maximum(dr, 0), np.maximum(dz, 0)) + np.minimum(np.maximum(dr, dz), 0)
         assert sd.min() - radius - 2e-6 <= distance <= sd.min() - radius + 1e-12
+
+
+@pytest.mark.parametrize("kind", [BOX, CYLINDER], ids=["box", "cylinder"])
+def test_the_distance_bound_is_below_the_distance_and_near_it(kind):
+    """`capsule_prism_bound` (the step's narrow phase) never exceeds the distance, apart or
+    penetrating, and is below it by at most BOUND_RESOLUTION."""
+    rng = np.random.default_rng(20 + kind)
+    point, normal = np.empty(3), np.empty(3)
+    for _ in range(2000):
+        a, b, radius, centre, yaw, dims = _random_case(rng, kind)
+        distance = capsule_prism(a, b, radius, kind, centre, yaw, dims, point, normal)
+        bound = capsule_prism_bound(a, b, radius, kind, centre, yaw, dims)
+        assert distance - BOUND_RESOLUTION - 1e-12 <= bound <= distance + 1e-9
+    a = np.array([0.5, 0.2, 0.05])      # a sphere (an axis of length zero)
+    assert capsule_prism_bound(a, a, 0.01, kind, centre, 0.0, dims) == pytest.approx(
+        capsule_prism(a, a, 0.01, kind, centre, 0.0, dims, point, normal))
 
 
 def test_compiled_shape_kinematics_match_pinocchio(panda):
