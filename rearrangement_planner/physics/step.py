@@ -221,15 +221,7 @@ class Physics:
         # argument, as a State holds, would compile the whole step a second time).
         code = step_kernel(np.array(state.q), q_next, np.array(state.objects), *self.arrays,
                            out, info, value)
-        flags = info[4:]
-        key = flags.tobytes()
-        named = self._named.get(key)
-        if named is None:       # a new pattern of pushing links and moved objects
-            links = frozenset(self._shape_links[s] for s in np.flatnonzero(flags[:self._shapes]))
-            named = links, frozenset(np.flatnonzero(flags[self._shapes:]).tolist())
-            if len(self._named) < 4096:
-                self._named[key] = named
-        links, moved = named
+        links, moved = self._flagged(info[4:])
         if code != _VALID:
             return StepResult(state, False, _REASONS[code],
                               self.describe(code, info, value, q_next),
@@ -252,7 +244,19 @@ class Physics:
 
     def pushing_links(self, flags: np.ndarray) -> frozenset[str]:
         """The links of the contact shapes flagged in `flags` (`flag_count` long)."""
-        return frozenset(self._shape_links[s] for s in np.flatnonzero(flags[:self._shapes]))
+        return self._flagged(flags)[0]
+
+    def _flagged(self, flags: np.ndarray) -> tuple[frozenset[str], frozenset[int]]:
+        """The pushing links and the moved objects of the step's flags, remembered by their
+        bytes (few patterns recur, and the propagation asks after every action)."""
+        key = flags.tobytes()
+        named = self._named.get(key)
+        if named is None:       # a new pattern of pushing links and moved objects
+            links = frozenset(self._shape_links[s] for s in np.flatnonzero(flags[:self._shapes]))
+            named = links, frozenset(np.flatnonzero(flags[self._shapes:]).tolist())
+            if len(self._named) < 4096:
+                self._named[key] = named
+        return named
 
     def check_state(self, state: State) -> tuple[Invalid, str] | None:
         """Validity of a resting state, or None when valid."""

@@ -432,7 +432,21 @@ def project_step(
 
 
 def project_arrays(robot: RobotModel, table_height: float) -> tuple:
-    """The robot and manifold arguments of `project_kernel` (after q, action, dt, extra)."""
+    """The robot and manifold arguments of `project_kernel` (after q, action, dt, extra),
+    made once per robot and table height (every propagation asks)."""
+    by_height = _PROJECT_ARRAYS.setdefault(robot, {})
+    arrays = by_height.get(table_height)
+    if arrays is None:
+        arrays = by_height[table_height] = _project_arrays(robot, table_height)
+    return arrays
+
+
+_PROJECT_ARRAYS: weakref.WeakKeyDictionary[RobotModel, dict[float, tuple]] = (
+    weakref.WeakKeyDictionary())
+"""`project_arrays` by robot and table height."""
+
+
+def _project_arrays(robot: RobotModel, table_height: float) -> tuple:
     chain = kernels.compiled_chain(robot)
     return (chain.arrays[:4], chain.tool_joint, chain.tool_local,
             np.array(_up_in_tool(robot.config.push_posture)), push_height(robot, table_height),

@@ -25,6 +25,7 @@ each, under 2 % of their time (docs/benchmark.md, "The compiled core").
 from __future__ import annotations
 
 import math
+import weakref
 from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import cached_property
@@ -32,6 +33,7 @@ from functools import cached_property
 import numpy as np
 from numba import njit
 
+from rearrangement_planner.model.robot import RobotModel
 from rearrangement_planner.model.state import State
 from rearrangement_planner.physics.kernels import tool_kinematics
 from rearrangement_planner.physics.step import Invalid, Physics, step_kernel
@@ -196,6 +198,10 @@ FACING_YAW_RATE = 1.0
 """rad/s: how fast a facing push turns the hand towards the push direction."""
 
 
+_HELD: weakref.WeakKeyDictionary[RobotModel, np.ndarray] = weakref.WeakKeyDictionary()
+"""`_policy_array` of a held velocity, by robot (every action of Algorithm 2 asks)."""
+
+
 def _policy_array(physics: Physics, push: PushTarget | None) -> np.ndarray:
     """The push for `_propagate_kernel`: (object, target x, y, speed, cylinder (0/1), size x,
     size y, footprint radius, push band, the rows of R0, the posture's tool rotation, the
@@ -203,8 +209,11 @@ def _policy_array(physics: Physics, push: PushTarget | None) -> np.ndarray:
     held)."""
     posture = physics.robot.config.push_posture.rotation
     if push is None:
-        return np.concatenate([[-1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, PUSH_BAND],
-                               posture.ravel(), [0.0]])
+        held = _HELD.get(physics.robot)
+        if held is None:
+            held = _HELD[physics.robot] = np.concatenate(
+                [[-1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, PUSH_BAND], posture.ravel(), [0.0]])
+        return held
     obj = physics.scene.objects[push.obj]
     return np.concatenate([[push.obj, push.target[0], push.target[1], push.speed,
                             float(obj.shape == "cylinder"), obj.size[0], obj.size[1],

@@ -89,6 +89,32 @@ class Tree:
         return states
 
 
+def weighted_distance(arm: np.ndarray, objects: np.ndarray, sample_arm: np.ndarray,
+                      sample_objects: np.ndarray, arm_weight: float,
+                      weights: np.ndarray) -> float:
+    """Dist of `Tree.nearest` between one state and a sample, compiled (NumPy's temporaries
+    cost more than the sum)."""
+    # Fresh writable copies: one compiled signature whoever calls.
+    return float(_distance(np.array(arm, dtype=float), np.array(objects, dtype=float),
+                           np.array(sample_arm, dtype=float),
+                           np.array(sample_objects, dtype=float), float(arm_weight),
+                           np.array(weights, dtype=float)))
+
+
+@njit(cache=True)
+def _distance(arm: np.ndarray, objects: np.ndarray, sample_arm: np.ndarray,
+              sample_objects: np.ndarray, arm_weight: float, weights: np.ndarray) -> float:
+    d_arm = 0.0
+    for k in range(arm.shape[0]):
+        d = arm[k] - sample_arm[k]
+        d_arm += d * d
+    d_obj = 0.0
+    for j in range(weights.shape[0]):
+        d_obj += weights[j] * math.hypot(objects[j, 0] - sample_objects[j, 0],
+                                         objects[j, 1] - sample_objects[j, 1])
+    return arm_weight * math.sqrt(d_arm) + d_obj
+
+
 def _doubled(a: np.ndarray) -> np.ndarray:
     return np.concatenate([a, np.empty_like(a)])
 

@@ -52,7 +52,7 @@ from rearrangement_planner.planning.machinery.propagation import (
 from rearrangement_planner.planning.machinery.push_policy import PushPolicy
 from rearrangement_planner.planning.machinery.search import Search
 from rearrangement_planner.planning.machinery.termination import Termination
-from rearrangement_planner.planning.machinery.tree import Tree
+from rearrangement_planner.planning.machinery.tree import Tree, weighted_distance
 
 
 @dataclass(frozen=True)
@@ -132,6 +132,11 @@ class PCRRT:
         self._weights = weights
         self._goal_xy = np.asarray(scene.goal.position, dtype=float)
         self._tool_frame = self.robot.tool_frame_id
+        opts = self.options
+        self._action_low = np.array([-opts.max_speed, -opts.max_speed, -opts.max_yaw_rate,
+                                     opts.min_duration])
+        self._action_high = np.array([opts.max_speed, opts.max_speed, opts.max_yaw_rate,
+                                      opts.max_duration])
 
     # -- the algorithm -------------------------------------------------------------------------
 
@@ -237,9 +242,8 @@ class PCRRT:
     def _distance(self, arm: np.ndarray, objects: np.ndarray, sample_arm: np.ndarray,
                   sample_objects: np.ndarray) -> float:
         """Dist(x, x') of §III-D on positions: w_q |arm - arm'| + sum_i w_i |o_i - o'_i|."""
-        d_obj = np.hypot(*(objects[:, :2] - sample_objects[:, :2]).T)
-        return float(self.options.arm_weight * np.linalg.norm(arm - sample_arm)
-                     + self._weights @ d_obj)
+        return weighted_distance(arm, objects, sample_arm, sample_objects,
+                                 self.options.arm_weight, self._weights)
 
     def _nearest(self, tree: Tree, sample_arm: np.ndarray, sample_objects: np.ndarray) -> int:
         """Nearest (§III-D): the node closest to the sample by the weighted metric."""
@@ -249,11 +253,10 @@ class PCRRT:
         """SampleAction: uniform in the bounds (§V: 'Actions are uniformly sampled from a
         bounded range'); the duration is a whole number of steps."""
         opts = self.options
-        velocity = np.array([rng.uniform(-opts.max_speed, opts.max_speed),
-                             rng.uniform(-opts.max_speed, opts.max_speed),
-                             rng.uniform(-opts.max_yaw_rate, opts.max_yaw_rate)])
-        duration = rng.uniform(opts.min_duration, opts.max_duration)
-        duration = max(1, round(duration / opts.dt)) * opts.dt
+        # One call draws what four scalar calls drew (the same numbers, in the same order).
+        drawn = rng.uniform(self._action_low, self._action_high)
+        velocity = drawn[:3]
+        duration = max(1, round(float(drawn[3]) / opts.dt)) * opts.dt
         nullspace = rng.uniform(-opts.nullspace_speed, opts.nullspace_speed, self.robot.nq)
         return Action(velocity, duration, nullspace)
 

@@ -53,7 +53,7 @@ def _exercise() -> None:
         replay,
     )
     from rearrangement_planner.planning.machinery.push_policy import push_policy_prop
-    from rearrangement_planner.planning.machinery.tree import Tree
+    from rearrangement_planner.planning.machinery.tree import Tree, weighted_distance
     from rearrangement_planner.planning.requests.robustness import rollout, rollout_options
 
     scene = load_scene("easy_push")
@@ -74,6 +74,8 @@ def _exercise() -> None:
     rollout(scene, np.array([start.q, start.q]), rollout_options(physics.options))
     tree = Tree(start, np.zeros(2))
     tree.nearest(np.zeros(2), start.objects, 1.0, np.ones(len(scene.objects)))
+    weighted_distance(np.zeros(2), start.objects, np.zeros(2), start.objects, 1.0,
+                      np.ones(len(scene.objects)))
     push_policy_prop(physics, start, scene.goal_index, np.array([0.5, -0.1]), 2, 0.05, 0.1,
                      push.nullspace, stops)
 
