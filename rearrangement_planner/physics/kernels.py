@@ -136,11 +136,13 @@ def capsule_prism(a: np.ndarray, b: np.ndarray, radius: float, kind: int,
 def capsule_prism_below(a: np.ndarray, b: np.ndarray, radius: float, limit: float, kind: int,
                         centre: np.ndarray, yaw: float, dims: np.ndarray,
                         out_point: np.ndarray, out_normal: np.ndarray) -> float:
-    """`capsule_prism` where only distances below `limit` matter: when a cheap lower bound
-    already reaches `limit`, that bound is returned (>= limit, not the distance; the outputs
-    untouched). The bound: sd is 1-Lipschitz in space, so along the axis (length L) it is
-    L-Lipschitz in t, and from samples at t = 0, 1/2, 1 the minimum over each half is at
-    least (f(t_i) + f(t_j) - L/2) / 2 (Piyavskii's bound)."""
+    """`capsule_prism` where only distances below `limit` matter: when a lower bound already
+    reaches `limit`, that bound is returned (>= limit, not the distance; the outputs
+    untouched). The bounds: sd is 1-Lipschitz in space, so along the axis (length L) it is
+    L-Lipschitz in t. First, from samples at t = 0, 1/2, 1 the minimum over each half is at
+    least (f(t_i) + f(t_j) - L/2) / 2 (Piyavskii's bound). Then, within the golden-section
+    search: sd is convex along the axis, so its minimum lies in the bracket [lo, hi], where it
+    is at least either sample's value minus L (hi - lo) (`_bracket_bound`)."""
     c, s = math.cos(yaw), math.sin(yaw)
     # The axis in the prism frame: q(t) = qa + t (qb - qa).
     qa, qb = np.empty(3), np.empty(3)
@@ -173,6 +175,10 @@ def capsule_prism_below(a: np.ndarray, b: np.ndarray, radius: float, limit: floa
             lo, t1, f1 = t1, t2, f2
             t2 = lo + _GOLDEN * (hi - lo)
             f2 = _sd_along(kind, qa, d, t2, dims)
+        if limit < math.inf:
+            bound = _bracket_bound(f1, f2, hi - lo, length) - radius
+            if bound >= limit:
+                return bound
     best_t, best = (t1, f1) if f1 <= f2 else (t2, f2)
     for t in (0.0, 1.0):                           # a flat minimum may sit at an end
         f = _sd_along(kind, qa, d, t, dims)
@@ -196,12 +202,11 @@ def capsule_prism_below(a: np.ndarray, b: np.ndarray, radius: float, limit: floa
 
 @njit(cache=True)
 def capsule_prism_bound(a: np.ndarray, b: np.ndarray, radius: float, kind: int,
-                        centre: np.ndarray, yaw: float, dims: np.ndarray) -> float:
+                        centre: np.ndarray, yaw: float, dims: np.ndarray,
+                        limit: float = math.inf) -> float:
     """A lower bound (m) of `capsule_prism`'s signed distance, at most BOUND_RESOLUTION below
-    it: the same golden-section search along the axis, stopped once its bracket is shorter
-    than BOUND_RESOLUTION. The prism's signed distance is convex along the axis, so the
-    bracket holds the minimum, and 1-Lipschitz in space, so nowhere in the bracket is it
-    lower than the better sample minus the bracket's length."""
+    it, or sooner any bound above `limit`: the same golden-section search along the axis,
+    stopped once its bracket is shorter than BOUND_RESOLUTION (`_bracket_bound`)."""
     c, s = math.cos(yaw), math.sin(yaw)
     qa, d = np.empty(3), np.empty(3)
     ax, ay = a[0] - centre[0], a[1] - centre[1]
@@ -225,7 +230,16 @@ def capsule_prism_bound(a: np.ndarray, b: np.ndarray, radius: float, kind: int,
             lo, t1, f1 = t1, t2, f2
             t2 = lo + _GOLDEN * (hi - lo)
             f2 = _sd_along(kind, qa, d, t2, dims)
-    return min(f1, f2) - (hi - lo) * length - radius
+        if _bracket_bound(f1, f2, hi - lo, length) - radius > limit:
+            break
+    return _bracket_bound(f1, f2, hi - lo, length) - radius
+
+
+@njit(cache=True, inline="always")
+def _bracket_bound(f1: float, f2: float, width: float, length: float) -> float:
+    """A lower bound of a convex, `length`-Lipschitz function's minimum over a bracket of
+    `width` holding it and both samples f1, f2: no point there is farther from either."""
+    return max(f1, f2) - width * length
 
 
 BOUND_RESOLUTION = 1e-3

@@ -455,7 +455,7 @@ def _clear_far(poses: np.ndarray, shapes: np.ndarray, objects: np.ndarray,
             centre[0], centre[1] = objects[m, 0], objects[m, 1]
             centre[2] = obj_props[m, OBJ_CENTRE_Z]
             d = kernels.capsule_prism_bound(a, b, shapes[s, 1], obj_kind[m], centre,
-                                            objects[m, 2], obj_dims[m])
+                                            objects[m, 2], obj_dims[m], margin)
             if d > margin:
                 near[s, m] = False
             else:
@@ -1048,20 +1048,18 @@ def _substep(poses_a: np.ndarray, poses_b: np.ndarray, objects: np.ndarray,
              obj_kind: np.ndarray, obj_dims: np.ndarray, obj_size: np.ndarray,
              obj_props: np.ndarray, table: np.ndarray, options: np.ndarray, info: np.ndarray,
              value: np.ndarray, pushing_shapes: np.ndarray, moved: np.ndarray,
-             near: np.ndarray, near_static: np.ndarray) -> int:
+             near: np.ndarray, near_static: np.ndarray, c_shape: np.ndarray,
+             c_obj: np.ndarray, c_point: np.ndarray, c_normal: np.ndarray,
+             c_depth: np.ndarray, everything: np.ndarray) -> int:
     """One substep (module docstring, 1-6): objects -> new_objects, or an invalid code. Only
     the pairs `_reach` found near are asked; an object that moves is asked against every
-    shape from then on."""
+    shape from then on. The contact buffers (c_*, one row per shape-object pair) and
+    `everything` (all True) are the step's, reused by each substep."""
     code = _static_hit(poses_b, shapes, static_centre, static_yaw, static_dims, near_static,
                        info)
     if code != _VALID:
         return code
-    S, M = poses_b.shape[0], objects.shape[0]
-    capacity = S * M
-    c_shape, c_obj = np.empty(capacity, dtype=np.int64), np.empty(capacity, dtype=np.int64)
-    c_point, c_normal = np.empty((capacity, 3)), np.empty((capacity, 3))
-    c_depth = np.empty(capacity)
-    everything = np.ones(M, dtype=np.bool_)
+    M = objects.shape[0]
     count = _contacts(poses_b, shapes, objects, everything, near, obj_kind, obj_dims,
                       obj_props, c_shape, c_obj, c_point, c_normal, c_depth)
     new_objects[:] = objects
@@ -1146,6 +1144,11 @@ def step_kernel(q0: np.ndarray, q1: np.ndarray, objects: np.ndarray, chain: tupl
                 q_b[j] = q0[j] + (q1[j] - q0[j]) * ((first - 1) / n)
             _poses(q_b, chain, poses_a)
     current, following = objects.copy(), np.empty_like(objects)
+    capacity = S * objects.shape[0]
+    c_shape, c_obj = np.empty(capacity, dtype=np.int64), np.empty(capacity, dtype=np.int64)
+    c_point, c_normal = np.empty((capacity, 3)), np.empty((capacity, 3))
+    c_depth = np.empty(capacity)
+    everything = np.ones(objects.shape[0], dtype=np.bool_)
     for i in range(first, n + 1):
         if i < n:
             for j in range(q1.shape[0]):
@@ -1156,7 +1159,7 @@ def step_kernel(q0: np.ndarray, q1: np.ndarray, objects: np.ndarray, chain: tupl
         code = _substep(poses_a, poses_b, current, following, shapes, static_centre,
                         static_yaw, static_dims, static_size, obj_kind, obj_dims, obj_size,
                         obj_props, table, options, info, value, pushing_shapes, moved, near,
-                        near_static)
+                        near_static, c_shape, c_obj, c_point, c_normal, c_depth, everything)
         if code != _VALID:
             info[0], info[3] = code, i
             return code
