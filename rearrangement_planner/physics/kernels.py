@@ -144,12 +144,8 @@ def capsule_prism_below(a: np.ndarray, b: np.ndarray, radius: float, limit: floa
     search: sd is convex along the axis, so its minimum lies in the bracket [lo, hi], where it
     is at least either sample's value minus L (hi - lo) (`_bracket_bound`)."""
     c, s = math.cos(yaw), math.sin(yaw)
-    # The axis in the prism frame: q(t) = qa + t (qb - qa).
-    qa, qb = np.empty(3), np.empty(3)
-    for q, p in ((qa, a), (qb, b)):
-        dx, dy = p[0] - centre[0], p[1] - centre[1]
-        q[0], q[1], q[2] = c * dx + s * dy, -s * dx + c * dy, p[2] - centre[2]
-    d = qb - qa
+    qa, d = np.empty(3), np.empty(3)
+    _axis_in_prism(a, b, centre, c, s, qa, d)
     if limit < math.inf:
         half = 0.5 * math.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
         f0, f_mid = _sd_along(kind, qa, d, 0.0, dims), _sd_along(kind, qa, d, 0.5, dims)
@@ -167,14 +163,7 @@ def capsule_prism_below(a: np.ndarray, b: np.ndarray, radius: float, limit: floa
         iterations = min(_ITERATIONS, max(0, int(math.ceil(
             math.log(_RESOLUTION / length) / math.log(_GOLDEN)))))
     for _ in range(iterations):
-        if f1 <= f2:
-            hi, t2, f2 = t2, t1, f1
-            t1 = hi - _GOLDEN * (hi - lo)
-            f1 = _sd_along(kind, qa, d, t1, dims)
-        else:
-            lo, t1, f1 = t1, t2, f2
-            t2 = lo + _GOLDEN * (hi - lo)
-            f2 = _sd_along(kind, qa, d, t2, dims)
+        lo, hi, t1, t2, f1, f2 = _golden_step(kind, qa, d, dims, lo, hi, t1, t2, f1, f2)
         if limit < math.inf:
             bound = _bracket_bound(f1, f2, hi - lo, length) - radius
             if bound >= limit:
@@ -184,20 +173,26 @@ def capsule_prism_below(a: np.ndarray, b: np.ndarray, radius: float, limit: floa
         f = _sd_along(kind, qa, d, t, dims)
         if f < best:
             best_t, best = t, f
-    q = qa + best_t * d
+    _surface_in_world(kind, qa + best_t * d, dims, centre, c, s, out_point, out_normal)
+    return best - radius
+
+
+@njit(cache=True, inline="always")
+def _surface_in_world(kind: int, q: np.ndarray, dims: np.ndarray, centre: np.ndarray, c: float,
+                      s: float, out_point: np.ndarray, out_normal: np.ndarray) -> None:
+    """The prism's surface point nearest the prism-frame point q and its outward normal, in
+    the world frame."""
     point, normal = np.empty(3), np.empty(3)
     if kind == BOX:
         _box_surface(q, dims, point, normal)
     else:
         _cylinder_surface(q, dims[0], dims[1], point, normal)
-    # Back to the world frame.
     out_point[0] = centre[0] + c * point[0] - s * point[1]
     out_point[1] = centre[1] + s * point[0] + c * point[1]
     out_point[2] = centre[2] + point[2]
     out_normal[0] = c * normal[0] - s * normal[1]
     out_normal[1] = s * normal[0] + c * normal[1]
     out_normal[2] = normal[2]
-    return best - radius
 
 
 @njit(cache=True)
@@ -207,14 +202,8 @@ def capsule_prism_bound(a: np.ndarray, b: np.ndarray, radius: float, kind: int,
     """A lower bound (m) of `capsule_prism`'s signed distance, at most BOUND_RESOLUTION below
     it, or sooner any bound above `limit`: the same golden-section search along the axis,
     stopped once its bracket is shorter than BOUND_RESOLUTION (`_bracket_bound`)."""
-    c, s = math.cos(yaw), math.sin(yaw)
     qa, d = np.empty(3), np.empty(3)
-    ax, ay = a[0] - centre[0], a[1] - centre[1]
-    bx, by = b[0] - centre[0], b[1] - centre[1]
-    qa[0], qa[1], qa[2] = c * ax + s * ay, -s * ax + c * ay, a[2] - centre[2]
-    d[0] = c * bx + s * by - qa[0]
-    d[1] = -s * bx + c * by - qa[1]
-    d[2] = b[2] - centre[2] - qa[2]
+    _axis_in_prism(a, b, centre, math.cos(yaw), math.sin(yaw), qa, d)
     length = math.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
     if length <= BOUND_RESOLUTION:
         return _sd_along(kind, qa, d, 0.0, dims) - length - radius
@@ -222,17 +211,40 @@ def capsule_prism_bound(a: np.ndarray, b: np.ndarray, radius: float, kind: int,
     t1, t2 = hi - _GOLDEN, _GOLDEN
     f1, f2 = _sd_along(kind, qa, d, t1, dims), _sd_along(kind, qa, d, t2, dims)
     while (hi - lo) * length > BOUND_RESOLUTION:
-        if f1 <= f2:
-            hi, t2, f2 = t2, t1, f1
-            t1 = hi - _GOLDEN * (hi - lo)
-            f1 = _sd_along(kind, qa, d, t1, dims)
-        else:
-            lo, t1, f1 = t1, t2, f2
-            t2 = lo + _GOLDEN * (hi - lo)
-            f2 = _sd_along(kind, qa, d, t2, dims)
+        lo, hi, t1, t2, f1, f2 = _golden_step(kind, qa, d, dims, lo, hi, t1, t2, f1, f2)
         if _bracket_bound(f1, f2, hi - lo, length) - radius > limit:
             break
     return _bracket_bound(f1, f2, hi - lo, length) - radius
+
+
+@njit(cache=True, inline="always")
+def _axis_in_prism(a: np.ndarray, b: np.ndarray, centre: np.ndarray, c: float, s: float,
+                   qa: np.ndarray, d: np.ndarray) -> None:
+    """The capsule's axis a-b in the frame of a prism at `centre` turned by (cos, sin) = (c, s):
+    q(t) = qa + t d."""
+    qb = np.empty(3)
+    for q, p in ((qa, a), (qb, b)):
+        dx, dy = p[0] - centre[0], p[1] - centre[1]
+        q[0], q[1], q[2] = c * dx + s * dy, -s * dx + c * dy, p[2] - centre[2]
+    for k in range(3):
+        d[k] = qb[k] - qa[k]
+
+
+@njit(cache=True, inline="always")
+def _golden_step(kind: int, qa: np.ndarray, d: np.ndarray, dims: np.ndarray, lo: float,
+                 hi: float, t1: float, t2: float, f1: float,
+                 f2: float) -> tuple[float, float, float, float, float, float]:
+    """One golden-section step along the axis: the bracket [lo, hi] with samples t1 < t2
+    (values f1, f2) shrinks towards the lower sample, which one new sample joins."""
+    if f1 <= f2:
+        hi, t2, f2 = t2, t1, f1
+        t1 = hi - _GOLDEN * (hi - lo)
+        f1 = _sd_along(kind, qa, d, t1, dims)
+    else:
+        lo, t1, f1 = t1, t2, f2
+        t2 = lo + _GOLDEN * (hi - lo)
+        f2 = _sd_along(kind, qa, d, t2, dims)
+    return lo, hi, t1, t2, f1, f2
 
 
 @njit(cache=True, inline="always")

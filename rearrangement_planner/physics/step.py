@@ -8,10 +8,10 @@ the state invalid).
 
 A step q -> q' is cut into substeps so that no point of any contact shape moves more than
 `PhysicsOptions.max_substep` (the result then hardly depends on how a caller chops a motion).
-Only the (contact shape, object) pairs the step can reach are asked: a box test, then the exact
-distance at the step's start (`_clear_far`); a step that reaches no object is one substep, and
-the substeps before the nearest pair could close its distance are skipped (they would touch
-nothing). Each substep:
+Only the (contact shape, object) pairs the step can reach are asked: a box test, then a lower
+bound of their distance at the step's start (`_clear_far`); a step that reaches no object is
+one substep, and the substeps before the nearest pair could close its distance are skipped
+(they would touch nothing). Each substep:
 
 1. joint limits at q', arm vs table and obstacles at q' (no penetration allowed);
 2. contacts: every arm contact shape vs every object at q' (`kernels.capsule_prism` after a
@@ -1097,6 +1097,38 @@ def _substep(poses_a: np.ndarray, poses_b: np.ndarray, objects: np.ndarray,
 
 
 @njit(cache=True)
+def _substeps(q0: np.ndarray, q1: np.ndarray, objects: np.ndarray, chain: tuple,
+              shapes: np.ndarray, static_centre: np.ndarray, static_dims: np.ndarray,
+              obj_kind: np.ndarray, obj_dims: np.ndarray, obj_size: np.ndarray,
+              obj_props: np.ndarray, options: np.ndarray, sweep: float, poses_a: np.ndarray,
+              q_b: np.ndarray, near: np.ndarray, near_static: np.ndarray) -> tuple[int, int]:
+    """How `step_kernel` cuts the step q0 -> q1, whose points move at most `sweep`: (n, the
+    first substep to run), the pairs it may touch in `near` and `near_static` (`_reach`,
+    `_clear_far`), and `poses_a` moved to the start of the first substep."""
+    n = max(1, math.ceil(sweep / options[OPT_MAX_SUBSTEP] - 1e-9))
+    margin = sweep + options[OPT_FREE_SPACE]
+    least = math.inf
+    if _reach(poses_a, shapes, objects, obj_size, obj_props, static_centre, static_dims,
+              margin, near, near_static):
+        least = _clear_far(poses_a, shapes, objects, obj_kind, obj_dims, obj_props, margin,
+                           near)
+    if least == math.inf:
+        # Free space: no substep can touch an object, so the substeps would only repeat the
+        # static check. One substep at q1 (substeps are for contacts).
+        return 1, 1
+    if n == 1:
+        return 1, 1
+    # No point moves more than sweep / n per substep (plus the bulge): the substeps before the
+    # nearest pair can close its distance touch nothing, so start at the one before.
+    first = max(1, min(n, int(math.floor((least - options[OPT_FREE_SPACE]) / (sweep / n)))))
+    if first > 1:
+        for j in range(q1.shape[0]):
+            q_b[j] = q0[j] + (q1[j] - q0[j]) * ((first - 1) / n)
+        _poses(q_b, chain, poses_a)
+    return n, first
+
+
+@njit(cache=True)
 def step_kernel(q0: np.ndarray, q1: np.ndarray, objects: np.ndarray, chain: tuple,
                 shapes: np.ndarray, limits: np.ndarray, static_centre: np.ndarray,
                 static_yaw: np.ndarray, static_dims: np.ndarray, static_size: np.ndarray,
@@ -1119,30 +1151,12 @@ def step_kernel(q0: np.ndarray, q1: np.ndarray, objects: np.ndarray, chain: tupl
     _poses(q0, chain, poses_a)
     _poses(q1, chain, poses_b)
     sweep = _sweep(poses_a, poses_b, shapes)
-    n = max(1, math.ceil(sweep / options[OPT_MAX_SUBSTEP] - 1e-9))
     q_b = np.empty_like(q1)
     near = np.empty((S, objects.shape[0]), dtype=np.bool_)
     near_static = np.empty((S, static_centre.shape[0]), dtype=np.bool_)
-    margin = sweep + options[OPT_FREE_SPACE]
-    least = math.inf
-    if _reach(poses_a, shapes, objects, obj_size, obj_props, static_centre, static_dims,
-              margin, near, near_static):
-        least = _clear_far(poses_a, shapes, objects, obj_kind, obj_dims, obj_props, margin,
-                           near)
-    first = 1
-    if least == math.inf:
-        # Free space: no substep can touch an object, so the substeps would only repeat the
-        # static check. One substep at q1 (substeps are for contacts).
-        n = 1
-    elif n > 1:
-        # No point moves more than sweep / n per substep (plus the bulge): the substeps before
-        # the nearest pair can close its distance touch nothing, so start at the one before.
-        first = max(1, min(n, int(math.floor((least - options[OPT_FREE_SPACE])
-                                             / (sweep / n)))))
-        if first > 1:
-            for j in range(q1.shape[0]):
-                q_b[j] = q0[j] + (q1[j] - q0[j]) * ((first - 1) / n)
-            _poses(q_b, chain, poses_a)
+    n, first = _substeps(q0, q1, objects, chain, shapes, static_centre, static_dims, obj_kind,
+                         obj_dims, obj_size, obj_props, options, sweep, poses_a, q_b, near,
+                         near_static)
     current, following = objects.copy(), np.empty_like(objects)
     capacity = S * objects.shape[0]
     c_shape, c_obj = np.empty(capacity, dtype=np.int64), np.empty(capacity, dtype=np.int64)
