@@ -7,15 +7,19 @@ import math
 import numpy as np
 
 from rearrangement_planner.model.state import State
-from rearrangement_planner.planning.machinery.tree import Tree
+from rearrangement_planner.planning.machinery.tree import Tree, weighted_distance
+
+
+def _written_out(arm_i, objects_i, arm, objects, arm_weight, weights) -> float:
+    return arm_weight * math.sqrt(float(np.sum((arm_i - arm) ** 2))) + sum(
+        weights[j] * math.hypot(*(objects_i[j, :2] - objects[j, :2]))
+        for j in range(len(weights)))
 
 
 def _brute_force(tree: Tree, arm, objects, arm_weight, weights) -> int:
     best, best_node = math.inf, 0
     for i in range(tree.n):
-        total = arm_weight * math.sqrt(float(np.sum((tree.arm[i] - arm) ** 2))) + sum(
-            weights[j] * math.hypot(*(tree.objects[i, j, :2] - objects[j, :2]))
-            for j in range(len(weights)))
+        total = _written_out(tree.arm[i], tree.objects[i], arm, objects, arm_weight, weights)
         if total < best:
             best, best_node = total, i
     return best_node
@@ -39,3 +43,22 @@ def test_nearest_is_the_node_of_least_weighted_distance_ties_to_the_first():
             expected = _brute_force(tree, arm, objects, 0.3, weights)
             assert tree.nearest(arm, objects, 0.3, weights) == expected
         assert tree.nearest(tree.arm[17], tree.objects[17], 0.3, weights) == 17
+
+
+def test_the_metric_alone_is_the_one_nearest_uses():
+    """`weighted_distance` (PC-RRT's Dist between a propagation's end and the sample) is the
+    metric written out, to rounding, and ranks the tree's nodes as Nearest does."""
+    rng = np.random.default_rng(1)
+    m = 3
+    tree = Tree(State(rng.uniform(-1, 1, 7), rng.uniform(0, 1, (m, 3))), rng.uniform(0, 1, 2))
+    for _ in range(200):
+        tree.add(State(rng.uniform(-1, 1, 7), rng.uniform(0, 1, (m, 3))), rng.uniform(0, 1, 2),
+                 0, ())
+    weights = rng.uniform(0.5, 5.0, m)
+    arm, objects = rng.uniform(0, 1, 2), rng.uniform(0, 1, (m, 3))
+    distances = [weighted_distance(tree.arm[i], tree.objects[i], arm, objects, 0.3, weights)
+                 for i in range(tree.n)]
+    for i in range(tree.n):
+        written = _written_out(tree.arm[i], tree.objects[i], arm, objects, 0.3, weights)
+        assert math.isclose(distances[i], written, rel_tol=1e-12)
+    assert int(np.argmin(distances)) == tree.nearest(arm, objects, 0.3, weights)

@@ -95,23 +95,25 @@ def weighted_distance(arm: np.ndarray, objects: np.ndarray, sample_arm: np.ndarr
     """Dist of `Tree.nearest` between one state and a sample, compiled (NumPy's temporaries
     cost more than the sum)."""
     # Fresh writable copies: one compiled signature whoever calls.
-    return float(_distance(np.array(arm, dtype=float), np.array(objects, dtype=float),
-                           np.array(sample_arm, dtype=float),
-                           np.array(sample_objects, dtype=float), float(arm_weight),
-                           np.array(weights, dtype=float)))
+    return float(_metric(np.array(arm, dtype=float), np.array(objects, dtype=float),
+                         np.array(sample_arm, dtype=float),
+                         np.array(sample_objects, dtype=float), float(arm_weight),
+                         np.array(weights, dtype=float)))
 
 
-@njit(cache=True)
-def _distance(arm: np.ndarray, objects: np.ndarray, sample_arm: np.ndarray,
-              sample_objects: np.ndarray, arm_weight: float, weights: np.ndarray) -> float:
+@njit(cache=True, inline="always")
+def _metric(arm: np.ndarray, objects: np.ndarray, sample_arm: np.ndarray,
+            sample_objects: np.ndarray, arm_weight: float, weights: np.ndarray) -> float:
+    """Dist (King et al. 2015, §III-D): arm_weight |arm - arm'| + sum_j weights[j] |o^j - o'^j|
+    (object positions in the plane)."""
     d_arm = 0.0
     for k in range(arm.shape[0]):
         d = arm[k] - sample_arm[k]
         d_arm += d * d
     d_obj = 0.0
     for j in range(weights.shape[0]):
-        d_obj += weights[j] * math.hypot(objects[j, 0] - sample_objects[j, 0],
-                                         objects[j, 1] - sample_objects[j, 1])
+        dx, dy = objects[j, 0] - sample_objects[j, 0], objects[j, 1] - sample_objects[j, 1]
+        d_obj += weights[j] * math.sqrt(dx * dx + dy * dy)
     return arm_weight * math.sqrt(d_arm) + d_obj
 
 
@@ -124,15 +126,7 @@ def _nearest(arms: np.ndarray, objects: np.ndarray, n: int, arm: np.ndarray,
              sample: np.ndarray, arm_weight: float, weights: np.ndarray) -> int:
     best, best_node = math.inf, 0
     for i in range(n):
-        d_arm = 0.0
-        for k in range(arm.shape[0]):
-            d = arms[i, k] - arm[k]
-            d_arm += d * d
-        d_obj = 0.0
-        for j in range(weights.shape[0]):
-            dx, dy = objects[i, j, 0] - sample[j, 0], objects[i, j, 1] - sample[j, 1]
-            d_obj += weights[j] * math.sqrt(dx * dx + dy * dy)
-        total = arm_weight * math.sqrt(d_arm) + d_obj
+        total = _metric(arms[i], objects[i], arm, sample, arm_weight, weights)
         if total < best:
             best, best_node = total, i
     return best_node
