@@ -81,12 +81,20 @@ class ExecutionOptions:
     """The closed loop's watch: once an object is farther than this (m) from its predicted
     pose at a trajectory point, the arm holds where it is (the trajectory is stopped); needs
     the predicted states. 0: never."""
+    contact_timeconst: float = 0.005
+    """s: the time constant of every contact's reference response (MuJoCo's solref), how
+    soon a penetration is undone. MuJoCo's default, 0.02 s, let a finger run 9 mm into the
+    object it pushed and drag it round, where a rigid finger meets a rigid box (docs/
+    experiments.md, 2026-11-27). MuJoCo asks for at least twice the timestep."""
 
     def __post_init__(self) -> None:
         if self.arm not in ("ideal", "servo"):
             raise ValueError(f"arm must be 'ideal' or 'servo', not {self.arm!r}")
         if not 0.0001 <= self.timestep <= 0.01:
             raise ValueError(f"timestep must be in [0.0001, 0.01] s, got {self.timestep}")
+        if not 2.0 * self.timestep <= self.contact_timeconst <= 0.1:
+            raise ValueError(f"contact_timeconst must be in [2 timestep, 0.1] s = "
+                             f"[{2.0 * self.timestep:g}, 0.1] s, got {self.contact_timeconst}")
 
 
 @dataclass(frozen=True)
@@ -238,7 +246,10 @@ def build_model(scene: Scene, options: ExecutionOptions) -> mujoco.MjModel:
     spec.option.cone = mujoco.mjtCone.mjCONE_ELLIPTIC
     _set_up_arm(spec, scene.robot, options)
     _add_world(spec, scene)
-    return spec.compile()
+    model = spec.compile()
+    model.geom_solref[:, 0] = options.contact_timeconst     # arm-object, object-object
+    model.pair_solref[:, 0] = options.contact_timeconst     # object-table (explicit pairs)
+    return model
 
 
 def _set_up_arm(spec: mujoco.MjSpec, robot: RobotModel, options: ExecutionOptions) -> None:
