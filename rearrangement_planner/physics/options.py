@@ -25,10 +25,13 @@ class PhysicsOptions(Settings):
     so that plans slide objects instead of toppling them. Off: objects never tip, as in King
     et al. 2015 (§III-A). Results: docs/benchmark.md."""
     max_turn: float = setting(5.0, low=0.0, high=1000.0)
-    """Refuse a push that turns its object by more than this many radians per metre its centre
+    """Refuse a push that turns a box by more than this many radians per metre its centre
     travels (1 rad over 20 cm at the default 5). How fast an off-centre push turns an object is
-    what the quasistatic model predicts worst, and a mispredicted turn sends every later push
-    elsewhere. 0 = no limit, as in King et al. 2015. Measured: docs/experiments.md."""
+    what the quasistatic model predicts worst, and a box's mispredicted turn sends every later
+    push elsewhere. A cylinder's turn leaves its footprint where it was, and the limit refused
+    most pushes of one (a point push more than 12 degrees off the normal turns a cylinder of
+    3 cm radius faster), so cylinders turn freely. 0 = no limit, as in King et al. 2015. Measured:
+    docs/experiments.md."""
     object_contact: bool = setting(True)
     """Objects that meet push each other (one complementarity problem over every object in
     contact, `pushing.build_multibody_lcp_kernel`), as in Haustein et al.'s Box2D model and

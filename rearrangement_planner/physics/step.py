@@ -24,7 +24,7 @@ one substep, and the substeps before the nearest pair could close its distance a
    contact"), which also pushes out a small residual from earlier steps;
 5. per object, the contacts in the object frame go to `pushing.object_twist`: one contact uses
    the motion-cone closed form, several the complementarity problem (no solution = jamming);
-   with `PhysicsOptions.max_turn`, a twist that turns the object faster than that per metre of
+   with `PhysicsOptions.max_turn`, a twist that turns a box faster than that per metre of
    travel is invalid, and with `tipping` one that would tip it;
 6. the object twist is applied on SE(2); then the moved objects are checked: residual arm-object
    penetration below `penetration_tolerance`, no object-object or object-obstacle overlap, centre
@@ -634,12 +634,12 @@ def _object_rules(m: int, twist: np.ndarray, height: float, obj_kind: np.ndarray
                   obj_size: np.ndarray, obj_props: np.ndarray, options: np.ndarray,
                   value: np.ndarray) -> int:
     """The pushing model's rules for object m moving by `twist` (object frame) under a push
-    `height` m above the table (module docstring, step 5): the turn limit and tipping refuse
-    the push; with the tip judgement on, a tipping push is not refused but reported in
+    `height` m above the table (module docstring, step 5): the turn limit (boxes only: a
+    cylinder's turn leaves its footprint where it was) and tipping refuse the push; with the tip judgement on, a tipping push is not refused but reported in
     value[1 + m] as the travel that topples the object (`_tip_travel`)."""
     turn = options[OPT_MAX_TURN]
-    if turn > 0.0 and abs(twist[2]) > turn * math.hypot(twist[0], twist[1]) \
-            + TURN_SLACK:
+    if turn > 0.0 and obj_kind[m] != kernels.CYLINDER \
+            and abs(twist[2]) > turn * math.hypot(twist[0], twist[1]) + TURN_SLACK:
         value[0] = abs(twist[2]) / max(math.hypot(twist[0], twist[1]), 1e-9)
         return _TURNING
     if options[OPT_TIPPING] > 0.0 and _tips_over(obj_kind[m], obj_size[m],

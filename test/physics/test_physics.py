@@ -441,6 +441,24 @@ def test_a_push_that_turns_its_object_fast_is_invalid_with_max_turn(panda):
         assert result.valid and abs(state.objects[0, 2]) < 1e-3 and state.objects[0, 0] > 0.55
 
 
+def test_the_turn_limit_leaves_cylinders_alone(panda):
+    """The finger tips push a cylinder 2.5 cm off its centre line: it turns faster than
+    5 rad per m (its turn leaves its footprint where it was) and the push stays valid under
+    max_turn 5; a box pushed the same way is refused."""
+    path = _push_path(panda, 0.55)
+    for obj, valid in ((cylinder("c", [0.46, 0.025, 0.0], radius=0.03), True),
+                       (box("b", [0.46, 0.025, 0.0], size=(0.06, 0.06, 0.12)), False)):
+        scene = make_scene([obj], path[0], robot=panda)
+        result, state = _walk(Physics(scene, PhysicsOptions(max_turn=5.0)),
+                              scene.initial_state(), path[1:])
+        assert result.valid is valid, result.detail
+        if valid:
+            moved = math.hypot(*(state.objects[0, :2] - scene.object_poses[0][:2]))
+            assert moved > 0.05 and abs(state.objects[0, 2]) > 5.0 * 0.05
+        else:
+            assert result.reason is Invalid.TURNING
+
+
 def test_the_packed_options_follow_the_named_columns(panda):
     """The compiled step reads `World.options` by the OPT_* constants: each column holds the
     `PhysicsOptions` field `OPTION_FIELDS` names (distinct values, so a swapped column shows),
