@@ -29,6 +29,8 @@ class PhysicsOptions(Settings):
     travels (1 rad over 20 cm at the default 5). How fast an off-centre push turns an object is
     what the quasistatic model predicts worst, and a mispredicted turn sends every later push
     elsewhere. 0 = no limit, as in King et al. 2015. Measured: docs/experiments.md."""
+    turn_limit_cylinders: bool = setting(True)
+    """Whether `max_turn` applies to cylinders too (experiment)."""
     object_contact: bool = setting(True)
     """Objects that meet push each other (one complementarity problem over every object in
     contact, `pushing.build_multibody_lcp_kernel`), as in Haustein et al.'s Box2D model and

@@ -139,10 +139,10 @@ _REASONS: tuple[Invalid | None, ...] = (
 # (a test checks it against `PhysicsOptions`).
 (OPT_MAX_SUBSTEP, OPT_PENETRATION, OPT_OVERLAP, OPT_VERTICAL_NORMAL, OPT_TIPPING,
  OPT_FREE_SPACE, OPT_MAX_TURN, OPT_OBJECT_CONTACT, OPT_TIP_JUDGEMENT,
- OPT_CONTACT_TOLERANCE) = range(10)
+ OPT_CONTACT_TOLERANCE, OPT_TURN_CYLINDERS) = range(11)
 OPTION_FIELDS = ("max_substep", "penetration_tolerance", "overlap_tolerance",
                  "vertical_normal_limit", "tipping", None, "max_turn", "object_contact",
-                 "tip_judgement", "contact_tolerance")
+                 "tip_judgement", "contact_tolerance", "turn_limit_cylinders")
 """The `PhysicsOptions` field packed in each `World.options` column (None: a module constant,
 `FREE_SPACE_MARGIN`)."""
 (OBJ_CENTRE_Z, OBJ_C, OBJ_PUSHER_MU, OBJ_SUPPORT_MU, OBJ_FOOTPRINT, OBJ_STATIC, OBJ_COF_X,
@@ -169,7 +169,7 @@ class World(NamedTuple):
     obj_size: np.ndarray            # (M, 3) full extents (x, y, z), a cylinder's (2r, 2r, h)
     obj_props: np.ndarray           # (M, 9): columns OBJ_CENTRE_Z .. OBJ_MASS
     table: np.ndarray               # (5,): top z, centre x, y, half size x, y
-    options: np.ndarray             # (10,): columns OPT_MAX_SUBSTEP .. OPT_CONTACT_TOLERANCE
+    options: np.ndarray             # (11,): columns OPT_MAX_SUBSTEP .. OPT_TURN_CYLINDERS
 
 
 class Physics:
@@ -638,8 +638,8 @@ def _object_rules(m: int, twist: np.ndarray, height: float, obj_kind: np.ndarray
     the push; with the tip judgement on, a tipping push is not refused but reported in
     value[1 + m] as the travel that topples the object (`_tip_travel`)."""
     turn = options[OPT_MAX_TURN]
-    if turn > 0.0 and abs(twist[2]) > turn * math.hypot(twist[0], twist[1]) \
-            + TURN_SLACK:
+    if turn > 0.0 and (obj_kind[m] != kernels.CYLINDER or options[OPT_TURN_CYLINDERS] > 0.0) \
+            and abs(twist[2]) > turn * math.hypot(twist[0], twist[1]) + TURN_SLACK:
         value[0] = abs(twist[2]) / max(math.hypot(twist[0], twist[1]), 1e-9)
         return _TURNING
     if options[OPT_TIPPING] > 0.0 and _tips_over(obj_kind[m], obj_size[m],
