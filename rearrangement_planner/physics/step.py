@@ -638,8 +638,8 @@ def _object_rules(m: int, twist: np.ndarray, height: float, obj_kind: np.ndarray
     the push; with the tip judgement on, a tipping push is not refused but reported in
     value[1 + m] as the travel that topples the object (`_tip_travel`)."""
     turn = options[OPT_MAX_TURN]
-    if turn > 0.0 and abs(twist[2]) > turn * math.hypot(twist[0], twist[1]) \
-            + TURN_SLACK:
+    if turn > 0.0 and obj_kind[m] != kernels.CYLINDER \
+            and abs(twist[2]) > turn * math.hypot(twist[0], twist[1]) + TURN_SLACK:
         value[0] = abs(twist[2]) / max(math.hypot(twist[0], twist[1]), 1e-9)
         return _TURNING
     if options[OPT_TIPPING] > 0.0 and _tips_over(obj_kind[m], obj_size[m],
