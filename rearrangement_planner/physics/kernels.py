@@ -146,13 +146,26 @@ def capsule_prism_below(a: np.ndarray, b: np.ndarray, radius: float, limit: floa
     c, s = math.cos(yaw), math.sin(yaw)
     qa, d = np.empty(3), np.empty(3)
     _axis_in_prism(a, b, centre, c, s, qa, d)
+    best_t, best = _axis_minimum(kind, qa, d, dims, radius, limit)
+    if best_t < 0.0:
+        return best
+    _surface_in_world(kind, qa + best_t * d, dims, centre, c, s, out_point, out_normal)
+    return best - radius
+
+
+@njit(cache=True)
+def _axis_minimum(kind: int, qa: np.ndarray, d: np.ndarray, dims: np.ndarray, radius: float,
+                  limit: float) -> tuple[float, float]:
+    """`capsule_prism_below`'s search along the axis q(t) = qa + t d: (t, the prism's distance
+    from the axis there) at the least distance; or (-1, a lower bound of the capsule's
+    distance, radius included) once that bound reaches `limit`."""
     if limit < math.inf:
         half = 0.5 * math.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
         f0, f_mid = _sd_along(kind, qa, d, 0.0, dims), _sd_along(kind, qa, d, 0.5, dims)
         f1 = _sd_along(kind, qa, d, 1.0, dims)
         bound = 0.5 * (min(f0, f1) + f_mid - half) - radius
         if bound >= limit:
-            return bound
+            return -1.0, bound
     lo, hi = 0.0, 1.0
     t1, t2 = hi - _GOLDEN, _GOLDEN
     f1, f2 = _sd_along(kind, qa, d, t1, dims), _sd_along(kind, qa, d, t2, dims)
@@ -167,14 +180,80 @@ def capsule_prism_below(a: np.ndarray, b: np.ndarray, radius: float, limit: floa
         if limit < math.inf:
             bound = _bracket_bound(f1, f2, hi - lo, length) - radius
             if bound >= limit:
-                return bound
+                return -1.0, bound
+    return _least_sample(kind, qa, d, dims, t1, f1, t2, f2)
+
+
+@njit(cache=True, inline="always")
+def _least_sample(kind: int, qa: np.ndarray, d: np.ndarray, dims: np.ndarray, t1: float,
+                  f1: float, t2: float, f2: float) -> tuple[float, float]:
+    """The golden section's last samples and the axis' ends: the lowest (t, distance); a flat
+    minimum may sit at an end."""
     best_t, best = (t1, f1) if f1 <= f2 else (t2, f2)
-    for t in (0.0, 1.0):                           # a flat minimum may sit at an end
+    for t in (0.0, 1.0):
         f = _sd_along(kind, qa, d, t, dims)
         if f < best:
             best_t, best = t, f
-    _surface_in_world(kind, qa + best_t * d, dims, centre, c, s, out_point, out_normal)
-    return best - radius
+    return best_t, best
+
+
+LINE_TOLERANCE = 1e-3
+"""m: a capsule's side lies along a face where its axis is within this of its least distance
+(`capsule_prism_line`)."""
+LINE_MIN_SPAN = 5e-3
+"""m: the least planar length of such a side for two contacts instead of one."""
+
+
+@njit(cache=True)
+def capsule_prism_line(a: np.ndarray, b: np.ndarray, radius: float, kind: int,
+                       centre: np.ndarray, yaw: float, dims: np.ndarray, points: np.ndarray,
+                       normals: np.ndarray, depths: np.ndarray) -> int:
+    """The contacts of a capsule penetrating a prism (`capsule_prism`): 0 when they are apart.
+    A capsule whose side lies along a box's face (a hand or a link across it) touches it
+    along a line, not at a point. The axis' points within LINE_TOLERANCE of its least
+    distance and still penetrating form an interval (the distance is convex along the axis);
+    where it spans at least LINE_MIN_SPAN in the table plane, its two ends are the contacts,
+    as a line contact's friction and pressure are those of its end points in the plane
+    (Lynch & Mason 1996, §3), each as deep as the deepest (the pusher is rigid: the whole
+    line is to be pushed out). Otherwise (a cylinder's curved side, a box's edge) the
+    deepest point is the one contact. Writes rows of `points`, `normals` (out of the prism)
+    and `depths` (> 0); returns how many."""
+    c, s = math.cos(yaw), math.sin(yaw)
+    qa, d = np.empty(3), np.empty(3)
+    _axis_in_prism(a, b, centre, c, s, qa, d)
+    t_best, best = _axis_minimum(kind, qa, d, dims, radius, 0.0)
+    if t_best < 0.0 or best >= radius:
+        return 0
+    _surface_in_world(kind, qa + t_best * d, dims, centre, c, s, points[0], normals[0])
+    depths[0] = radius - best
+    flat = math.sqrt(d[0] * d[0] + d[1] * d[1])
+    if kind != BOX or flat < LINE_MIN_SPAN:
+        return 1
+    level = min(best + LINE_TOLERANCE, radius)
+    lo = _level_crossing(kind, qa, d, dims, t_best, 0.0, level)
+    hi = _level_crossing(kind, qa, d, dims, t_best, 1.0, level)
+    if (hi - lo) * flat < LINE_MIN_SPAN:
+        return 1
+    for row, t in ((0, lo), (1, hi)):
+        depths[row] = radius - best
+        _surface_in_world(kind, qa + t * d, dims, centre, c, s, points[row], normals[row])
+    return 2
+
+
+@njit(cache=True, inline="always")
+def _level_crossing(kind: int, qa: np.ndarray, d: np.ndarray, dims: np.ndarray, inside: float,
+                    outside: float, level: float) -> float:
+    """The axis parameter between `inside` (distance below `level`) and `outside` where the
+    convex distance along the axis reaches `level`, by bisection (0.1 mm on a 1 m axis)."""
+    if _sd_along(kind, qa, d, outside, dims) <= level:
+        return outside
+    for _ in range(14):
+        middle = 0.5 * (inside + outside)
+        if _sd_along(kind, qa, d, middle, dims) <= level:
+            inside = middle
+        else:
+            outside = middle
+    return inside
 
 
 @njit(cache=True, inline="always")

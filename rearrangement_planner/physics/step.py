@@ -496,18 +496,23 @@ def _static_hit(poses: np.ndarray, shapes: np.ndarray, static_centre: np.ndarray
     return _VALID
 
 
+CONTACTS_PER_PAIR = 2
+"""Most contacts one (contact shape, object) pair gives (`_contacts`): a line's two ends."""
+
+
 @njit(cache=True)
 def _contacts(poses: np.ndarray, shapes: np.ndarray, objects: np.ndarray,
               selected: np.ndarray, near: np.ndarray, obj_kind: np.ndarray,
               obj_dims: np.ndarray, obj_props: np.ndarray, c_shape: np.ndarray,
               c_obj: np.ndarray, c_point: np.ndarray, c_normal: np.ndarray,
               c_depth: np.ndarray) -> int:
-    """Penetrating (contact shape, object) pairs among the `selected` objects and the pairs
-    `near` allows (`_reach`), in shape then object order: the object's surface point, the
-    unit normal from the arm into the object, the depth (> 0). Returns how many were
-    written."""
-    a, b, point, normal, centre = (np.empty(3), np.empty(3), np.empty(3), np.empty(3),
-                                   np.empty(3))
+    """The contacts of penetrating (contact shape, object) pairs among the `selected` objects
+    and the pairs `near` allows (`_reach`), in shape then object order: the object's surface
+    point, the unit normal from the arm into the object, the depth (> 0); one per pair, or
+    the two ends of a line where a capsule's side lies along a face
+    (`kernels.capsule_prism_line`). Returns how many were written."""
+    a, b, centre = np.empty(3), np.empty(3), np.empty(3)
+    points, normals, depths = np.empty((2, 3)), np.empty((2, 3)), np.empty(2)
     count = 0
     for s in range(poses.shape[0]):
         kernels.segment(poses, s, shapes[s, 0], a, b)
@@ -518,13 +523,14 @@ def _contacts(poses: np.ndarray, shapes: np.ndarray, objects: np.ndarray,
             centre[2] = obj_props[m, OBJ_CENTRE_Z]
             if not kernels.near_prism(a, b, shapes[s, 1], obj_kind[m], centre, obj_dims[m]):
                 continue
-            d = kernels.capsule_prism_below(a, b, shapes[s, 1], 0.0, obj_kind[m], centre,
-                                            objects[m, 2], obj_dims[m], point, normal)
-            if d < 0.0:
-                c_shape[count], c_obj[count], c_depth[count] = s, m, -d
+            found = kernels.capsule_prism_line(a, b, shapes[s, 1], obj_kind[m], centre,
+                                               objects[m, 2], obj_dims[m], points, normals,
+                                               depths)
+            for j in range(found):
+                c_shape[count], c_obj[count], c_depth[count] = s, m, depths[j]
                 for k in range(3):
-                    c_point[count, k] = point[k]
-                    c_normal[count, k] = -normal[k]
+                    c_point[count, k] = points[j, k]
+                    c_normal[count, k] = -normals[j, k]
                 count += 1
     return count
 
@@ -1053,7 +1059,8 @@ def _substep(poses_a: np.ndarray, poses_b: np.ndarray, objects: np.ndarray,
              c_depth: np.ndarray, everything: np.ndarray) -> int:
     """One substep (module docstring, 1-6): objects -> new_objects, or an invalid code. Only
     the pairs `_reach` found near are asked; an object that moves is asked against every
-    shape from then on. The contact buffers (c_*, one row per shape-object pair) and
+    shape from then on. The contact buffers (c_*, up to CONTACTS_PER_PAIR rows per
+    shape-object pair) and
     `everything` (all True) are the step's, reused by each substep."""
     code = _static_hit(poses_b, shapes, static_centre, static_yaw, static_dims, near_static,
                        info)
@@ -1158,7 +1165,7 @@ def step_kernel(q0: np.ndarray, q1: np.ndarray, objects: np.ndarray, chain: tupl
                          obj_dims, obj_size, obj_props, options, sweep, poses_a, q_b, near,
                          near_static)
     current, following = objects.copy(), np.empty_like(objects)
-    capacity = S * objects.shape[0]
+    capacity = CONTACTS_PER_PAIR * S * objects.shape[0]
     c_shape, c_obj = np.empty(capacity, dtype=np.int64), np.empty(capacity, dtype=np.int64)
     c_point, c_normal = np.empty((capacity, 3)), np.empty((capacity, 3))
     c_depth = np.empty(capacity)
@@ -1203,7 +1210,7 @@ def check_state_kernel(q: np.ndarray, objects: np.ndarray, chain: tuple, shapes:
                        info)
     if code != _VALID:
         return code
-    capacity = S * M
+    capacity = CONTACTS_PER_PAIR * S * M
     c_shape, c_obj = np.empty(capacity, dtype=np.int64), np.empty(capacity, dtype=np.int64)
     c_point, c_normal, c_depth = np.empty((capacity, 3)), np.empty((capacity, 3)), \
         np.empty(capacity)
