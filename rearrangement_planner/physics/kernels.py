@@ -214,8 +214,9 @@ def capsule_prism_line(a: np.ndarray, b: np.ndarray, radius: float, kind: int,
     distance and still penetrating form an interval (the distance is convex along the axis);
     where it spans at least LINE_MIN_SPAN in the table plane, its two ends are the contacts,
     as a line contact's friction and pressure are those of its end points in the plane
-    (Lynch & Mason 1996, §3), each as deep as the deepest (the pusher is rigid: the whole
-    line is to be pushed out). Otherwise (a cylinder's curved side, a box's edge) the
+    (Lynch & Mason 1996, §3), each with the deepest point's depth and normal (the pusher is
+    rigid and the line lies on one face; an end past the face's edge would otherwise take
+    the edge's slanted normal). Otherwise (a cylinder's curved side, a box's edge) the
     deepest point is the one contact. Writes rows of `points`, `normals` (out of the prism)
     and `depths` (> 0); returns how many."""
     c, s = math.cos(yaw), math.sin(yaw)
@@ -234,9 +235,11 @@ def capsule_prism_line(a: np.ndarray, b: np.ndarray, radius: float, kind: int,
     hi = _level_crossing(kind, qa, d, dims, t_best, 1.0, level)
     if (hi - lo) * flat < LINE_MIN_SPAN:
         return 1
+    normal = normals[0].copy()
     for row, t in ((0, lo), (1, hi)):
         depths[row] = radius - best
         _surface_in_world(kind, qa + t * d, dims, centre, c, s, points[row], normals[row])
+        normals[row] = normal
     return 2
 
 
