@@ -217,7 +217,8 @@ def capsule_prism_line(a: np.ndarray, b: np.ndarray, radius: float, kind: int,
     (Lynch & Mason 1996, §3), each with the deepest point's depth and normal (the pusher is
     rigid and the line lies on one face; an end past the face's edge would otherwise take
     the edge's slanted normal). Otherwise (a cylinder's curved side, a box's edge) the
-    deepest point is the one contact. Writes rows of `points`, `normals` (out of the prism)
+    deepest point is the one contact, as it is when the axis itself is inside the box (no
+    longer a touch along a face). Writes rows of `points`, `normals` (out of the prism)
     and `depths` (> 0); returns how many."""
     c, s = math.cos(yaw), math.sin(yaw)
     qa, d = np.empty(3), np.empty(3)
@@ -228,7 +229,7 @@ def capsule_prism_line(a: np.ndarray, b: np.ndarray, radius: float, kind: int,
     _surface_in_world(kind, qa + t_best * d, dims, centre, c, s, points[0], normals[0])
     depths[0] = radius - best
     flat = math.sqrt(d[0] * d[0] + d[1] * d[1])
-    if kind != BOX or flat < LINE_MIN_SPAN:
+    if kind != BOX or flat < LINE_MIN_SPAN or best <= 0.0:
         return 1
     level = min(best + LINE_TOLERANCE, radius)
     lo = _level_crossing(kind, qa, d, dims, t_best, 0.0, level)

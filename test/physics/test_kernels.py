@@ -14,8 +14,10 @@ from rearrangement_planner.physics.kernels import (
     BOUND_RESOLUTION,
     BOX,
     CYLINDER,
+    LINE_MIN_SPAN,
     capsule_prism,
     capsule_prism_bound,
+    capsule_prism_line,
 )
 
 
@@ -158,3 +160,74 @@ def test_compiled_shape_kinematics_match_pinocchio(panda):
     for _ in range(1000):
         q = rng.uniform(panda.lower, panda.upper)
         np.testing.assert_allclose(chain.shape_poses(q), panda.shape_poses(q), atol=1e-12)
+
+
+def _line(a, b, radius, kind, centre, yaw, dims):
+    points, normals, depths = np.empty((2, 3)), np.empty((2, 3)), np.empty(2)
+    found = capsule_prism_line(np.asarray(a, float), np.asarray(b, float), radius, kind,
+                               centre, yaw, dims, points, normals, depths)
+    return found, points[:found], normals[:found], depths[:found]
+
+
+def test_a_capsule_lying_along_a_face_touches_it_at_the_lines_two_ends():
+    """A horizontal capsule 1 mm into the box's -x face: parallel, the contacts are the face's
+    two ends (one point at the axis' end, before: the box would turn); turned 0.1 rad, they
+    span the part of the face within 1 mm of the deepest point; turned 0.5 rad, or end on,
+    it is a corner's or a cap's one contact. Both ends carry the deepest depth and the
+    face's normal."""
+    dims, centre = np.array([0.03, 0.04, 0.06]), np.array([0.0, 0.0, 0.06])
+    x = -0.03 - 0.01 + 0.001
+    found, points, normals, depths = _line([x, -0.1, 0.06], [x, 0.1, 0.06], 0.01, BOX, centre,
+                                           0.0, dims)
+    assert found == 2
+    np.testing.assert_allclose(points[:, :2], [[-0.03, -0.04], [-0.03, 0.04]], atol=1e-6)
+    np.testing.assert_allclose(normals, [[-1.0, 0.0, 0.0]] * 2, atol=1e-6)
+    np.testing.assert_allclose(depths, [0.001, 0.001], atol=1e-9)
+    for tilt, expected in ((0.1, 2), (0.5, 1)):
+        half = 0.1 * np.array([math.sin(tilt), math.cos(tilt), 0.0])
+        middle = np.array([x, 0.0, 0.06])
+        found, points, normals, depths = _line(middle - half, middle + half, 0.01, BOX,
+                                               centre, 0.0, dims)
+        point, normal = np.empty(3), np.empty(3)
+        distance = capsule_prism(middle - half, middle + half, 0.01, BOX, centre, 0.0, dims,
+                                 point, normal)
+        assert found == expected and depths == pytest.approx([-distance] * found)
+        np.testing.assert_allclose(normals, [normal] * found, atol=1e-9)
+        if found == 2:
+            assert abs(points[1, 1] - points[0, 1]) >= LINE_MIN_SPAN
+    found, _, _, _ = _line([x - 0.1, 0.0, 0.06], [x, 0.0, 0.06], 0.01, BOX, centre, 0.0, dims)
+    assert found == 1                                      # end on: the cap's one point
+    found, _, _, _ = _line([x - 0.002, -0.1, 0.06], [x - 0.002, 0.1, 0.06], 0.01, BOX, centre,
+                           0.0, dims)
+    assert found == 0                                      # 1 mm apart
+
+
+def test_a_capsule_along_a_cylinder_or_standing_upright_touches_it_at_one_point():
+    """A cylinder's side is curved, and an upright capsule's line is one point in the table
+    plane: one contact, the deepest."""
+    centre = np.array([0.0, 0.0, 0.06])
+    assert _line([-0.039, -0.1, 0.06], [-0.039, 0.1, 0.06], 0.01, CYLINDER, centre, 0.0,
+                 np.array([0.03, 0.06, 0.0]))[0] == 1
+    assert _line([-0.039, 0.0, 0.02], [-0.039, 0.0, 0.09], 0.01, BOX, centre, 0.0,
+                 np.array([0.03, 0.04, 0.06]))[0] == 1
+
+
+@pytest.mark.parametrize("kind", [BOX, CYLINDER], ids=["box", "cylinder"])
+def test_line_contacts_agree_with_the_distance(kind):
+    """On random placements: contacts exactly when the capsule penetrates, each as deep as
+    the deepest point with its normal; a line's ends within the capsule."""
+    rng = np.random.default_rng(30 + kind)
+    point, normal = np.empty(3), np.empty(3)
+    for _ in range(2000):
+        a, b, radius, centre, yaw, dims = _random_case(rng, kind)
+        distance = capsule_prism(a, b, radius, kind, centre, yaw, dims, point, normal)
+        found, points, normals, depths = _line(a, b, radius, kind, centre, yaw, dims)
+        assert (found > 0) == (distance < 0.0)
+        if not found:
+            continue
+        np.testing.assert_allclose(depths, -distance, atol=1e-12)
+        np.testing.assert_allclose(normals, [normal] * found, atol=1e-9)
+        for p in points if found == 2 else ():
+            axis = b - a
+            t = np.clip((p - a) @ axis / (axis @ axis), 0.0, 1.0)
+            assert np.linalg.norm(p - (a + t * axis)) <= radius + 1e-9

@@ -13,7 +13,10 @@ from rearrangement_planner.model.state import State
 from rearrangement_planner.physics.options import PhysicsOptions, simulation_options
 from rearrangement_planner.physics.step import OBJ_C, Invalid, Physics
 from rearrangement_planner.physics.validation import load_scene, parse_scene
-from rearrangement_planner.planning.machinery.manifold import default_push_configuration
+from rearrangement_planner.planning.machinery.manifold import (
+    default_push_configuration,
+    ik_on_manifold,
+)
 
 SIM = simulation_options()
 """Plain mechanics: objects slide however pushed (no tipping check, no turn limit)."""
@@ -62,8 +65,6 @@ def sweep(physics, state, joint, delta, steps):
 
 def _push_path(panda, end):
     """The tool on the pushing plane moving along +x from 0.40 m to `end` (IK every 5 mm)."""
-    from rearrangement_planner.planning.machinery.manifold import ik_on_manifold
-
     q = default_push_configuration(panda, 0.0)
     path = []
     for x in np.arange(0.40, end, 0.005):
@@ -439,6 +440,24 @@ def test_a_push_that_turns_its_object_fast_is_invalid_with_max_turn(panda):
     for offset in (0.0, 0.015):
         result, state = push(offset, 5.0)
         assert result.valid and abs(state.objects[0, 2]) < 1e-3 and state.objects[0, 0] > 0.55
+
+
+def test_a_finger_pad_lying_along_a_face_pushes_the_box_straight(panda):
+    """The hand moves sideways (+y) and the leading finger pad's side meets the box's -y face
+    along its whole 3 cm: a line contact, whose two ends push the box straight (plain
+    mechanics, no turn limit). With the line reduced to one point at an end of the pad, as
+    before `kernels.capsule_prism_line`, the box turned 0.02-0.03 rad over this push."""
+    q = default_push_configuration(panda, 0.0)
+    path = []
+    for y in np.arange(-0.10, 0.02, 0.005):
+        q = ik_on_manifold(panda, 0.50, float(y), 0.0, 0.0, q)
+        path.append(q)
+    for offset in (0.0, 0.005):
+        scene = make_scene([box("b", [0.482 + offset, 0.0, 0.0], size=(0.03, 0.06, 0.12))],
+                           path[0], robot=panda)
+        result, state = _walk(Physics(scene, SIM), scene.initial_state(), path[1:])
+        assert result.valid and result.pushing_links == {"panda_hand"}
+        assert state.objects[0, 1] > 0.07 and abs(state.objects[0, 2]) < 1e-3
 
 
 def test_the_packed_options_follow_the_named_columns(panda):
