@@ -635,8 +635,9 @@ def _object_rules(m: int, twist: np.ndarray, height: float, obj_kind: np.ndarray
                   value: np.ndarray) -> int:
     """The pushing model's rules for object m moving by `twist` (object frame) under a push
     `height` m above the table (module docstring, step 5): the turn limit (boxes only: a
-    cylinder's turn leaves its footprint where it was) and tipping refuse the push; with the tip judgement on, a tipping push is not refused but reported in
-    value[1 + m] as the travel that topples the object (`_tip_travel`)."""
+    cylinder's turn leaves its footprint where it was) and tipping refuse the push; with the
+    tip judgement on, a tipping push is not refused but reported in value[1 + m] as the travel
+    that topples the object (`_tip_travel`)."""
     turn = options[OPT_MAX_TURN]
     if turn > 0.0 and obj_kind[m] != kernels.CYLINDER \
             and abs(twist[2]) > turn * math.hypot(twist[0], twist[1]) + TURN_SLACK:
