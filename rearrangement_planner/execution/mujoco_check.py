@@ -84,8 +84,8 @@ class ExecutionOptions:
     contact_timeconst: float = 0.005
     """s: the time constant of every contact's reference response (MuJoCo's solref), how
     soon a penetration is undone. MuJoCo's default, 0.02 s, let a finger run 9 mm into the
-    object it pushed and drag it round, where a rigid finger meets a rigid box (docs/
-    experiments.md, 2026-11-27). MuJoCo asks for at least twice the timestep."""
+    cylinder it pushed and spin it in place, where a rigid finger meets a rigid object
+    (docs/experiments.md, 2026-11-27). MuJoCo asks for at least twice the timestep."""
 
     def __post_init__(self) -> None:
         if self.arm not in ("ideal", "servo"):

@@ -14,6 +14,7 @@ import yaml
 from rearrangement_planner.execution.mujoco_check import (
     ExecutionCheckError,
     ExecutionOptions,
+    _command,
     _Execution,
     build_model,
     check_execution,
@@ -139,8 +140,6 @@ def test_the_arm_meeting_an_obstacle_is_recorded_with_its_depth(panda, push_path
 
 def _deepest_push(scene, trajectory, options):
     """The deepest arm-box penetration (m) over the straight push in MuJoCo."""
-    from rearrangement_planner.execution.mujoco_check import _command
-
     model = build_model(scene, options)
     run = _Execution(model, scene, _command(trajectory, scene.robot.joint_names), None, options)
     run.begin()
