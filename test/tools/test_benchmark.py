@@ -392,12 +392,14 @@ def test_summary_does_not_claim_the_60_s_target_from_a_shorter_budget():
 # --------------------------------------------------------------------------------------------
 
 TINY = ["--scenes", "n1_s0", "n1_s1", "--planners", "pc-rrt", "static-rrt", "--seeds", "0",
-        "--time-limit", "4", "--set", "shortcut_time=3", "--set", "shortcut_attempts=3",
-        "--set", "min_robustness=0", "--set", "trees=1", "--set", "finish_radius=0",
-        "--workers", "1", "--perturbed", "1"]
+        "--time-limit", "30", "--set", "max_iterations=1700", "--set", "shortcut_time=3",
+        "--set", "shortcut_attempts=3", "--set", "min_robustness=0", "--set", "trees=1",
+        "--set", "finish_radius=0", "--workers", "1", "--perturbed", "1"]
 """Two scenes and two planners, first plans from one tree, shortcut and not finished (the
 shipped request's robust selection, raced trees and finishing push have tests of their own;
-the finish may lengthen a shortcut path)."""
+the finish may lengthen a shortcut path). Searches end on iterations, not on the clock, so a
+rerun gives the same plan on a loaded machine (n1_s0 solves in 1,611 iterations, about 2.6 s
+here; n1_s1 does not within 1,700)."""
 
 
 from ompl_grammar import parse_ompl_log  # noqa: E402  (test/tools/ompl_grammar.py)
@@ -479,10 +481,9 @@ def test_tiny_protocol_writes_csv_json_and_plots_and_resumes(tmp_path, capsys):
         ("n1_s0", "pc-rrt"), ("n1_s0", "static-rrt"), ("n1_s1", "pc-rrt"),
         ("n1_s1", "static-rrt")]
     for r in rows:
-        assert (r["objects"], r["seed"], r["time_limit"]) == ("1", "0", "4.0")
-        assert r["outcome"] in ("SUCCEEDED", "TIMEOUT")
-        # (an iteration begun within the budget may end after it)
-        assert 0 < float(r["plan_time_s"]) < 10 and int(r["iterations"]) > 0
+        assert (r["objects"], r["seed"], r["time_limit"]) == ("1", "0", "30.0")
+        assert r["outcome"] in ("SUCCEEDED", "PLANNING_FAILED")
+        assert 0 < float(r["plan_time_s"]) < 30 and 0 < int(r["iterations"]) <= 1700
         if r["solved"] == "1":
             assert float(r["path_length_rad_after"]) <= float(r["path_length_rad_before"])
             assert float(r["goal_distance_m"]) <= 0.1
@@ -506,7 +507,7 @@ def test_tiny_protocol_writes_csv_json_and_plots_and_resumes(tmp_path, capsys):
     summary = json.loads((out / "summary.json").read_text())
     assert {"protocol", "trials", "planners", "end_effector_links", "pc_rrt_vs", "targets",
             "paper"} <= set(summary)
-    assert summary["trials"] == 4 and summary["protocol"]["time_limit"] == 4.0
+    assert summary["trials"] == 4 and summary["protocol"]["time_limit"] == 30.0
     for planner in ("pc-rrt", "static-rrt"):
         assert {"solved_share", "plan_time_s", "success_at_budget", "by_objects",
                 "pushing_links", "shortcut"} <= set(summary["planners"][planner])
@@ -533,7 +534,7 @@ def test_tiny_protocol_writes_csv_json_and_plots_and_resumes(tmp_path, capsys):
     assert len({r["ray_node"] for r in rows}) == 1 and len(rows[0]["ray_node"]) == 12
     # the OMPL benchmark log of the scene set, read by a parser of OMPL's grammar
     log = parse_ompl_log((out / "ompl" / "n1.log").read_text())
-    assert log["experiment"] == "n1_objects" and log["time_limit"] == 4.0
+    assert log["experiment"] == "n1_objects" and log["time_limit"] == 30.0
     assert [p["name"] for p in log["planners"]] == ["pc-rrt", "static-rrt"]
     for planner in log["planners"]:
         runs = planner["runs"]
@@ -559,11 +560,8 @@ def test_tiny_protocol_writes_csv_json_and_plots_and_resumes(tmp_path, capsys):
     assert json.loads((out / "summary.json").read_text())["trials"] == 4
 
     # ... and after losing a row, reruns that trial alone: a solved trial with the same result
-    # except timing (same scene and seed; shortcutting bounded by attempts, not time). The
-    # quickest solved one: a search that took most of the 4 s may not finish in time again on
-    # a loaded machine (n1_s0 solved in 1,611 iterations, then ran out at 1,467).
-    solved = [r for r in rows if r["solved"] == "1"]
-    lost = min(solved, key=lambda r: float(r["plan_time_s"])) if solved else rows[-1]
+    # except timing (same scene, seed and iteration budget; shortcutting bounded by attempts)
+    lost = next((r for r in rows if r["solved"] == "1"), rows[-1])
     kept = [r for r in rows if r is not lost]
     with (out / "trials.csv").open("w", newline="") as f:
         writer = csv.DictWriter(f, CSV_COLUMNS, lineterminator="\n")
