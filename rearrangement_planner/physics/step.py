@@ -139,10 +139,10 @@ _REASONS: tuple[Invalid | None, ...] = (
 # (a test checks it against `PhysicsOptions`).
 (OPT_MAX_SUBSTEP, OPT_PENETRATION, OPT_OVERLAP, OPT_VERTICAL_NORMAL, OPT_TIPPING,
  OPT_FREE_SPACE, OPT_MAX_TURN, OPT_OBJECT_CONTACT, OPT_TIP_JUDGEMENT,
- OPT_CONTACT_TOLERANCE) = range(10)
+ OPT_CONTACT_TOLERANCE, OPT_TIP_PUSHER_FRICTION) = range(11)
 OPTION_FIELDS = ("max_substep", "penetration_tolerance", "overlap_tolerance",
                  "vertical_normal_limit", "tipping", None, "max_turn", "object_contact",
-                 "tip_judgement", "contact_tolerance")
+                 "tip_judgement", "contact_tolerance", "tip_pusher_friction")
 """The `PhysicsOptions` field packed in each `World.options` column (None: a module constant,
 `FREE_SPACE_MARGIN`)."""
 (OBJ_CENTRE_Z, OBJ_C, OBJ_PUSHER_MU, OBJ_SUPPORT_MU, OBJ_FOOTPRINT, OBJ_STATIC, OBJ_COF_X,
@@ -643,9 +643,12 @@ def _object_rules(m: int, twist: np.ndarray, height: float, obj_kind: np.ndarray
             and abs(twist[2]) > turn * math.hypot(twist[0], twist[1]) + TURN_SLACK:
         value[0] = abs(twist[2]) / max(math.hypot(twist[0], twist[1]), 1e-9)
         return _TURNING
-    if options[OPT_TIPPING] > 0.0 and _tips_over(obj_kind[m], obj_size[m],
-                                                 obj_props[m, OBJ_SUPPORT_MU], twist[0],
-                                                 twist[1], height):
+    if options[OPT_TIPPING] > 0.0 and (
+            _tips_with_pusher_friction(obj_kind[m], obj_size[m], obj_props[m, OBJ_SUPPORT_MU],
+                                       obj_props[m, OBJ_PUSHER_MU], twist[0], twist[1], height)
+            if options[OPT_TIP_PUSHER_FRICTION] > 0.0 else
+            _tips_over(obj_kind[m], obj_size[m], obj_props[m, OBJ_SUPPORT_MU], twist[0],
+                       twist[1], height)):
         value[0] = height
         return _TIPPING
     if options[OPT_TIP_JUDGEMENT] > 0.0 and _tips_with_pusher_friction(
