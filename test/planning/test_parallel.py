@@ -26,9 +26,11 @@ from rearrangement_planner.planning.requests.parallel import (
 )
 
 PC_RRT = PLANNERS["pc-rrt"]
-RACE_SEED = 10
+RACE_SEED = 13
 """On easy_push, tree 1 of this seed's race solves in fewer iterations than tree 0 (asserted
-below), so the race's plan comes from the worker process."""
+below), so the race's plan comes from the worker process; and both trees solve in about 1,100
+and 1,300 iterations (2 s each here), where seed 10's took 5,700 and 6,000: the races of these
+tests, and the bounds on how long a race after a failure may take, keep a wide margin."""
 
 
 @pytest.fixture(scope="module")
