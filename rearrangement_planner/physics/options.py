@@ -32,6 +32,8 @@ class PhysicsOptions(Settings):
     most pushes of one (a point push more than 12 degrees off the normal turns a cylinder of
     3 cm radius faster), so cylinders turn freely. 0 = no limit, as in King et al. 2015. Measured:
     docs/experiments.md."""
+    max_turn_cylinder: float = setting(0.0, low=0.0, high=1000.0)
+    """The turn limit for cylinders, rad per metre (0: none; experiment)."""
     object_contact: bool = setting(True)
     """Objects that meet push each other (one complementarity problem over every object in
     contact, `pushing.build_multibody_lcp_kernel`), as in Haustein et al.'s Box2D model and

@@ -139,10 +139,10 @@ _REASONS: tuple[Invalid | None, ...] = (
 # (a test checks it against `PhysicsOptions`).
 (OPT_MAX_SUBSTEP, OPT_PENETRATION, OPT_OVERLAP, OPT_VERTICAL_NORMAL, OPT_TIPPING,
  OPT_FREE_SPACE, OPT_MAX_TURN, OPT_OBJECT_CONTACT, OPT_TIP_JUDGEMENT,
- OPT_CONTACT_TOLERANCE) = range(10)
+ OPT_CONTACT_TOLERANCE, OPT_MAX_TURN_CYLINDER) = range(11)
 OPTION_FIELDS = ("max_substep", "penetration_tolerance", "overlap_tolerance",
                  "vertical_normal_limit", "tipping", None, "max_turn", "object_contact",
-                 "tip_judgement", "contact_tolerance")
+                 "tip_judgement", "contact_tolerance", "max_turn_cylinder")
 """The `PhysicsOptions` field packed in each `World.options` column (None: a module constant,
 `FREE_SPACE_MARGIN`)."""
 (OBJ_CENTRE_Z, OBJ_C, OBJ_PUSHER_MU, OBJ_SUPPORT_MU, OBJ_FOOTPRINT, OBJ_STATIC, OBJ_COF_X,
@@ -638,8 +638,9 @@ def _object_rules(m: int, twist: np.ndarray, height: float, obj_kind: np.ndarray
     cylinder's turn leaves its footprint where it was) and tipping refuse the push; with the
     tip judgement on, a tipping push is not refused but reported in value[1 + m] as the travel
     that topples the object (`_tip_travel`)."""
-    turn = options[OPT_MAX_TURN]
-    if turn > 0.0 and obj_kind[m] != kernels.CYLINDER \
+    turn = options[OPT_MAX_TURN] if obj_kind[m] != kernels.CYLINDER \
+        else options[OPT_MAX_TURN_CYLINDER]
+    if options[OPT_MAX_TURN] > 0.0 and turn > 0.0 \
             and abs(twist[2]) > turn * math.hypot(twist[0], twist[1]) + TURN_SLACK:
         value[0] = abs(twist[2]) / max(math.hypot(twist[0], twist[1]), 1e-9)
         return _TURNING
