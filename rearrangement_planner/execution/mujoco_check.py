@@ -377,6 +377,11 @@ class _Execution:
         self.qadr = np.array([model.joint(n).qposadr[0] for n in joints])
         self.vadr = np.array([model.joint(n).dofadr[0] for n in joints])
         self.bodies = np.array([model.body(o.name).id for o in scene.objects], dtype=int)
+        # Views into the simulation's arrays, taken once: MjData keeps its buffers for its
+        # lifetime, and each attribute access through the bindings costs microseconds a step.
+        self.qpos, self.ctrl = self.data.qpos, self.data.ctrl
+        self.body_z_up = self.data.xmat[:, 8]
+        """The z component of every body's own z axis (the last entry of its rotation)."""
         self.geom_body = model.geom_bodyid
         self.is_arm = model.geom_contype == ARM
         self.is_static = model.geom_contype == STATIC
@@ -389,9 +394,14 @@ class _Execution:
         # kv/kp of the servos as compiled (a position actuator's bias is -kp q - kv qdot).
         self.feedforward = -model.actuator_biasprm[:, 2] / model.actuator_gainprm[:, 0]
         m = len(scene.objects)
-        self.lowest_up, self.max_error = np.ones(m), np.zeros(m)
-        """The least z component of each object's own z axis so far (the cosine of its
-        largest tilt, `_tilt`)."""
+        self.max_error = np.zeros(m)
+        self.body_up = np.ones(model.nbody)
+        """The least z component of each body's own z axis so far (for an object, the cosine
+        of its largest tilt, `_tilt`); every body's, so that a step updates it without
+        gathering the objects' rows."""
+        self.joint_error = np.zeros(len(joints))
+        """Each joint's largest tracking error so far (`tracking`)."""
+        self._error = np.zeros(len(joints))
         self.error_from: list[float | None] = [None] * m
         self.next_point = 0
         self.executed: list[list[tuple[float, float, float]]] = []
@@ -399,12 +409,16 @@ class _Execution:
         self.touching: set[tuple[int, int]] = set()
         """The body pairs behind `contacts`."""
         self.collisions: dict[str, float] = {}
-        self.tracking = 0.0
         self.steps = 0
         self.hold: np.ndarray | None = None
         """Where the arm holds once the watch stopped it."""
         self.stopped, self.stopped_at = "", 0.0
         self.reference, self.slope = self._sampled(command, options)
+        self.servo = (self.reference[:-1] + self.feedforward * self.slope
+                      if options.arm == "servo" else self.reference[:-1])
+        """The servo's set point at every sampled step (`_drive`)."""
+        self._quiet_contacts: bytes | None = None
+        """The last step's contact geom pairs when none of them was to be recorded."""
 
     @staticmethod
     def _sampled(command: Command, options: ExecutionOptions) -> tuple[np.ndarray, np.ndarray]:
@@ -429,7 +443,12 @@ class _Execution:
     @property
     def max_tilt(self) -> np.ndarray:
         """Each object's largest tilt so far (rad)."""
-        return np.arccos(np.clip(self.lowest_up, -1.0, 1.0))
+        return np.arccos(np.clip(self.body_up[self.bodies], -1.0, 1.0))
+
+    @property
+    def tracking(self) -> float:
+        """The largest joint tracking error while the trajectory played (rad)."""
+        return float(self.joint_error.max(initial=0.0))
 
     def begin(self) -> None:
         """The arm at the trajectory's first point, the objects where the scene has them."""
@@ -475,7 +494,7 @@ class _Execution:
             data.qpos[self.qadr] = here
             data.qvel[self.vadr] = (there - here) / dt
         elif sampled:
-            data.ctrl[:] = self.reference[k] + self.feedforward * self.slope[k]
+            self.ctrl[:] = self.servo[k]
         else:
             data.ctrl[:] = command.sample(t) + self.feedforward * command.velocity(t)
 
@@ -484,9 +503,11 @@ class _Execution:
         data = self.data
         if 0.0 <= t <= self.command.duration and self.hold is None:
             reference = self.reference[k] if k < len(self.reference) else self.command.sample(t)
-            self.tracking = max(self.tracking, float(np.max(np.abs(
-                data.qpos[self.qadr] - reference))))
-        np.minimum(self.lowest_up, data.xmat[self.bodies, 8], out=self.lowest_up)
+            error = self._error
+            np.subtract(self.qpos[self.qadr], reference, out=error)
+            np.abs(error, out=error)
+            np.maximum(self.joint_error, error, out=self.joint_error)
+        np.minimum(self.body_up, self.body_z_up, out=self.body_up)
         if data.ncon:
             self._contacts()
         times = self.command.times       # predicted[i] is the state at times[i]
@@ -514,13 +535,19 @@ class _Execution:
 
     def _contacts(self) -> None:
         """Records this step's arm-obstacle collisions (deepest penetration per pair) and the
-        object pairs that touch. Most steps hold only the objects' contacts with the table and
-        pairs seen before, so those are filtered out with array operations first."""
+        object pairs that touch. Most steps hold only the objects' contacts with the table, so
+        those are filtered out with array operations first, and a step whose contact pairs
+        are those of a step that had none to record is skipped at once."""
         model, body_of, n = self.model, self.geom_body, self.data.ncon
         geoms = self.data.contact.geom[:n]
+        pairs = geoms.tobytes()
+        if pairs == self._quiet_contacts:
+            return                        # the same pairs as last step, none to record
         g1, g2 = geoms[:, 0], geoms[:, 1]
         if not self.recorded[g1, g2].any():
+            self._quiet_contacts = pairs
             return
+        self._quiet_contacts = None
         arm1, arm2 = self.is_arm[g1], self.is_arm[g2]
         static1, static2 = self.is_static[g1], self.is_static[g2]
         collide = (arm1 & static2) | (arm2 & static1)
