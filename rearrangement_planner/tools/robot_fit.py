@@ -52,6 +52,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from scipy.spatial import ConvexHull, QhullError
 
 from rearrangement_planner.model.errors import RearrangementError
 
@@ -111,12 +112,24 @@ class Capsule:
 
 def _enclosing_circle(xy: np.ndarray, iterations: int = 400) -> np.ndarray:
     """The centre of an (approximately) least circle enclosing the 2-D points (Badoiu and
-    Clarkson's iteration: step towards the farthest point by 1/(i+1))."""
+    Clarkson's iteration: step towards the farthest point by 1/(i+1)). The farthest point is
+    always a corner of the points' convex hull, so the iteration looks at those alone."""
     centre = xy.mean(axis=0)
+    corners = _hull_corners(xy)
     for i in range(iterations):
-        far = xy[np.argmax(np.sum((xy - centre) ** 2, axis=1))]
+        far = corners[np.argmax(np.sum((corners - centre) ** 2, axis=1))]
         centre = centre + (far - centre) / (i + 2)
     return centre
+
+
+def _hull_corners(xy: np.ndarray) -> np.ndarray:
+    """The corners of the 2-D points' convex hull (all the points where it is degenerate)."""
+    if len(xy) < 4:
+        return xy
+    try:
+        return xy[ConvexHull(xy).vertices]
+    except QhullError:                    # collinear or coincident points
+        return xy
 
 
 def _capsule_along(points: np.ndarray, axis: np.ndarray, thinnest: bool = False) -> Capsule:
