@@ -4,8 +4,6 @@ cached on disk in a folder per version of the compiled sources."""
 from __future__ import annotations
 
 import json
-import logging
-import os
 import subprocess
 import sys
 import textwrap
@@ -101,36 +99,3 @@ def test_no_plan_compiles_anything_after_the_warm_up():
     added, read_only = json.loads(done.stdout.strip().splitlines()[-1])
     assert added == {}
     assert read_only == []
-
-
-def test_a_fresh_cache_is_compiled_on_both_cores(tmp_path):
-    """An empty cache folder is seen as such (this session's is not: the fixture compiled it),
-    and then a second process compiles what does not reach the physics step while this one
-    compiles the step (`_compile_in_two`; here both load from the warm cache)."""
-    assert not warmup._step_uncompiled()
-    fresh = subprocess.run(
-        [sys.executable, "-c", "from rearrangement_planner.planning.requests import warmup;"
-                               "print(warmup._step_uncompiled())"],
-        capture_output=True, text=True, timeout=120, check=True,
-        env={**os.environ, "NUMBA_CACHE_DIR": str(tmp_path)})
-    assert fresh.stdout.split() == ["True"]
-
-
-def test_the_second_compiling_process_runs_and_its_failure_is_logged(monkeypatch, caplog):
-    started = []
-    real = subprocess.Popen
-
-    def popen(args, **kwargs):
-        started.append(args)
-        return real(args, **kwargs)
-
-    monkeypatch.setattr(warmup.subprocess, "Popen", popen)
-    with caplog.at_level(logging.WARNING, logger=warmup.__name__):
-        warmup._compile_in_two()
-    assert started == [[sys.executable, "-m", warmup.__name__, "--beside"]]
-    assert caplog.records == []        # the second process exited 0
-
-    monkeypatch.setattr(warmup.sys, "executable", "/bin/false")
-    with caplog.at_level(logging.WARNING, logger=warmup.__name__):
-        warmup._compile_in_two()
-    assert "the second compiling process failed (exit 1); compiling here" in caplog.text

@@ -3,26 +3,15 @@ step, the Project step and the propagation are compiled on their first call, abo
 minute on this machine, and cached on disk (`rearrangement_planner._numba_cache_dir`), so a
 later process only loads them (well under a second). `warm_up` makes that first call on a
 small scene, outside every plan's clock: `plan_scene` calls it before it plans, the node at
-start. With nothing cached yet (a fresh machine or checkout: about three minutes on one core,
-the physics step alone nearly two), a second process compiles the Project step and the state
-check while this one compiles the physics step, and both write the shared cache.
-"""
+start."""
 
 from __future__ import annotations
 
 import logging
-import os
-import subprocess
-import sys
 import threading
 import time
-from typing import TYPE_CHECKING
 
 import numpy as np
-
-if TYPE_CHECKING:
-    from rearrangement_planner.model.scene import Scene
-    from rearrangement_planner.model.state import State
 
 _LOG = logging.getLogger(__name__)
 _lock = threading.Lock()
@@ -38,8 +27,6 @@ def warm_up() -> float:
         if _seconds is not None:
             return 0.0
         start = time.perf_counter()
-        if _step_uncompiled():
-            _compile_in_two()
         _exercise()
         _seconds = time.perf_counter() - start
     if _seconds > 1.0:
@@ -47,83 +34,18 @@ def warm_up() -> float:
     return _seconds
 
 
-def _step_uncompiled() -> bool:
-    """Whether the physics step's cache holds nothing yet (Numba's index file of the kernel)."""
-    from rearrangement_planner.physics.step import step_kernel
-
-    cache_file = getattr(getattr(step_kernel, "_cache", None), "_cache_file", None)
-    index = getattr(cache_file, "_index_path", None)
-    return isinstance(index, str) and not os.path.exists(index)
-
-
-def _compile_in_two() -> None:
-    """The compile on both cores: a second process compiles `_exercise_beside`'s entry points
-    (which do not reach the physics step) while this one compiles the step; `_exercise` then
-    loads them from the cache. Should the second process fail, `_exercise` compiles what it
-    left."""
-    beside = subprocess.Popen([sys.executable, "-m", __name__, "--beside"],
-                              stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
-                              stderr=subprocess.DEVNULL)
-    try:
-        _exercise_step()
-    finally:
-        if beside.wait() != 0:
-            _LOG.warning("the second compiling process failed (exit %d); compiling here",
-                         beside.returncode)
-
-
-def _start(scene: Scene) -> State:
-    """The scene's objects with the arm in the default pushing configuration."""
+def _exercise() -> None:
+    """One call of each compiled entry point, with the argument types the planners use."""
     from rearrangement_planner.model.state import State
-    from rearrangement_planner.planning.machinery.manifold import default_push_configuration
-
-    return State(default_push_configuration(scene.robot, scene.table.height),
-                 scene.initial_state().objects)
-
-
-def _exercise_step() -> None:
-    """The physics step, compiled by a step of the scene's start state."""
-    from rearrangement_planner.physics.step import Physics
-    from rearrangement_planner.physics.validation import load_scene
-
-    scene = load_scene("easy_push")
-    start = _start(scene)
-    q = start.q.copy()
-    q[1] += 0.01
-    Physics(scene).step(start, q)
-
-
-def _exercise_beside() -> None:
-    """The entry points that do not reach the physics step: the state check, the Project step
-    and its kinematics, the prism test and the tree's metric."""
     from rearrangement_planner.physics.collision import prism_penetration
     from rearrangement_planner.physics.step import Physics
     from rearrangement_planner.physics.validation import load_scene
     from rearrangement_planner.planning.machinery.manifold import (
+        default_push_configuration,
         joint_limit_gradient,
         manifold_error,
         project_step,
     )
-    from rearrangement_planner.planning.machinery.tree import Tree, weighted_distance
-
-    scene = load_scene("easy_push")
-    start = _start(scene)
-    Physics(scene).check_state(start)
-    project_step(scene.robot, start.q, np.array([0.0, 0.1, 0.0]), 0.05, scene.table.height)
-    manifold_error(scene.robot, start.q, scene.table.height)
-    joint_limit_gradient(scene.robot, start.q, 0.5)
-    prism_penetration("box", (0.1, 0.1, 0.1), (0.0, 0.0, 0.0), "cylinder", (0.1, 0.1, 0.1),
-                      (0.05, 0.0, 0.0))
-    tree = Tree(start, np.zeros(2))
-    tree.nearest(np.zeros(2), start.objects, 1.0, np.ones(len(scene.objects)))
-    weighted_distance(np.zeros(2), start.objects, np.zeros(2), start.objects, 1.0,
-                      np.ones(len(scene.objects)))
-
-
-def _exercise() -> None:
-    """One call of each compiled entry point, with the argument types the planners use."""
-    from rearrangement_planner.physics.step import Physics
-    from rearrangement_planner.physics.validation import load_scene
     from rearrangement_planner.planning.machinery.propagation import (
         Action,
         Stops,
@@ -131,18 +53,29 @@ def _exercise() -> None:
         replay,
     )
     from rearrangement_planner.planning.machinery.push_policy import push_policy_prop
+    from rearrangement_planner.planning.machinery.tree import Tree, weighted_distance
     from rearrangement_planner.planning.requests.robustness import rollout, rollout_options
 
-    _exercise_beside()
-    _exercise_step()
     scene = load_scene("easy_push")
     physics = Physics(scene)
-    start = _start(scene)
+    start = State(default_push_configuration(scene.robot, scene.table.height),
+                  scene.initial_state().objects)
+    physics.check_state(start)
+    physics.step(start, project_step(scene.robot, start.q, np.array([0.0, 0.1, 0.0]), 0.05,
+                                     scene.table.height))
+    manifold_error(scene.robot, start.q, scene.table.height)
+    joint_limit_gradient(scene.robot, start.q, 0.5)
+    prism_penetration("box", (0.1, 0.1, 0.1), (0.0, 0.0, 0.0), "cylinder", (0.1, 0.1, 0.1),
+                      (0.05, 0.0, 0.0))
     stops = Stops(scene.goal_index, (0.0, 0.0), 0.0)
     push = Action(np.array([0.0, 0.1, 0.0]), 0.5, np.zeros(scene.robot.nq))
     constrained_prop(physics, start, push, 0.05, stops)
     replay(physics, start, [start.q, start.q], until=stops)
     rollout(scene, np.array([start.q, start.q]), rollout_options(physics.options))
+    tree = Tree(start, np.zeros(2))
+    tree.nearest(np.zeros(2), start.objects, 1.0, np.ones(len(scene.objects)))
+    weighted_distance(np.zeros(2), start.objects, np.zeros(2), start.objects, 1.0,
+                      np.ones(len(scene.objects)))
     push_policy_prop(physics, start, scene.goal_index, np.array([0.5, -0.1]), 2, 0.05, 0.1,
                      push.nullspace, stops)
 
@@ -150,7 +83,3 @@ def _exercise() -> None:
 def compile_seconds() -> float | None:
     """How long this process's `warm_up` took, None before it ran."""
     return _seconds
-
-
-if __name__ == "__main__" and sys.argv[1:] == ["--beside"]:
-    _exercise_beside()             # `_compile_in_two`'s second process
