@@ -155,3 +155,21 @@ def test_the_command_writes_a_config_that_loads(tmp_path, capsys):
     assert "tool frame link_eef" in capsys.readouterr().err
     assert robot_fit.main(["fit", str(tmp_path / "none.urdf")]) == 2
     assert "rearrangement-robot: URDF: " in capsys.readouterr().err
+
+
+def test_the_enclosing_circle_looks_at_the_hull_corners_only():
+    """The iteration steps towards the farthest point, always a corner of the convex hull: the
+    same centre as over every point, and collinear or repeated points (no hull) still work."""
+    def over_all(xy, iterations=400):
+        centre = xy.mean(axis=0)
+        for i in range(iterations):
+            far = xy[np.argmax(np.sum((xy - centre) ** 2, axis=1))]
+            centre = centre + (far - centre) / (i + 2)
+        return centre
+
+    rng = np.random.default_rng(4)
+    cloud = rng.normal(size=(500, 2)) * (0.03, 0.01)
+    np.testing.assert_allclose(robot_fit._enclosing_circle(cloud), over_all(cloud), atol=1e-15)
+    line = np.outer(np.linspace(0.0, 0.1, 50), (1.0, 2.0))
+    np.testing.assert_allclose(robot_fit._enclosing_circle(line), (0.05, 0.1), atol=1e-3)
+    np.testing.assert_allclose(robot_fit._enclosing_circle(np.zeros((6, 2))), (0.0, 0.0))
