@@ -45,7 +45,7 @@ class RobustOptions(Settings):
     docs/benchmark.md."""
     rollouts: int = setting(20, low=1, high=1000)
     """Perturbed rollouts per candidate plan (with min_robustness > 0)."""
-    candidates: int = setting(3, low=1, high=20)
+    candidates: int = setting(2, low=1, high=20)
     """Most candidate plans for min_robustness, all within the one time limit (a hard scene's
     searches use it up after one or two)."""
     candidate_effort: float = setting(1.0, low=0.0, high=1000.0)
