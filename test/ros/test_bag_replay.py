@@ -58,6 +58,11 @@ RATE = 2.0
 """Playback rate factor (ros2 bag play --rate)."""
 TIME_SCALE = 20.0
 """world_sim time scale of the open-loop executions."""
+TIME_LIMIT = 120.0
+"""The replays' planner time limit, s, instead of the bags' 20 s. A request that finishes within
+its budget ends on iterations alone (the race's fewest-iterations winner, robust selection's
+candidate count and effort), so the plan is the same on any machine; the bags' 20 s, which an
+idle machine meets with 3x to spare, could cut a search short on a loaded CI machine."""
 POSITION_TOLERANCE = 1e-3
 YAW_TOLERANCE = 1e-2
 
@@ -261,7 +266,7 @@ def test_bag_plans_and_executes_open_loop_into_the_goal_region(path, session, tm
     bag = read_bag(path)
     ns = f"/{_stem(path)}"
     run = run_bag(bag, session, rate=RATE, namespace=ns, record_dir=tmp_path, execute=True,
-                  time_scale=TIME_SCALE)
+                  time_scale=TIME_SCALE, overrides={"time_limit": TIME_LIMIT})
     outcome = run.outcome
     print(f"\n{path.name}: {run.plan.message}\n  {outcome and outcome['message']}\n  "
           f"timings {', '.join(f'{k} {v:.1f} s' for k, v in run.timings.items())}")
@@ -405,7 +410,8 @@ def test_world_sim_in_mujoco_executes_a_bags_plan_to_the_goal(session, tmp_path)
     name = "easy_push_1obj"
     bag = read_bag(BAGS_DIR / f"{name}.mcap")
     run = run_bag(bag, session, rate=RATE, namespace=f"/mujoco_{name}", record_dir=tmp_path,
-                  execute=True, time_scale=TIME_SCALE, world_overrides={"engine": "mujoco"})
+                  execute=True, time_scale=TIME_SCALE, overrides={"time_limit": TIME_LIMIT},
+                  world_overrides={"engine": "mujoco"})
     outcome = run.outcome
     assert run.plan.success and outcome is not None, run.execute_message
     assert outcome["engine"] == "mujoco" and outcome["status"] == "SUCCEEDED", outcome["message"]
@@ -420,7 +426,8 @@ def test_a_bags_world_closes_the_loop_where_open_loop_misses(session, tmp_path):
     name = "easy_push_1obj"
     run = run_bag(BAGS_DIR / f"{name}.mcap", session, rate=RATE, namespace=f"/loop_{name}",
                   record_dir=tmp_path, time_scale=TIME_SCALE, replan=2,
-                  overrides={"divergence_bound": 0.0, "execute_fragile": True},
+                  overrides={"divergence_bound": 0.0, "execute_fragile": True,
+                             "time_limit": TIME_LIMIT},
                   world_overrides={"engine": "quasistatic", "pose_noise": 0.03, "seed": 8})
     assert run.plan.outcome == "SUCCESS", run.plan.message
     assert run.plan.message.endswith("goal reached after 1 re-plans")
