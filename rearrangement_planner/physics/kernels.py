@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import math
 import weakref
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 from numba import njit
@@ -38,6 +38,18 @@ if TYPE_CHECKING:
 BOX, CYLINDER = 0, 1
 """Prism kinds: a box (dims = half extents x, y, z) or a cylinder about its z axis (dims =
 radius, half height, unused)."""
+
+njit_bare = cast(Any, njit)(cache=True, _nrt=False)
+"""`njit` for a kernel that allocates no array, nor does any kernel it calls: compiled
+without Numba's reference counting (an atomic count up and down for every array it takes and
+every view it makes, which was a fifth of a physics step). A kernel that allocates fails to
+compile under it ("NRT required")."""
+
+Vec3 = tuple[float, float, float]
+"""A point or direction as three floats (a tuple: no allocation in compiled code)."""
+Vector = np.ndarray | Vec3
+"""Three floats (a point, a direction, a prism's dims) as an array (3,) or, from compiled
+callers, a `Vec3`."""
 
 _GOLDEN = 0.6180339887498949
 _ITERATIONS = 60                     # 0.618**60 = 3e-13 of the axis
@@ -62,7 +74,7 @@ def _cylinder_sd(qx: float, qy: float, qz: float, radius: float, hz: float) -> f
 
 
 @njit(cache=True)
-def _sd_along(kind: int, qa: np.ndarray, d: np.ndarray, t: float, dims: np.ndarray) -> float:
+def _sd_along(kind: int, qa: Vec3, d: Vec3, t: float, dims: Vector) -> float:
     """The prism's signed distance at the axis point qa + t d (prism frame)."""
     qx, qy, qz = qa[0] + t * d[0], qa[1] + t * d[1], qa[2] + t * d[2]
     if kind == BOX:
@@ -71,35 +83,30 @@ def _sd_along(kind: int, qa: np.ndarray, d: np.ndarray, t: float, dims: np.ndarr
 
 
 @njit(cache=True)
-def _box_surface(q: np.ndarray, h: np.ndarray, point: np.ndarray, normal: np.ndarray) -> None:
+def _box_surface(q: Vec3, h: Vector) -> tuple[Vec3, Vec3]:
     """Nearest surface point and outward normal of the box with half extents h (local)."""
     inside = abs(q[0]) <= h[0] and abs(q[1]) <= h[1] and abs(q[2]) <= h[2]
     if not inside:
-        norm = 0.0
-        for i in range(3):
-            point[i] = min(max(q[i], -h[i]), h[i])
-            normal[i] = q[i] - point[i]
-            norm += normal[i] * normal[i]
-        norm = math.sqrt(norm)
-        for i in range(3):
-            normal[i] /= norm
-        return
+        px, py = min(max(q[0], -h[0]), h[0]), min(max(q[1], -h[1]), h[1])
+        pz = min(max(q[2], -h[2]), h[2])
+        nx, ny, nz = q[0] - px, q[1] - py, q[2] - pz
+        norm = math.sqrt(nx * nx + ny * ny + nz * nz)
+        return (px, py, pz), (nx / norm, ny / norm, nz / norm)
     axis, best = 0, -math.inf
     for i in range(3):
         gap = abs(q[i]) - h[i]
         if gap > best:
             axis, best = i, gap
-    for i in range(3):
-        point[i] = q[i]
-        normal[i] = 0.0
     sign = 1.0 if q[axis] >= 0.0 else -1.0
-    point[axis] = sign * h[axis]
-    normal[axis] = sign
+    if axis == 0:
+        return (sign * h[0], q[1], q[2]), (sign, 0.0, 0.0)
+    if axis == 1:
+        return (q[0], sign * h[1], q[2]), (0.0, sign, 0.0)
+    return (q[0], q[1], sign * h[2]), (0.0, 0.0, sign)
 
 
 @njit(cache=True)
-def _cylinder_surface(q: np.ndarray, radius: float, hz: float, point: np.ndarray,
-                      normal: np.ndarray) -> None:
+def _cylinder_surface(q: Vec3, radius: float, hz: float) -> tuple[Vec3, Vec3]:
     """Nearest surface point and outward normal of the z-axis cylinder (local)."""
     rho = math.sqrt(q[0] * q[0] + q[1] * q[1])
     ux, uy = (q[0] / rho, q[1] / rho) if rho > 1e-15 else (1.0, 0.0)
@@ -108,21 +115,18 @@ def _cylinder_surface(q: np.ndarray, radius: float, hz: float, point: np.ndarray
     if dr > 0.0 or dz > 0.0:                       # outside: clamp radially and along z
         r_clamped = min(rho, radius)
         z_clamped = min(max(q[2], -hz), hz)
-        point[0], point[1], point[2] = ux * r_clamped, uy * r_clamped, z_clamped
-        nx, ny, nz = q[0] - point[0], q[1] - point[1], q[2] - point[2]
+        px, py, pz = ux * r_clamped, uy * r_clamped, z_clamped
+        nx, ny, nz = q[0] - px, q[1] - py, q[2] - pz
         norm = math.sqrt(nx * nx + ny * ny + nz * nz)
-        normal[0], normal[1], normal[2] = nx / norm, ny / norm, nz / norm
-    elif dr > dz:                                  # inside, nearer the side
-        point[0], point[1], point[2] = ux * radius, uy * radius, q[2]
-        normal[0], normal[1], normal[2] = ux, uy, 0.0
-    else:                                          # inside, nearer a cap
-        point[0], point[1], point[2] = q[0], q[1], sz * hz
-        normal[0], normal[1], normal[2] = 0.0, 0.0, sz
+        return (px, py, pz), (nx / norm, ny / norm, nz / norm)
+    if dr > dz:                                    # inside, nearer the side
+        return (ux * radius, uy * radius, q[2]), (ux, uy, 0.0)
+    return (q[0], q[1], sz * hz), (0.0, 0.0, sz)   # inside, nearer a cap
 
 
-@njit(cache=True)
-def capsule_prism(a: np.ndarray, b: np.ndarray, radius: float, kind: int,
-                  centre: np.ndarray, yaw: float, dims: np.ndarray,
+@njit_bare
+def capsule_prism(a: Vector, b: Vector, radius: float, kind: int,
+                  centre: Vector, yaw: float, dims: Vector,
                   out_point: np.ndarray, out_normal: np.ndarray) -> float:
     """Signed distance (m) between the capsule with axis a-b and `radius` and the upright
     prism `kind` (BOX or CYLINDER) centred at `centre` and turned by `yaw`; writes the prism's
@@ -132,27 +136,50 @@ def capsule_prism(a: np.ndarray, b: np.ndarray, radius: float, kind: int,
                                out_normal)
 
 
-@njit(cache=True)
-def capsule_prism_below(a: np.ndarray, b: np.ndarray, radius: float, limit: float, kind: int,
-                        centre: np.ndarray, yaw: float, dims: np.ndarray,
+@njit_bare
+def capsule_prism_below(a: Vector, b: Vector, radius: float, limit: float, kind: int,
+                        centre: Vector, yaw: float, dims: Vector,
                         out_point: np.ndarray, out_normal: np.ndarray) -> float:
     """`capsule_prism` where only distances below `limit` matter: when a lower bound already
     reaches `limit`, that bound is returned (>= limit, not the distance; the outputs
-    untouched). The bounds: sd is 1-Lipschitz in space, so along the axis (length L) it is
-    L-Lipschitz in t. First, from samples at t = 0, 1/2, 1 the minimum over each half is at
-    least (f(t_i) + f(t_j) - L/2) / 2 (Piyavskii's bound). Then, within the golden-section
-    search: sd is convex along the axis, so its minimum lies in the bracket [lo, hi], where it
-    is at least either sample's value minus L (hi - lo) (`_bracket_bound`)."""
+    untouched; `_axis_minimum`)."""
     c, s = math.cos(yaw), math.sin(yaw)
-    qa, d = np.empty(3), np.empty(3)
-    _axis_in_prism(a, b, centre, c, s, qa, d)
+    qa, d = _axis_in_prism(a, b, centre, c, s)
+    best_t, best = _axis_minimum(kind, qa, d, radius, limit, dims)
+    if best_t < 0.0:
+        return best
+    q = (qa[0] + best_t * d[0], qa[1] + best_t * d[1], qa[2] + best_t * d[2])
+    _surface_in_world(kind, q, dims, centre, c, s, out_point, out_normal)
+    return best - radius
+
+
+@njit_bare
+def capsule_prism_depth_below(a: Vector, b: Vector, radius: float, limit: float, kind: int,
+                              centre: Vector, yaw: float, dims: Vector) -> float:
+    """`capsule_prism_below`'s value alone: the signed distance, or a bound >= `limit`."""
+    qa, d = _axis_in_prism(a, b, centre, math.cos(yaw), math.sin(yaw))
+    best_t, best = _axis_minimum(kind, qa, d, radius, limit, dims)
+    return best if best_t < 0.0 else best - radius
+
+
+@njit_bare
+def _axis_minimum(kind: int, qa: Vec3, d: Vec3, radius: float, limit: float,
+                  dims: Vector) -> tuple[float, float]:
+    """(t, sd(q(t))) at the minimum of the prism's signed distance along the capsule's axis
+    q(t) = qa + t d, t in [0, 1]; or (-1, a lower bound of the capsule's distance) as soon as
+    a bound reaches `limit`. The bounds: sd is 1-Lipschitz in space, so along the axis
+    (length L) it is L-Lipschitz in t. First, from samples at t = 0, 1/2, 1 the minimum over
+    each half is at least (f(t_i) + f(t_j) - L/2) / 2 (Piyavskii's bound). Then, within the
+    golden-section search: sd is convex along the axis, so its minimum lies in the bracket
+    [lo, hi], where it is at least either sample's value minus L (hi - lo)
+    (`_bracket_bound`)."""
     if limit < math.inf:
         half = 0.5 * math.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
         f0, f_mid = _sd_along(kind, qa, d, 0.0, dims), _sd_along(kind, qa, d, 0.5, dims)
         f1 = _sd_along(kind, qa, d, 1.0, dims)
         bound = 0.5 * (min(f0, f1) + f_mid - half) - radius
         if bound >= limit:
-            return bound
+            return -1.0, bound
     lo, hi = 0.0, 1.0
     t1, t2 = hi - _GOLDEN, _GOLDEN
     f1, f2 = _sd_along(kind, qa, d, t1, dims), _sd_along(kind, qa, d, t2, dims)
@@ -167,26 +194,24 @@ def capsule_prism_below(a: np.ndarray, b: np.ndarray, radius: float, limit: floa
         if limit < math.inf:
             bound = _bracket_bound(f1, f2, hi - lo, length) - radius
             if bound >= limit:
-                return bound
+                return -1.0, bound
     best_t, best = (t1, f1) if f1 <= f2 else (t2, f2)
     for t in (0.0, 1.0):                           # a flat minimum may sit at an end
         f = _sd_along(kind, qa, d, t, dims)
         if f < best:
             best_t, best = t, f
-    _surface_in_world(kind, qa + best_t * d, dims, centre, c, s, out_point, out_normal)
-    return best - radius
+    return best_t, best
 
 
 @njit(cache=True, inline="always")
-def _surface_in_world(kind: int, q: np.ndarray, dims: np.ndarray, centre: np.ndarray, c: float,
+def _surface_in_world(kind: int, q: Vec3, dims: Vector, centre: Vector, c: float,
                       s: float, out_point: np.ndarray, out_normal: np.ndarray) -> None:
     """The prism's surface point nearest the prism-frame point q and its outward normal, in
     the world frame."""
-    point, normal = np.empty(3), np.empty(3)
     if kind == BOX:
-        _box_surface(q, dims, point, normal)
+        point, normal = _box_surface(q, dims)
     else:
-        _cylinder_surface(q, dims[0], dims[1], point, normal)
+        point, normal = _cylinder_surface(q, dims[0], dims[1])
     out_point[0] = centre[0] + c * point[0] - s * point[1]
     out_point[1] = centre[1] + s * point[0] + c * point[1]
     out_point[2] = centre[2] + point[2]
@@ -195,15 +220,14 @@ def _surface_in_world(kind: int, q: np.ndarray, dims: np.ndarray, centre: np.nda
     out_normal[2] = normal[2]
 
 
-@njit(cache=True)
-def capsule_prism_bound(a: np.ndarray, b: np.ndarray, radius: float, kind: int,
-                        centre: np.ndarray, yaw: float, dims: np.ndarray,
+@njit_bare
+def capsule_prism_bound(a: Vector, b: Vector, radius: float, kind: int,
+                        centre: Vector, yaw: float, dims: Vector,
                         limit: float = math.inf) -> float:
     """A lower bound (m) of `capsule_prism`'s signed distance, at most BOUND_RESOLUTION below
     it, or sooner any bound above `limit`: the same golden-section search along the axis,
     stopped once its bracket is shorter than BOUND_RESOLUTION (`_bracket_bound`)."""
-    qa, d = np.empty(3), np.empty(3)
-    _axis_in_prism(a, b, centre, math.cos(yaw), math.sin(yaw), qa, d)
+    qa, d = _axis_in_prism(a, b, centre, math.cos(yaw), math.sin(yaw))
     length = math.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
     if length <= BOUND_RESOLUTION:
         return _sd_along(kind, qa, d, 0.0, dims) - length - radius
@@ -218,20 +242,20 @@ def capsule_prism_bound(a: np.ndarray, b: np.ndarray, radius: float, kind: int,
 
 
 @njit(cache=True, inline="always")
-def _axis_in_prism(a: np.ndarray, b: np.ndarray, centre: np.ndarray, c: float, s: float,
-                   qa: np.ndarray, d: np.ndarray) -> None:
+def _axis_in_prism(a: Vector, b: Vector, centre: Vector, c: float,
+                   s: float) -> tuple[Vec3, Vec3]:
     """The capsule's axis a-b in the frame of a prism at `centre` turned by (cos, sin) = (c, s):
-    q(t) = qa + t d."""
-    qb = np.empty(3)
-    for q, p in ((qa, a), (qb, b)):
-        dx, dy = p[0] - centre[0], p[1] - centre[1]
-        q[0], q[1], q[2] = c * dx + s * dy, -s * dx + c * dy, p[2] - centre[2]
-    for k in range(3):
-        d[k] = qb[k] - qa[k]
+    q(t) = qa + t d, returned as (qa, d). Tuples, not arrays: they live on the stack, and an
+    array allocated per call cost more than the distance (`rearrangement-bench physics`)."""
+    ax, ay = a[0] - centre[0], a[1] - centre[1]
+    bx, by = b[0] - centre[0], b[1] - centre[1]
+    qa = (c * ax + s * ay, -s * ax + c * ay, a[2] - centre[2])
+    qb = (c * bx + s * by, -s * bx + c * by, b[2] - centre[2])
+    return qa, (qb[0] - qa[0], qb[1] - qa[1], qb[2] - qa[2])
 
 
 @njit(cache=True, inline="always")
-def _golden_step(kind: int, qa: np.ndarray, d: np.ndarray, dims: np.ndarray, lo: float,
+def _golden_step(kind: int, qa: Vec3, d: Vec3, dims: Vector, lo: float,
                  hi: float, t1: float, t2: float, f1: float,
                  f2: float) -> tuple[float, float, float, float, float, float]:
     """One golden-section step along the axis: the bracket [lo, hi] with samples t1 < t2
@@ -283,7 +307,15 @@ def joint_poses(q: np.ndarray, parents: np.ndarray, placements: np.ndarray, axes
     about the unit `axes[j]` (Rodrigues; no rotation where q_index is -1: a joint held fixed,
     its placement already at its value). Joints are ordered parents first; joint 0 is the
     base (identity)."""
-    turn = np.empty((2, 4, 4))
+    joint_poses_into(q, parents, placements, axes, q_index, world, np.empty((2, 4, 4)))
+
+
+@njit_bare
+def joint_poses_into(q: np.ndarray, parents: np.ndarray, placements: np.ndarray,
+                     axes: np.ndarray, q_index: np.ndarray, world: np.ndarray,
+                     turn: np.ndarray) -> None:
+    """`joint_poses` with its scratch (2, 4, 4) given: a loop of physics steps allocates it
+    once."""
     for i in range(4):
         for j in range(4):
             world[0, i, j] = 1.0 if i == j else 0.0
@@ -311,8 +343,17 @@ def shape_poses(q: np.ndarray, parents: np.ndarray, placements: np.ndarray, axes
                 out: np.ndarray) -> None:
     """World poses (S, 4, 4) of the contact shapes at the planning configuration `q`, into
     `out`: shape s sits at `shape_local[s]` on joint shape_joint[s] (`joint_poses`)."""
-    world = np.empty((parents.shape[0], 4, 4))
-    joint_poses(q, parents, placements, axes, q_index, world)
+    shape_poses_into(q, parents, placements, axes, q_index, shape_joint, shape_local, out,
+                     np.empty((parents.shape[0], 4, 4)), np.empty((2, 4, 4)))
+
+
+@njit_bare
+def shape_poses_into(q: np.ndarray, parents: np.ndarray, placements: np.ndarray,
+                     axes: np.ndarray, q_index: np.ndarray, shape_joint: np.ndarray,
+                     shape_local: np.ndarray, out: np.ndarray, world: np.ndarray,
+                     turn: np.ndarray) -> None:
+    """`shape_poses` with its scratch given: the joints' poses (J, 4, 4) and (2, 4, 4)."""
+    joint_poses_into(q, parents, placements, axes, q_index, world, turn)
     for s in range(shape_joint.shape[0]):
         _product(world, shape_joint[s], shape_local, s, out, s)
 
@@ -460,9 +501,9 @@ def prism_penetration(kind_a: int, size_a: np.ndarray, xa: float, ya: float, yaw
     return min(depth, size_a[2], size_b[2])
 
 
-@njit(cache=True)
-def near_prism(a: np.ndarray, b: np.ndarray, grow: float, kind: int, centre: np.ndarray,
-               dims: np.ndarray) -> bool:
+@njit_bare
+def near_prism(a: Vector, b: Vector, grow: float, kind: int, centre: Vector,
+               dims: Vector) -> bool:
     """Broad phase: the axis-aligned box of segment a-b grown by `grow` overlaps the box of the
     upright prism's bounding circle and height (dims as in `capsule_prism`)."""
     if kind == BOX:
@@ -477,14 +518,13 @@ def near_prism(a: np.ndarray, b: np.ndarray, grow: float, kind: int, centre: np.
                 or max(a[2], b[2]) + grow < centre[2] - half_z)
 
 
-@njit(cache=True)
-def segment(shape_poses: np.ndarray, s: int, half_length: float, a: np.ndarray,
-            b: np.ndarray) -> None:
-    """End points of contact shape s's axis (its pose's z, `half_length` each way)."""
-    for k in range(3):
-        axis = shape_poses[s, k, 2] * half_length
-        a[k] = shape_poses[s, k, 3] - axis
-        b[k] = shape_poses[s, k, 3] + axis
+@njit(cache=True, inline="always")
+def segment(shape_poses: np.ndarray, s: int, half_length: float) -> tuple[Vec3, Vec3]:
+    """End points (a, b) of contact shape s's axis (its pose's z, `half_length` each way)."""
+    x, y, z = (shape_poses[s, 0, 2] * half_length, shape_poses[s, 1, 2] * half_length,
+               shape_poses[s, 2, 2] * half_length)
+    return ((shape_poses[s, 0, 3] - x, shape_poses[s, 1, 3] - y, shape_poses[s, 2, 3] - z),
+            (shape_poses[s, 0, 3] + x, shape_poses[s, 1, 3] + y, shape_poses[s, 2, 3] + z))
 
 
 # -- object-object contacts on the table -------------------------------------------------------

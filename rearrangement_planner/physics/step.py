@@ -380,12 +380,23 @@ def packed_options(options: PhysicsOptions) -> np.ndarray:
 # number for the detail sentence (`Physics._detail`).
 
 
-@njit(cache=True)
-def _poses(q: np.ndarray, chain: tuple, out: np.ndarray) -> None:
-    kernels.shape_poses(q, chain[0], chain[1], chain[2], chain[3], chain[4], chain[5], out)
+@njit(cache=True, inline="always")
+def _row(rows: np.ndarray, i: int) -> kernels.Vec3:
+    """Row i of an (n, 3) array as a tuple: passing a row view to a compiled call costs a
+    reference count up and down, a tuple nothing."""
+    return rows[i, 0], rows[i, 1], rows[i, 2]
 
 
-@njit(cache=True)
+@kernels.njit_bare
+def _poses(q: np.ndarray, chain: tuple, out: np.ndarray, world: np.ndarray,
+           turn: np.ndarray) -> None:
+    """The contact shapes' poses at q into `out`, with the scratch of
+    `kernels.shape_poses_into`."""
+    kernels.shape_poses_into(q, chain[0], chain[1], chain[2], chain[3], chain[4], chain[5],
+                             out, world, turn)
+
+
+@kernels.njit_bare
 def _sweep(poses_a: np.ndarray, poses_b: np.ndarray, shapes: np.ndarray) -> float:
     """How far any point of any contact shape moves from a to b, m (substeps are cut so that no
     point moves more than max_substep). A point at distance rho from the shape origin moves at
@@ -404,7 +415,7 @@ def _sweep(poses_a: np.ndarray, poses_b: np.ndarray, shapes: np.ndarray) -> floa
     return worst
 
 
-@njit(cache=True)
+@kernels.njit_bare
 def _reach(poses: np.ndarray, shapes: np.ndarray, objects: np.ndarray, obj_size: np.ndarray,
            obj_props: np.ndarray, static_centre: np.ndarray, static_dims: np.ndarray,
            margin: float, near: np.ndarray, near_static: np.ndarray) -> bool:
@@ -414,10 +425,9 @@ def _reach(poses: np.ndarray, shapes: np.ndarray, objects: np.ndarray, obj_size:
     footprint circle and height) grown by `margin`; likewise each shape against the table and
     the obstacles (`kernels.near_prism`). Fills the masks; False when no object is near
     (free space)."""
-    a, b = np.empty(3), np.empty(3)
     anything = False
     for s in range(poses.shape[0]):
-        kernels.segment(poses, s, shapes[s, 0], a, b)
+        a, b = kernels.segment(poses, s, shapes[s, 0])
         r = shapes[s, 1]
         for m in range(objects.shape[0]):
             ext = obj_props[m, OBJ_FOOTPRINT] + margin
@@ -432,11 +442,11 @@ def _reach(poses: np.ndarray, shapes: np.ndarray, objects: np.ndarray, obj_size:
             anything = anything or near[s, m]
         for k in range(static_centre.shape[0]):
             near_static[s, k] = kernels.near_prism(a, b, r + margin, kernels.BOX,
-                                                   static_centre[k], static_dims[k])
+                                                   _row(static_centre, k), _row(static_dims, k))
     return anything
 
 
-@njit(cache=True)
+@kernels.njit_bare
 def _clear_far(poses: np.ndarray, shapes: np.ndarray, objects: np.ndarray,
                obj_kind: np.ndarray, obj_dims: np.ndarray, obj_props: np.ndarray,
                margin: float, near: np.ndarray) -> float:
@@ -445,17 +455,15 @@ def _clear_far(poses: np.ndarray, shapes: np.ndarray, objects: np.ndarray,
     bound of their distance), as that pair cannot touch within the step. The boxes of
     `_reach` are loose around a long link, so most steps they call near touch nothing.
     Returns the least bound of the pairs left (inf: none is left, free space)."""
-    a, b, centre = np.empty(3), np.empty(3), np.empty(3)
     least = math.inf
     for s in range(poses.shape[0]):
-        kernels.segment(poses, s, shapes[s, 0], a, b)
+        a, b = kernels.segment(poses, s, shapes[s, 0])
         for m in range(objects.shape[0]):
             if not near[s, m]:
                 continue
-            centre[0], centre[1] = objects[m, 0], objects[m, 1]
-            centre[2] = obj_props[m, OBJ_CENTRE_Z]
+            centre = (objects[m, 0], objects[m, 1], obj_props[m, OBJ_CENTRE_Z])
             d = kernels.capsule_prism_bound(a, b, shapes[s, 1], obj_kind[m], centre,
-                                            objects[m, 2], obj_dims[m], margin)
+                                            objects[m, 2], _row(obj_dims, m), margin)
             if d > margin:
                 near[s, m] = False
             else:
@@ -463,17 +471,16 @@ def _clear_far(poses: np.ndarray, shapes: np.ndarray, objects: np.ndarray,
     return least
 
 
-@njit(cache=True)
+@kernels.njit_bare
 def _static_hit(poses: np.ndarray, shapes: np.ndarray, static_centre: np.ndarray,
                 static_yaw: np.ndarray, static_dims: np.ndarray, near_static: np.ndarray,
                 info: np.ndarray) -> int:
     """The first contact shape (in order) that penetrates the table or an obstacle, among the
     pairs `near_static` allows (`_reach`)."""
-    a, b, point, normal = np.empty(3), np.empty(3), np.empty(3), np.empty(3)
-    table = static_centre[0]
+    table = _row(static_centre, 0)
     top = table[2] + static_dims[0, 2]
     for s in range(poses.shape[0]):
-        kernels.segment(poses, s, shapes[s, 0], a, b)
+        a, b = kernels.segment(poses, s, shapes[s, 0])
         for k in range(static_centre.shape[0]):
             if not near_static[s, k]:
                 continue
@@ -485,18 +492,17 @@ def _static_hit(poses: np.ndarray, shapes: np.ndarray, static_centre: np.ndarray
                     info[1], info[2] = s, -1
                     return _ARM_TABLE
                 continue
-            if not kernels.near_prism(a, b, shapes[s, 3], kernels.BOX, static_centre[k],
-                                      static_dims[k]):
+            centre, dims = _row(static_centre, k), _row(static_dims, k)
+            if not kernels.near_prism(a, b, shapes[s, 3], kernels.BOX, centre, dims):
                 continue
-            if kernels.capsule_prism_below(a, b, shapes[s, 3], 0.0, kernels.BOX,
-                                           static_centre[k], static_yaw[k], static_dims[k],
-                                           point, normal) < 0.0:
+            if kernels.capsule_prism_depth_below(a, b, shapes[s, 3], 0.0, kernels.BOX, centre,
+                                                 static_yaw[k], dims) < 0.0:
                 info[1], info[2] = s, k - 1
                 return _ARM_TABLE if k == 0 else _ARM_OBSTACLE
     return _VALID
 
 
-@njit(cache=True)
+@kernels.njit_bare
 def _contacts(poses: np.ndarray, shapes: np.ndarray, objects: np.ndarray,
               selected: np.ndarray, near: np.ndarray, obj_kind: np.ndarray,
               obj_dims: np.ndarray, obj_props: np.ndarray, c_shape: np.ndarray,
@@ -506,25 +512,24 @@ def _contacts(poses: np.ndarray, shapes: np.ndarray, objects: np.ndarray,
     `near` allows (`_reach`), in shape then object order: the object's surface point, the
     unit normal from the arm into the object, the depth (> 0). Returns how many were
     written."""
-    a, b, point, normal, centre = (np.empty(3), np.empty(3), np.empty(3), np.empty(3),
-                                   np.empty(3))
     count = 0
     for s in range(poses.shape[0]):
-        kernels.segment(poses, s, shapes[s, 0], a, b)
+        a, b = kernels.segment(poses, s, shapes[s, 0])
         for m in range(objects.shape[0]):
             if not (selected[m] and near[s, m]):
                 continue
-            centre[0], centre[1] = objects[m, 0], objects[m, 1]
-            centre[2] = obj_props[m, OBJ_CENTRE_Z]
-            if not kernels.near_prism(a, b, shapes[s, 1], obj_kind[m], centre, obj_dims[m]):
+            centre = (objects[m, 0], objects[m, 1], obj_props[m, OBJ_CENTRE_Z])
+            dims = _row(obj_dims, m)
+            if not kernels.near_prism(a, b, shapes[s, 1], obj_kind[m], centre, dims):
                 continue
+            # The row `count` takes the point and normal; it is kept only for a contact.
             d = kernels.capsule_prism_below(a, b, shapes[s, 1], 0.0, obj_kind[m], centre,
-                                            objects[m, 2], obj_dims[m], point, normal)
+                                            objects[m, 2], dims, c_point[count],
+                                            c_normal[count])
             if d < 0.0:
                 c_shape[count], c_obj[count], c_depth[count] = s, m, -d
                 for k in range(3):
-                    c_point[count, k] = point[k]
-                    c_normal[count, k] = -normal[k]
+                    c_normal[count, k] = -c_normal[count, k]
                 count += 1
     return count
 
@@ -1049,29 +1054,32 @@ def _substep(poses_a: np.ndarray, poses_b: np.ndarray, objects: np.ndarray,
              obj_kind: np.ndarray, obj_dims: np.ndarray, obj_size: np.ndarray,
              obj_props: np.ndarray, table: np.ndarray, options: np.ndarray, info: np.ndarray,
              value: np.ndarray, pushing_shapes: np.ndarray, moved: np.ndarray,
-             near: np.ndarray, near_static: np.ndarray, c_shape: np.ndarray,
-             c_obj: np.ndarray, c_point: np.ndarray, c_normal: np.ndarray,
-             c_depth: np.ndarray, everything: np.ndarray) -> int:
+             work: tuple) -> int:
     """One substep (module docstring, 1-6): objects -> new_objects, or an invalid code. Only
     the pairs `_reach` found near are asked; an object that moves is asked against every
     shape from then on. The contact buffers (c_*, one row per shape-object pair) and
-    `everything` (all True) are the step's, reused by each substep."""
+    `everything` (all True) are the step's `work` (`step_workspace`), reused by each
+    substep."""
+    near, near_static = work[_NEAR], work[_NEAR_STATIC]
+    c_shape, c_obj, c_point = work[_C_SHAPE], work[_C_OBJ], work[_C_POINT]
+    c_normal, c_depth, everything = work[_C_NORMAL], work[_C_DEPTH], work[_EVERYTHING]
     code = _static_hit(poses_b, shapes, static_centre, static_yaw, static_dims, near_static,
                        info)
     if code != _VALID:
         return code
-    M = objects.shape[0]
     count = _contacts(poses_b, shapes, objects, everything, near, obj_kind, obj_dims,
                       obj_props, c_shape, c_obj, c_point, c_normal, c_depth)
     new_objects[:] = objects
     if count == 0:
         return _VALID
-    touched = np.zeros(M, dtype=np.bool_)
+    touched = work[_TOUCHED]
+    touched[:] = False
     code = _admissible(count, c_shape, c_obj, c_point, c_normal, objects, obj_kind, obj_dims,
                        obj_props, options, touched, info, value)
     if code != _VALID:
         return code
-    changed = np.zeros(M, dtype=np.bool_)
+    changed = work[_CHANGED]
+    changed[:] = False
     code = _push_touched(touched, objects, new_objects, count, c_shape, c_obj, c_point,
                          c_normal, c_depth, poses_a, poses_b, obj_kind, obj_size, obj_props,
                          table, options, changed, pushing_shapes, moved, near, info, value)
@@ -1097,15 +1105,17 @@ def _substep(poses_a: np.ndarray, poses_b: np.ndarray, objects: np.ndarray,
     return _VALID
 
 
-@njit(cache=True)
+@kernels.njit_bare
 def _substeps(q0: np.ndarray, q1: np.ndarray, objects: np.ndarray, chain: tuple,
               shapes: np.ndarray, static_centre: np.ndarray, static_dims: np.ndarray,
               obj_kind: np.ndarray, obj_dims: np.ndarray, obj_size: np.ndarray,
-              obj_props: np.ndarray, options: np.ndarray, sweep: float, poses_a: np.ndarray,
-              q_b: np.ndarray, near: np.ndarray, near_static: np.ndarray) -> tuple[int, int]:
+              obj_props: np.ndarray, options: np.ndarray, sweep: float,
+              work: tuple) -> tuple[int, int]:
     """How `step_kernel` cuts the step q0 -> q1, whose points move at most `sweep`: (n, the
-    first substep to run), the pairs it may touch in `near` and `near_static` (`_reach`,
-    `_clear_far`), and `poses_a` moved to the start of the first substep."""
+    first substep to run), the pairs it may touch in the workspace's `near` and
+    `near_static` (`_reach`, `_clear_far`), and its `poses_a` moved to the start of the
+    first substep."""
+    poses_a, q_b, near, near_static = work[_POSES_A], work[_Q_B], work[_NEAR], work[_NEAR_STATIC]
     n = max(1, math.ceil(sweep / options[OPT_MAX_SUBSTEP] - 1e-9))
     margin = sweep + options[OPT_FREE_SPACE]
     least = math.inf
@@ -1125,7 +1135,7 @@ def _substeps(q0: np.ndarray, q1: np.ndarray, objects: np.ndarray, chain: tuple,
     if first > 1:
         for j in range(q1.shape[0]):
             q_b[j] = q0[j] + (q1[j] - q0[j]) * ((first - 1) / n)
-        _poses(q_b, chain, poses_a)
+        _poses(q_b, chain, poses_a, work[_JOINTS], work[_TURN])
     return n, first
 
 
@@ -1139,7 +1149,49 @@ def step_kernel(q0: np.ndarray, q1: np.ndarray, objects: np.ndarray, chain: tupl
     """`Physics.step` compiled: the arm from q0 to q1 through substeps (module docstring);
     the objects after it into `out_objects`; info gets (code, a, b, substeps run) and then
     one flag per contact shape (it pushed an object; for a jam, it squeezes the object) and
-    per object (it moved); returns the outcome code (0 = valid)."""
+    per object (it moved); returns the outcome code (0 = valid). A loop of steps allocates
+    the buffers once (`step_workspace`) and calls `step_into`."""
+    work = step_workspace(q1, chain, shapes, objects, static_centre)
+    return step_into(q0, q1, objects, chain, shapes, limits, static_centre, static_yaw,
+                     static_dims, static_size, obj_kind, obj_dims, obj_size, obj_props, table,
+                     options, out_objects, info, value, work)
+
+
+_POSES_A, _POSES_B, _Q_B, _NEAR, _NEAR_STATIC, _CURRENT, _FOLLOWING = 0, 1, 2, 3, 4, 5, 6
+_C_SHAPE, _C_OBJ, _C_POINT, _C_NORMAL, _C_DEPTH, _EVERYTHING = 7, 8, 9, 10, 11, 12
+_JOINTS, _TURN, _TOUCHED, _CHANGED = 13, 14, 15, 16
+"""The buffers of `step_workspace`, by name."""
+
+
+@njit(cache=True)
+def step_workspace(q: np.ndarray, chain: tuple, shapes: np.ndarray, objects: np.ndarray,
+                   static_centre: np.ndarray) -> tuple:
+    """The buffers of a physics step (`step_into`) for the arm at q, its `chain` and contact
+    `shapes`, the `objects` (M, 3) and the table and obstacles: allocated once for a loop of
+    steps, as allocating them at every step cost a tenth of the step (`rearrangement-bench
+    physics`). Named by _POSES_A .. _CHANGED; none carries anything from step to step."""
+    S, M = shapes.shape[0], objects.shape[0]
+    capacity = S * M
+    return (np.empty((S, 4, 4)), np.empty((S, 4, 4)), np.empty(q.shape[0]),
+            np.empty((S, M), dtype=np.bool_), np.empty((S, static_centre.shape[0]),
+                                                        dtype=np.bool_),
+            np.empty((M, 3)), np.empty((M, 3)), np.empty(capacity, dtype=np.int64),
+            np.empty(capacity, dtype=np.int64), np.empty((capacity, 3)),
+            np.empty((capacity, 3)), np.empty(capacity), np.ones(M, dtype=np.bool_),
+            np.empty((chain[0].shape[0], 4, 4)), np.empty((2, 4, 4)),
+            np.empty(M, dtype=np.bool_), np.empty(M, dtype=np.bool_))
+
+
+@njit(cache=True)
+def step_into(q0: np.ndarray, q1: np.ndarray, objects: np.ndarray, chain: tuple,
+              shapes: np.ndarray, limits: np.ndarray, static_centre: np.ndarray,
+              static_yaw: np.ndarray, static_dims: np.ndarray, static_size: np.ndarray,
+              obj_kind: np.ndarray, obj_dims: np.ndarray, obj_size: np.ndarray,
+              obj_props: np.ndarray, table: np.ndarray, options: np.ndarray,
+              out_objects: np.ndarray, info: np.ndarray, value: np.ndarray,
+              work: tuple) -> int:
+    """`step_kernel` with its buffers in `work` (`step_workspace`; none of them carries
+    anything from one step to the next)."""
     S = shapes.shape[0]
     pushing_shapes = info[4:4 + S]
     moved = info[4 + S:]
@@ -1148,33 +1200,25 @@ def step_kernel(q0: np.ndarray, q1: np.ndarray, objects: np.ndarray, chain: tupl
         if not limits[0, j] - 1e-9 <= q1[j] <= limits[1, j] + 1e-9:
             info[0] = _JOINT_LIMIT
             return _JOINT_LIMIT
-    poses_a, poses_b = np.empty((S, 4, 4)), np.empty((S, 4, 4))
-    _poses(q0, chain, poses_a)
-    _poses(q1, chain, poses_b)
+    poses_a, poses_b, q_b = work[_POSES_A], work[_POSES_B], work[_Q_B]
+    joints, turn = work[_JOINTS], work[_TURN]
+    _poses(q0, chain, poses_a, joints, turn)
+    _poses(q1, chain, poses_b, joints, turn)
     sweep = _sweep(poses_a, poses_b, shapes)
-    q_b = np.empty_like(q1)
-    near = np.empty((S, objects.shape[0]), dtype=np.bool_)
-    near_static = np.empty((S, static_centre.shape[0]), dtype=np.bool_)
     n, first = _substeps(q0, q1, objects, chain, shapes, static_centre, static_dims, obj_kind,
-                         obj_dims, obj_size, obj_props, options, sweep, poses_a, q_b, near,
-                         near_static)
-    current, following = objects.copy(), np.empty_like(objects)
-    capacity = S * objects.shape[0]
-    c_shape, c_obj = np.empty(capacity, dtype=np.int64), np.empty(capacity, dtype=np.int64)
-    c_point, c_normal = np.empty((capacity, 3)), np.empty((capacity, 3))
-    c_depth = np.empty(capacity)
-    everything = np.ones(objects.shape[0], dtype=np.bool_)
+                         obj_dims, obj_size, obj_props, options, sweep, work)
+    current, following = work[_CURRENT], work[_FOLLOWING]
+    current[:] = objects
     for i in range(first, n + 1):
         if i < n:
             for j in range(q1.shape[0]):
                 q_b[j] = q0[j] + (q1[j] - q0[j]) * (i / n)
-            _poses(q_b, chain, poses_b)
+            _poses(q_b, chain, poses_b, joints, turn)
         elif n > 1:
-            _poses(q1, chain, poses_b)
+            _poses(q1, chain, poses_b, joints, turn)
         code = _substep(poses_a, poses_b, current, following, shapes, static_centre,
                         static_yaw, static_dims, static_size, obj_kind, obj_dims, obj_size,
-                        obj_props, table, options, info, value, pushing_shapes, moved, near,
-                        near_static, c_shape, c_obj, c_point, c_normal, c_depth, everything)
+                        obj_props, table, options, info, value, pushing_shapes, moved, work)
         if code != _VALID:
             info[0], info[3] = code, i
             return code
@@ -1198,7 +1242,7 @@ def check_state_kernel(q: np.ndarray, objects: np.ndarray, chain: tuple, shapes:
             return _JOINT_LIMIT
     S, M = shapes.shape[0], objects.shape[0]
     poses = np.empty((S, 4, 4))
-    _poses(q, chain, poses)
+    _poses(q, chain, poses, np.empty((chain[0].shape[0], 4, 4)), np.empty((2, 4, 4)))
     near_static = np.ones((S, static_centre.shape[0]), dtype=np.bool_)
     code = _static_hit(poses, shapes, static_centre, static_yaw, static_dims, near_static,
                        info)

@@ -141,13 +141,16 @@ def test_a_step_skips_the_pairs_and_substeps_that_cannot_touch_and_ends_the_same
     Over random pushes among the default scene's objects, every step ends exactly as it does
     when every pair and every substep is asked (a free-space margin of 10 m clears nothing):
     the same outcome, object poses and flags; and the boxes alone called many more pairs
-    near."""
+    near. A loop's steps share one workspace (`step_into`): no buffer carries anything from
+    one step to the next, so each ends as a step with fresh buffers does."""
     from rearrangement_planner.physics.step import (
         OPT_FREE_SPACE,
         _clear_far,
         _poses,
         _reach,
+        step_into,
         step_kernel,
+        step_workspace,
     )
     from rearrangement_planner.planning.machinery.propagation import PushTarget, propagate
 
@@ -160,6 +163,7 @@ def test_a_step_skips_the_pairs_and_substeps_that_cannot_touch_and_ends_the_same
     start = State(q, scene.initial_state().objects)
     rng = np.random.default_rng(5)
     moved = boxed = exact = steps = 0
+    work = step_workspace(q, w.chain, w.shapes, np.array(start.objects), w.static_centre)
     for k in range(80):
         nullspace = rng.uniform(-0.3, 0.3, physics.robot.nq)
         if k % 2:       # a random action (Algorithm 2)
@@ -181,9 +185,14 @@ def test_a_step_skips_the_pairs_and_substeps_that_cannot_touch_and_ends_the_same
             assert codes[0] == codes[1]
             np.testing.assert_array_equal(out[0], out[1])
             np.testing.assert_array_equal(info[0][4:], info[1][4:])
+            shared, shared_info = np.empty_like(objects), np.zeros_like(info[0])
+            assert step_into(q0, q1, objects, *w, shared, shared_info, np.zeros(1),
+                             work) == codes[0]
+            np.testing.assert_array_equal(shared, out[0])
+            np.testing.assert_array_equal(shared_info, info[0])
             moved += bool(info[0][4 + len(w.shapes):].any())
             poses = np.empty((len(w.shapes), 4, 4))
-            _poses(q0, w.chain, poses)
+            _poses(q0, w.chain, poses, np.empty((len(w.chain[0]), 4, 4)), np.empty((2, 4, 4)))
             near = np.empty((len(w.shapes), len(objects)), dtype=np.bool_)
             near_static = np.empty((len(w.shapes), len(w.static_centre)), dtype=np.bool_)
             _reach(poses, w.shapes, objects, w.obj_size, w.obj_props, w.static_centre,

@@ -36,7 +36,7 @@ from numba import njit
 from rearrangement_planner.model.robot import RobotModel
 from rearrangement_planner.model.state import State
 from rearrangement_planner.physics.kernels import tool_kinematics
-from rearrangement_planner.physics.step import Invalid, Physics, step_kernel
+from rearrangement_planner.physics.step import Invalid, Physics, step_into, step_workspace
 from rearrangement_planner.planning.machinery.interface import StopReason
 from rearrangement_planner.planning.machinery.manifold import project_arrays, project_kernel
 from rearrangement_planner.planning.machinery.termination import NEVER, Termination
@@ -293,6 +293,7 @@ def _propagate_kernel(q: np.ndarray, objects: np.ndarray, held: np.ndarray,
     the pushed object reached its target)."""
     info = np.zeros(4 + flags.shape[0], dtype=np.int64)
     value = np.zeros(1)
+    work = step_workspace(q, world[0], world[1], objects, world[3])
     g, pushed = int(goal[0]), int(policy[0])
     velocity = held.copy()
     for i in range(steps):
@@ -304,9 +305,9 @@ def _propagate_kernel(q: np.ndarray, objects: np.ndarray, held: np.ndarray,
         q_new = project_kernel(q, velocity, dt, nullspace, project[0], project[1], project[2],
                                project[3], project[4], project[5], project[6], 0.5, 1.0, 1.0)
         info[:] = 0
-        code = step_kernel(q, q_new, objects, world[0], world[1], world[2], world[3],
-                           world[4], world[5], world[6], world[7], world[8], world[9],
-                           world[10], world[11], world[12], out[i], info, value)
+        code = step_into(q, q_new, objects, world[0], world[1], world[2], world[3], world[4],
+                         world[5], world[6], world[7], world[8], world[9], world[10], world[11],
+                         world[12], out[i], info, value, work)
         if code != 0:
             return i, code
         arm[i] = q_new
@@ -346,11 +347,12 @@ def _replay_kernel(arm: np.ndarray, objects: np.ndarray, goal: np.ndarray, world
     Returns (states filled, 0 | the invalid step's code | -_GOAL when the goal test of `goal`
     (object, x, y, radius; object -1: none) held at the last state filled)."""
     g = int(goal[0])
+    work = step_workspace(arm[0], world[0], world[1], objects[0], world[3])
     for i in range(1, arm.shape[0]):
         info[:] = 0
-        code = step_kernel(arm[i - 1], arm[i], objects[i - 1], world[0], world[1], world[2],
-                           world[3], world[4], world[5], world[6], world[7], world[8],
-                           world[9], world[10], world[11], world[12], objects[i], info, value)
+        code = step_into(arm[i - 1], arm[i], objects[i - 1], world[0], world[1], world[2],
+                         world[3], world[4], world[5], world[6], world[7], world[8], world[9],
+                         world[10], world[11], world[12], objects[i], info, value, work)
         if code != 0:
             return i, code
         if g >= 0 and math.hypot(objects[i, g, 0] - goal[1],
