@@ -423,20 +423,18 @@ def tool_kinematics(q: np.ndarray, parents: np.ndarray, placements: np.ndarray,
     axis w through o_j moves the tool origin p at w x (p - o_j) and turns it at w."""
     world = np.empty((parents.shape[0], 4, 4))
     joint_poses(q, parents, placements, axes, q_index, world)
-    stack = np.empty((1, 4, 4))
-    stack[0] = tool_local
-    out = np.empty((1, 4, 4))
-    _product(world, tool_joint, stack, 0, out, 0)
-    pose[:] = out[0]
+    _product(world, tool_joint, tool_local.reshape((1, 4, 4)), 0, pose.reshape((1, 4, 4)), 0)
     jac[:] = 0.0
     j = tool_joint
     while j > 0:
         k = q_index[j]
         if k >= 0:
-            w = np.empty(3)
-            for i in range(3):
-                w[i] = world[j, i, 0] * axes[j, 0] + world[j, i, 1] * axes[j, 1] \
-                    + world[j, i, 2] * axes[j, 2]
+            w = (world[j, 0, 0] * axes[j, 0] + world[j, 0, 1] * axes[j, 1]
+                 + world[j, 0, 2] * axes[j, 2],
+                 world[j, 1, 0] * axes[j, 0] + world[j, 1, 1] * axes[j, 1]
+                 + world[j, 1, 2] * axes[j, 2],
+                 world[j, 2, 0] * axes[j, 0] + world[j, 2, 1] * axes[j, 1]
+                 + world[j, 2, 2] * axes[j, 2])
             rx, ry, rz = (pose[0, 3] - world[j, 0, 3], pose[1, 3] - world[j, 1, 3],
                           pose[2, 3] - world[j, 2, 3])
             jac[0, k] = w[1] * rz - w[2] * ry
