@@ -219,7 +219,7 @@ class Physics:
         value = np.zeros(1)
         # Writable copies: the kernels are compiled for writable arrays only (a read-only
         # argument, as a State holds, would compile the whole step a second time).
-        code = step_kernel(np.array(state.q), q_next, np.array(state.objects), *self.arrays,
+        code = single_step(np.array(state.q), q_next, np.array(state.objects), self.arrays,
                            out, info, value)
         links, moved = self._flagged(info[4:])
         if code != _VALID:
@@ -1140,21 +1140,11 @@ def _substeps(q0: np.ndarray, q1: np.ndarray, objects: np.ndarray, chain: tuple,
 
 
 @njit(cache=True)
-def step_kernel(q0: np.ndarray, q1: np.ndarray, objects: np.ndarray, chain: tuple,
-                shapes: np.ndarray, limits: np.ndarray, static_centre: np.ndarray,
-                static_yaw: np.ndarray, static_dims: np.ndarray, static_size: np.ndarray,
-                obj_kind: np.ndarray, obj_dims: np.ndarray, obj_size: np.ndarray,
-                obj_props: np.ndarray, table: np.ndarray, options: np.ndarray,
+def single_step(q0: np.ndarray, q1: np.ndarray, objects: np.ndarray, world: tuple,
                 out_objects: np.ndarray, info: np.ndarray, value: np.ndarray) -> int:
-    """`Physics.step` compiled: the arm from q0 to q1 through substeps (module docstring);
-    the objects after it into `out_objects`; info gets (code, a, b, substeps run) and then
-    one flag per contact shape (it pushed an object; for a jam, it squeezes the object) and
-    per object (it moved); returns the outcome code (0 = valid). A loop of steps allocates
-    the buffers once (`step_workspace`) and calls `step_into`."""
-    work = step_workspace(q1, chain, shapes, objects, static_centre)
-    return step_into(q0, q1, objects, chain, shapes, limits, static_centre, static_yaw,
-                     static_dims, static_size, obj_kind, obj_dims, obj_size, obj_props, table,
-                     options, out_objects, info, value, work)
+    """`step_kernel` with buffers of its own (`Physics.step`: one step at a time)."""
+    work = step_workspace(q1, world[0], world[1], objects, world[3])
+    return step_kernel(q0, q1, objects, world, out_objects, info, value, work)
 
 
 _POSES_A, _POSES_B, _Q_B, _NEAR, _NEAR_STATIC, _CURRENT, _FOLLOWING = 0, 1, 2, 3, 4, 5, 6
@@ -1166,10 +1156,10 @@ _JOINTS, _TURN, _TOUCHED, _CHANGED = 13, 14, 15, 16
 @njit(cache=True)
 def step_workspace(q: np.ndarray, chain: tuple, shapes: np.ndarray, objects: np.ndarray,
                    static_centre: np.ndarray) -> tuple:
-    """The buffers of a physics step (`step_into`) for the arm at q, its `chain` and contact
+    """The buffers of a physics step (`step_kernel`) for the arm at q, its `chain` and contact
     `shapes`, the `objects` (M, 3) and the table and obstacles: allocated once for a loop of
     steps, as allocating them at every step cost a tenth of the step (`rearrangement-bench
-    physics`). Named by _POSES_A .. _CHANGED; none carries anything from step to step."""
+    physics`). Named by _POSES_A .. _CHANGED."""
     S, M = shapes.shape[0], objects.shape[0]
     capacity = S * M
     return (np.empty((S, 4, 4)), np.empty((S, 4, 4)), np.empty(q.shape[0]),
@@ -1183,15 +1173,19 @@ def step_workspace(q: np.ndarray, chain: tuple, shapes: np.ndarray, objects: np.
 
 
 @njit(cache=True)
-def step_into(q0: np.ndarray, q1: np.ndarray, objects: np.ndarray, chain: tuple,
-              shapes: np.ndarray, limits: np.ndarray, static_centre: np.ndarray,
-              static_yaw: np.ndarray, static_dims: np.ndarray, static_size: np.ndarray,
-              obj_kind: np.ndarray, obj_dims: np.ndarray, obj_size: np.ndarray,
-              obj_props: np.ndarray, table: np.ndarray, options: np.ndarray,
-              out_objects: np.ndarray, info: np.ndarray, value: np.ndarray,
-              work: tuple) -> int:
-    """`step_kernel` with its buffers in `work` (`step_workspace`; none of them carries
-    anything from one step to the next)."""
+def step_kernel(q0: np.ndarray, q1: np.ndarray, objects: np.ndarray, world: tuple,
+                out_objects: np.ndarray, info: np.ndarray, value: np.ndarray,
+                work: tuple) -> int:
+    """`Physics.step` compiled: the arm from q0 to q1 through substeps (module docstring) in
+    the scene's arrays `world` (a `World`); the objects after it into `out_objects`; info
+    gets (code, a, b, substeps run) and then one flag per contact shape (it pushed an object;
+    for a jam, it squeezes the object) and per object (it moved); returns the outcome code
+    (0 = valid). The buffers are `work` (`step_workspace`: a loop of steps allocates them
+    once; none carries anything from one step to the next)."""
+    chain, shapes, limits, static_centre, static_yaw = (world[0], world[1], world[2],
+                                                        world[3], world[4])
+    static_dims, static_size, obj_kind, obj_dims = world[5], world[6], world[7], world[8]
+    obj_size, obj_props, table, options = world[9], world[10], world[11], world[12]
     S = shapes.shape[0]
     pushing_shapes = info[4:4 + S]
     moved = info[4 + S:]

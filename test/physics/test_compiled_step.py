@@ -136,19 +136,19 @@ def test_the_compiled_propagation_takes_the_same_steps_as_python():
 
 
 def test_a_step_skips_the_pairs_and_substeps_that_cannot_touch_and_ends_the_same():
-    """`step_kernel` asks only the (shape, object) pairs within the step's reach by their exact
+    """The physics step asks only the (shape, object) pairs within the step's reach by their exact
     distance (`_clear_far`) and starts at the substep before the nearest of them could touch.
     Over random pushes among the default scene's objects, every step ends exactly as it does
     when every pair and every substep is asked (a free-space margin of 10 m clears nothing):
     the same outcome, object poses and flags; and the boxes alone called many more pairs
-    near. A loop's steps share one workspace (`step_into`): no buffer carries anything from
-    one step to the next, so each ends as a step with fresh buffers does."""
+    near. A loop's steps share one workspace (`step_workspace`): no buffer carries anything
+    from one step to the next, so each ends as a step with fresh buffers does."""
     from rearrangement_planner.physics.step import (
         OPT_FREE_SPACE,
         _clear_far,
         _poses,
         _reach,
-        step_into,
+        single_step,
         step_kernel,
         step_workspace,
     )
@@ -180,14 +180,14 @@ def test_a_step_skips_the_pairs_and_substeps_that_cannot_touch_and_ends_the_same
             q1 = np.array(result.arm[i])
             out = [np.empty_like(objects) for _ in range(2)]
             info = [np.zeros(4 + physics.flag_count, dtype=np.int64) for _ in range(2)]
-            codes = [step_kernel(q0, q1, objects, *arrays, out[k], info[k], np.zeros(1))
+            codes = [single_step(q0, q1, objects, arrays, out[k], info[k], np.zeros(1))
                      for k, arrays in enumerate((w, every))]
             assert codes[0] == codes[1]
             np.testing.assert_array_equal(out[0], out[1])
             np.testing.assert_array_equal(info[0][4:], info[1][4:])
             shared, shared_info = np.empty_like(objects), np.zeros_like(info[0])
-            assert step_into(q0, q1, objects, *w, shared, shared_info, np.zeros(1),
-                             work) == codes[0]
+            assert step_kernel(q0, q1, objects, w, shared, shared_info, np.zeros(1),
+                               work) == codes[0]
             np.testing.assert_array_equal(shared, out[0])
             np.testing.assert_array_equal(shared_info, info[0])
             moved += bool(info[0][4 + len(w.shapes):].any())

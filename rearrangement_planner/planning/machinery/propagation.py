@@ -36,7 +36,7 @@ from numba import njit
 from rearrangement_planner.model.robot import RobotModel
 from rearrangement_planner.model.state import State
 from rearrangement_planner.physics.kernels import tool_kinematics
-from rearrangement_planner.physics.step import Invalid, Physics, step_into, step_workspace
+from rearrangement_planner.physics.step import Invalid, Physics, step_kernel, step_workspace
 from rearrangement_planner.planning.machinery.interface import StopReason
 from rearrangement_planner.planning.machinery.manifold import project_arrays, project_kernel
 from rearrangement_planner.planning.machinery.termination import NEVER, Termination
@@ -305,9 +305,7 @@ def _propagate_kernel(q: np.ndarray, objects: np.ndarray, held: np.ndarray,
         q_new = project_kernel(q, velocity, dt, nullspace, project[0], project[1], project[2],
                                project[3], project[4], project[5], project[6], 0.5, 1.0, 1.0)
         info[:] = 0
-        code = step_into(q, q_new, objects, world[0], world[1], world[2], world[3], world[4],
-                         world[5], world[6], world[7], world[8], world[9], world[10], world[11],
-                         world[12], out[i], info, value, work)
+        code = step_kernel(q, q_new, objects, world, out[i], info, value, work)
         if code != 0:
             return i, code
         arm[i] = q_new
@@ -350,9 +348,7 @@ def _replay_kernel(arm: np.ndarray, objects: np.ndarray, goal: np.ndarray, world
     work = step_workspace(arm[0], world[0], world[1], objects[0], world[3])
     for i in range(1, arm.shape[0]):
         info[:] = 0
-        code = step_into(arm[i - 1], arm[i], objects[i - 1], world[0], world[1], world[2],
-                         world[3], world[4], world[5], world[6], world[7], world[8], world[9],
-                         world[10], world[11], world[12], objects[i], info, value, work)
+        code = step_kernel(arm[i - 1], arm[i], objects[i - 1], world, objects[i], info, value, work)
         if code != 0:
             return i, code
         if g >= 0 and math.hypot(objects[i, g, 0] - goal[1],

@@ -29,7 +29,7 @@ from rearrangement_planner.model.scene import Scene
 from rearrangement_planner.model.settings import Settings, setting
 from rearrangement_planner.model.state import State
 from rearrangement_planner.physics.options import PhysicsOptions
-from rearrangement_planner.physics.step import Physics, step_into, step_workspace
+from rearrangement_planner.physics.step import Physics, step_kernel, step_workspace
 
 
 @dataclass(frozen=True)
@@ -134,9 +134,7 @@ def rollout_kernel(arm: np.ndarray, objects: np.ndarray, world: tuple, flags: in
     for i in range(1, arm.shape[0]):
         info[:] = 0
         value[:] = 0.0
-        code = step_into(arm[i - 1], arm[i], objects[i - 1], world[0], world[1], world[2],
-                         world[3], world[4], world[5], world[6], world[7], world[8], world[9],
-                         world[10], world[11], world[12], objects[i], info, value, work)
+        code = step_kernel(arm[i - 1], arm[i], objects[i - 1], world, objects[i], info, value, work)
         if code != 0:
             return code
         for m in range(M):
