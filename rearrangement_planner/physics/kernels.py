@@ -459,7 +459,7 @@ def _revolute_axis(joint: Any) -> np.ndarray:
 # -- prisms against each other, broad phase ------------------------------------------------------
 
 
-@njit(cache=True)
+@njit_bare
 def prism_penetration(kind_a: int, size_a: np.ndarray, xa: float, ya: float, yaw_a: float,
                       kind_b: int, size_b: np.ndarray, xb: float, yb: float,
                       yaw_b: float) -> float:

@@ -930,7 +930,7 @@ _CONTACT_MARGIN = 2.0
 start join one contact problem: within a substep nothing moves farther than one."""
 
 
-@njit(cache=True)
+@kernels.njit_bare
 def _object_checks(objects: np.ndarray, which: np.ndarray, static_centre: np.ndarray,
                    static_yaw: np.ndarray, static_size: np.ndarray, obj_kind: np.ndarray,
                    obj_size: np.ndarray, table: np.ndarray, options: np.ndarray,
@@ -972,7 +972,7 @@ def _object_checks(objects: np.ndarray, which: np.ndarray, static_centre: np.nda
 TURN_SLACK = 1e-4
 """rad per substep a push may turn its object beyond `PhysicsOptions.max_turn` (a substep
 moves a contact at most `max_substep`, 4 mm: a grazing touch may nudge an object in place)."""
-@njit(cache=True)
+@kernels.njit_bare
 def _admissible(count: int, c_shape: np.ndarray, c_obj: np.ndarray, c_point: np.ndarray,
                 c_normal: np.ndarray, objects: np.ndarray, obj_kind: np.ndarray,
                 obj_dims: np.ndarray, obj_props: np.ndarray, options: np.ndarray,
@@ -991,7 +991,7 @@ def _admissible(count: int, c_shape: np.ndarray, c_obj: np.ndarray, c_point: np.
     return _VALID
 
 
-@njit(cache=True)
+@kernels.njit_bare
 def _residual_depth(poses: np.ndarray, shapes: np.ndarray, new_objects: np.ndarray,
                     changed: np.ndarray, any_changed: bool, count: int, c_shape: np.ndarray,
                     c_obj: np.ndarray, c_point: np.ndarray, c_normal: np.ndarray,
