@@ -1149,17 +1149,8 @@ def single_step(q0: np.ndarray, q1: np.ndarray, objects: np.ndarray, world: tupl
 
 _POSES_A, _POSES_B, _Q_B, _NEAR, _NEAR_STATIC, _CURRENT, _FOLLOWING = 0, 1, 2, 3, 4, 5, 6
 _C_SHAPE, _C_OBJ, _C_POINT, _C_NORMAL, _C_DEPTH, _EVERYTHING = 7, 8, 9, 10, 11, 12
-_JOINTS, _TURN, _TOUCHED, _CHANGED, _LAST_Q, _LAST_POSES = 13, 14, 15, 16, 17, 18
+_JOINTS, _TURN, _TOUCHED, _CHANGED = 13, 14, 15, 16
 """The buffers of `step_workspace`, by name."""
-
-
-@kernels.njit_bare
-def _same(a: np.ndarray, b: np.ndarray) -> bool:
-    """a == b, every element (False where either is NaN)."""
-    for j in range(a.shape[0]):
-        if not a[j] == b[j]:
-            return False
-    return True
 
 
 @njit(cache=True)
@@ -1168,10 +1159,7 @@ def step_workspace(q: np.ndarray, chain: tuple, shapes: np.ndarray, objects: np.
     """The buffers of a physics step (`step_kernel`) for the arm at q, its `chain` and contact
     `shapes`, the `objects` (M, 3) and the table and obstacles: allocated once for a loop of
     steps, as allocating them at every step cost a tenth of the step (`rearrangement-bench
-    physics`). Named by _POSES_A .. _LAST_POSES. Only the last two carry anything from one
-    step to the next: the contact shapes' poses at the last step's q1, which the next step
-    takes instead of computing them again when it starts there (as every step of a loop
-    does; NaN: no step yet)."""
+    physics`). Named by _POSES_A .. _CHANGED."""
     S, M = shapes.shape[0], objects.shape[0]
     capacity = S * M
     return (np.empty((S, 4, 4)), np.empty((S, 4, 4)), np.empty(q.shape[0]),
@@ -1181,8 +1169,7 @@ def step_workspace(q: np.ndarray, chain: tuple, shapes: np.ndarray, objects: np.
             np.empty(capacity, dtype=np.int64), np.empty((capacity, 3)),
             np.empty((capacity, 3)), np.empty(capacity), np.ones(M, dtype=np.bool_),
             np.empty((chain[0].shape[0], 4, 4)), np.empty((2, 4, 4)),
-            np.empty(M, dtype=np.bool_), np.empty(M, dtype=np.bool_),
-            np.full(q.shape[0], np.nan), np.empty((S, 4, 4)))
+            np.empty(M, dtype=np.bool_), np.empty(M, dtype=np.bool_))
 
 
 @njit(cache=True)
@@ -1208,15 +1195,9 @@ def step_kernel(q0: np.ndarray, q1: np.ndarray, objects: np.ndarray, world: tupl
             info[0] = _JOINT_LIMIT
             return _JOINT_LIMIT
     poses_a, poses_b, q_b = work[_POSES_A], work[_POSES_B], work[_Q_B]
-    joints, turn, last_q, last_poses = work[_JOINTS], work[_TURN], work[_LAST_Q], \
-        work[_LAST_POSES]
-    if _same(q0, last_q):
-        poses_a[:] = last_poses
-    else:
-        _poses(q0, chain, poses_a, joints, turn)
+    joints, turn = work[_JOINTS], work[_TURN]
+    _poses(q0, chain, poses_a, joints, turn)
     _poses(q1, chain, poses_b, joints, turn)
-    last_q[:] = q1
-    last_poses[:] = poses_b
     sweep = _sweep(poses_a, poses_b, shapes)
     n, first = _substeps(q0, q1, objects, chain, shapes, static_centre, static_dims, obj_kind,
                          obj_dims, obj_size, obj_props, options, sweep, work)
