@@ -435,3 +435,26 @@ def test_a_bags_world_closes_the_loop_where_open_loop_misses(session, tmp_path):
     assert statuses == ["GOAL_NOT_REACHED", "GOAL_NOT_REACHED", "SUCCEEDED"], statuses
     assert run.outcomes[1]["moved_objects"] == []           # the retreat moves nothing
     assert (tmp_path / f"{run.plan.plan_id}-attempt1.mcap").is_file()
+
+
+def test_a_removed_node_meets_no_callback_of_its_own(session):
+    """`Session.remove` destroys a node only once the callbacks already running have finished:
+    a node whose 1 kHz timer is always busy (2 ms, then it publishes), added and removed ten
+    times, leaves no failed callback (before, its timer met its destroyed publisher:
+    "InvalidHandle")."""
+    import rclpy
+    from std_msgs.msg import Empty
+
+    def busy(publisher):
+        time.sleep(0.002)
+        publisher.publish(Empty())
+
+    before = len(session.failures)
+    for k in range(10):
+        node = rclpy.create_node(f"busy_{k}", context=session.context)
+        publisher = node.create_publisher(Empty, "busy", 10)
+        node.create_timer(0.001, lambda publisher=publisher: busy(publisher))
+        session.add(node)
+        time.sleep(0.05)
+        session.remove(node)
+    assert session.failures[before:] == []

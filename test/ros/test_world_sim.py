@@ -108,7 +108,8 @@ class Sim:
         return self.outcomes.wait_next(seen, timeout)
 
     def close(self) -> None:
-        self.session.node.destroy_publisher(self.commands)
+        with self.session.paused():
+            self.session.node.destroy_publisher(self.commands)
         self.session.remove(self.node)
 
 

@@ -36,6 +36,7 @@ before `~/plan`, so that the node has taken the last messages off its queues.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import importlib
 import json
 import os
@@ -43,6 +44,7 @@ import sys
 import tempfile
 import threading
 import time
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -414,6 +416,9 @@ class Session:
         self.node = rclpy.create_node(name, context=self.context)
         self._nodes = [self.node]
         self._closing = False
+        self.failures: list[str] = []
+        """The callbacks that failed while the session spun, as 'Type: message' (logged too)."""
+        self._pause, self._paused = threading.Event(), threading.Event()
         self.executor.add_node(self.node)
         self._thread = threading.Thread(target=self._spin, daemon=True)
         self._thread.start()
@@ -424,14 +429,19 @@ class Session:
         from rclpy.executors import ExternalShutdownException, ShutdownException
 
         while not self._closing:
+            self._paused.clear()
+            if self._pause.is_set():            # `remove`: submit nothing while it runs
+                self._paused.set()
+                time.sleep(0.001)
+                continue
             try:
                 self.executor.spin_once(timeout_sec=0.1)
             except (ExternalShutdownException, ShutdownException):
                 return
             except Exception as exc:  # noqa: BLE001 - keep serving the other nodes
                 if not self._closing:
-                    self.node.get_logger().warning(f"a callback failed: {type(exc).__name__}: "
-                                                   f"{exc}")
+                    self.failures.append(f"{type(exc).__name__}: {exc}")
+                    self.node.get_logger().warning(f"a callback failed: {self.failures[-1]}")
 
     def add(self, node):
         """Spin `node` (created with context=session.context) in this session; returns it."""
@@ -439,15 +449,32 @@ class Session:
         self.executor.add_node(node)
         return node
 
+    @contextlib.contextmanager
+    def paused(self) -> Iterator[None]:
+        """Inside, the spin thread submits nothing and no callback is running: a node's
+        entities can be destroyed (while it spins, a callback running or the executor
+        building its wait set met them destroyed: "InvalidHandle: cannot use
+        Destroyable")."""
+        self._pause.set()
+        try:
+            self._paused.wait(timeout=5.0)
+            running = [task for task in list(getattr(self.executor, "_futures", ()))
+                       if not task.done()]
+            wait_until(lambda: all(task.done() for task in running), 5.0)
+            yield
+        finally:
+            self._pause.clear()
+
     def remove(self, node) -> None:
-        """Stop spinning `node` and destroy it."""
-        if node in self._nodes:
-            self._nodes.remove(node)
-            self.executor.remove_node(node)
-        stop = getattr(node, "stop", None)
-        if callable(stop):
-            stop()
-        node.destroy_node()
+        """Stop spinning `node` and destroy it (`paused`)."""
+        with self.paused():
+            if node in self._nodes:
+                self._nodes.remove(node)
+                self.executor.remove_node(node)
+            stop = getattr(node, "stop", None)
+            if callable(stop):
+                stop()
+            node.destroy_node()
 
     def close(self) -> None:
         import rclpy
