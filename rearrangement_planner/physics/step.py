@@ -1143,7 +1143,7 @@ def _substeps(q0: np.ndarray, q1: np.ndarray, objects: np.ndarray, chain: tuple,
 def single_step(q0: np.ndarray, q1: np.ndarray, objects: np.ndarray, world: tuple,
                 out_objects: np.ndarray, info: np.ndarray, value: np.ndarray) -> int:
     """`step_kernel` with buffers of its own (`Physics.step`: one step at a time)."""
-    work = step_workspace(q1, world[0], world[1], objects, world[3])
+    work = step_workspace(world, q1, objects)
     return step_kernel(q0, q1, objects, world, out_objects, info, value, work)
 
 
@@ -1154,12 +1154,12 @@ _JOINTS, _TURN, _TOUCHED, _CHANGED = 13, 14, 15, 16
 
 
 @njit(cache=True)
-def step_workspace(q: np.ndarray, chain: tuple, shapes: np.ndarray, objects: np.ndarray,
-                   static_centre: np.ndarray) -> tuple:
-    """The buffers of a physics step (`step_kernel`) for the arm at q, its `chain` and contact
-    `shapes`, the `objects` (M, 3) and the table and obstacles: allocated once for a loop of
+def step_workspace(world: tuple, q: np.ndarray, objects: np.ndarray) -> tuple:
+    """The buffers of a physics step (`step_kernel`) in the scene's arrays `world` (a
+    `World`), for the arm at q and the `objects` (M, 3): allocated once for a loop of
     steps, as allocating them at every step cost a tenth of the step (`rearrangement-bench
     physics`). Named by _POSES_A .. _CHANGED."""
+    chain, shapes, static_centre = world[0], world[1], world[3]
     S, M = shapes.shape[0], objects.shape[0]
     capacity = S * M
     return (np.empty((S, 4, 4)), np.empty((S, 4, 4)), np.empty(q.shape[0]),

@@ -163,7 +163,7 @@ def test_a_step_skips_the_pairs_and_substeps_that_cannot_touch_and_ends_the_same
     start = State(q, scene.initial_state().objects)
     rng = np.random.default_rng(5)
     moved = boxed = exact = steps = 0
-    work = step_workspace(q, w.chain, w.shapes, np.array(start.objects), w.static_centre)
+    work = step_workspace(w, q, np.array(start.objects))
     for k in range(80):
         nullspace = rng.uniform(-0.3, 0.3, physics.robot.nq)
         if k % 2:       # a random action (Algorithm 2)

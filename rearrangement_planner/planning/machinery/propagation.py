@@ -293,7 +293,7 @@ def _propagate_kernel(q: np.ndarray, objects: np.ndarray, held: np.ndarray,
     the pushed object reached its target)."""
     info = np.zeros(4 + flags.shape[0], dtype=np.int64)
     value = np.zeros(1)
-    work = step_workspace(q, world[0], world[1], objects, world[3])
+    work = step_workspace(world, q, objects)
     g, pushed = int(goal[0]), int(policy[0])
     velocity = held.copy()
     for i in range(steps):
@@ -345,7 +345,7 @@ def _replay_kernel(arm: np.ndarray, objects: np.ndarray, goal: np.ndarray, world
     Returns (states filled, 0 | the invalid step's code | -_GOAL when the goal test of `goal`
     (object, x, y, radius; object -1: none) held at the last state filled)."""
     g = int(goal[0])
-    work = step_workspace(arm[0], world[0], world[1], objects[0], world[3])
+    work = step_workspace(world, arm[0], objects[0])
     for i in range(1, arm.shape[0]):
         info[:] = 0
         code = step_kernel(arm[i - 1], arm[i], objects[i - 1], world, objects[i], info, value, work)

@@ -130,7 +130,7 @@ def rollout_kernel(arm: np.ndarray, objects: np.ndarray, world: tuple, flags: in
     info = np.zeros(4 + flags, dtype=np.int64)
     value = np.zeros(1 + M)
     carried = np.zeros(M)
-    work = step_workspace(arm[0], world[0], world[1], objects[0], world[3])
+    work = step_workspace(world, arm[0], objects[0])
     for i in range(1, arm.shape[0]):
         info[:] = 0
         value[:] = 0.0
