@@ -151,8 +151,6 @@ class PushTarget:
     facing: bool = False
     """Turn the hand to face the push (its flat face across the push line, at most
     FACING_YAW_RATE): a line contact on the object's face rather than a corner (`face_push`)."""
-    along_faces: bool = False
-    """A box is pushed along its own face normals only, one leg per axis (`_face_leg`)."""
 
 
 def propagate(physics: Physics, state: State, steps: int, dt: float, nullspace: np.ndarray,
@@ -198,10 +196,6 @@ def propagate(physics: Physics, state: State, steps: int, dt: float, nullspace: 
 
 FACING_YAW_RATE = 1.0
 """rad/s: how fast a facing push turns the hand towards the push direction."""
-FACE_CONE = 0.5
-"""A push along a box's face heads at most atan(FACE_CONE mu_c) off the face's normal: half the
-friction cone of the hand on the box (mu_c its `pusher_friction`), a margin for the friction the
-execution meets."""
 
 
 _HELD: weakref.WeakKeyDictionary[RobotModel, np.ndarray] = weakref.WeakKeyDictionary()
@@ -211,22 +205,20 @@ _HELD: weakref.WeakKeyDictionary[RobotModel, np.ndarray] = weakref.WeakKeyDictio
 def _policy_array(physics: Physics, push: PushTarget | None) -> np.ndarray:
     """The push for `_propagate_kernel`: (object, target x, y, speed, cylinder (0/1), size x,
     size y, footprint radius, push band, the rows of R0, the posture's tool rotation, the
-    facing yaw rate (0: the hand keeps its yaw), along faces (0/1)); object -1: no push (the
-    velocity is held)."""
+    facing yaw rate (0: the hand keeps its yaw)); object -1: no push (the velocity is
+    held)."""
     posture = physics.robot.config.push_posture.rotation
     if push is None:
         held = _HELD.get(physics.robot)
         if held is None:
             held = _HELD[physics.robot] = np.concatenate(
-                [[-1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, PUSH_BAND], posture.ravel(),
-                 [0.0, 0.0, 0.0]])
+                [[-1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, PUSH_BAND], posture.ravel(), [0.0]])
         return held
     obj = physics.scene.objects[push.obj]
     return np.concatenate([[push.obj, push.target[0], push.target[1], push.speed,
                             float(obj.shape == "cylinder"), obj.size[0], obj.size[1],
                             obj.footprint_radius, PUSH_BAND], posture.ravel(),
-                           [FACING_YAW_RATE if push.facing else 0.0, float(push.along_faces),
-                            FACE_CONE * obj.pusher_friction]])
+                           [FACING_YAW_RATE if push.facing else 0.0]])
 
 
 @njit(cache=True)
@@ -241,36 +233,22 @@ def _push_velocity(tool_x: float, tool_y: float, tool_yaw: float, cx: float, cy:
     turn the object whatever its support pressure (test_pushing)."""
     tx, ty, speed, band = policy[1], policy[2], policy[3], policy[8]
     dx, dy = tx - cx, ty - cy
-    rx, ry = tool_x - cx, tool_y - cy
-    radius = policy[7]
-    faces = policy[19] > 0.0 and policy[4] == 0.0
-    if faces:
-        ux, uy, nx, ny, extent = _face_leg(dx, dy, rx, ry, yaw, policy[5], policy[6], band,
-                                           policy[20])
-        if extent < 0.0:
-            return False
-    else:
-        distance = math.hypot(dx, dy)
-        if distance < 0.01:
-            return False
-        ux, uy = dx / distance, dy / distance
-        nx, ny = ux, uy
-        if policy[4] > 0.0:                                # support distance along u
-            extent = radius
-        else:
-            c, s = math.cos(yaw), math.sin(yaw)
-            extent = 0.5 * (abs(c * ux + s * uy) * policy[5]
-                            + abs(-s * ux + c * uy) * policy[6])
+    distance = math.hypot(dx, dy)
+    if distance < 0.01:
+        return False
+    ux, uy = dx / distance, dy / distance
     px, py = -uy, ux
+    rx, ry = tool_x - cx, tool_y - cy
     along, across = rx * ux + ry * uy, rx * px + ry * py
+    radius = policy[7]
+    if policy[4] > 0.0:                                    # support distance along u
+        extent = radius
+    else:
+        c, s = math.cos(yaw), math.sin(yaw)
+        extent = 0.5 * (abs(c * ux + s * uy) * policy[5] + abs(-s * ux + c * uy) * policy[6])
     if abs(across) <= band and -(extent + 0.06) <= along <= -extent + 0.005:
-        # push, staying on the line (along a face: sideways at most a third of the speed, a
-        # hand sliding across the face would turn the box)
-        lateral = -(0.5 / dt) * across
-        if faces:
-            lateral = max(-speed / 3.0, min(speed / 3.0, lateral))
-        vx = ux * speed + lateral * px
-        vy = uy * speed + lateral * py
+        vx = ux * speed - (0.5 / dt) * across * px         # push, staying on the line
+        vy = uy * speed - (0.5 / dt) * across * py
     elif along > -extent - 0.005 and abs(across) < radius + 0.04:
         side = 1.0 if across >= 0 else -1.0                # go round it, on the tool's side
         vx = (cx + px * side * (radius + 0.07) - ux * (extent + 0.03) - tool_x) / dt
@@ -282,49 +260,11 @@ def _push_velocity(tool_x: float, tool_y: float, tool_yaw: float, cx: float, cy:
     if norm > speed:
         vx, vy = vx * (speed / norm), vy * (speed / norm)
     rate = 0.0
-    if policy[18] > 0.0:                                   # the hand across n
-        error = (math.atan2(ny, nx) - tool_yaw + 0.5 * math.pi) % math.pi - 0.5 * math.pi
+    if policy[18] > 0.0:
+        error = (math.atan2(uy, ux) - tool_yaw + 0.5 * math.pi) % math.pi - 0.5 * math.pi
         rate = max(-policy[18], min(policy[18], 0.5 * error / dt))
     out[0], out[1], out[2] = vx, vy, rate
     return True
-
-
-@njit(cache=True)
-def _face_leg(dx: float, dy: float, rx: float, ry: float, yaw: float, size_x: float,
-              size_y: float, band: float, cone: float) -> tuple[float, float, float, float,
-                                                               float]:
-    """The push of a box along its faces (`PushTarget.along_faces`): the hand flat on a face,
-    pushing within `cone` (the tangent of the angle) of its normal, is the stable push of
-    Lynch & Mason 1996: inside the friction cone the line contact sticks, and the box goes
-    where the hand goes without turning, whatever its support pressure; it is the push the
-    turn limit never refuses. The target offset (dx, dy) and the tool's (rx, ry) from the box
-    centre, in its frame: a leg pushes on one face while the offset along its normal is over
-    1 cm and the tool is in the push band behind it; a new leg takes the face whose normal
-    has the larger offset. The push heads for the target, turned into the cone. Returns the
-    world push direction, the face's normal (world) and the box's half extent along it, or an
-    extent of -1 once both offsets are within 1 cm."""
-    c, s = math.cos(yaw), math.sin(yaw)
-    a, b = c * dx + s * dy, -s * dx + c * dy
-    if abs(a) < 0.01 and abs(b) < 0.01:
-        return 0.0, 0.0, 0.0, 0.0, -1.0
-    tx, ty = c * rx + s * ry, -s * rx + c * ry
-    axis = 0 if abs(a) >= abs(b) else 1
-    for k in range(2):                                      # the leg under way, if any
-        offset, half = (a, 0.5 * size_x) if k == 0 else (b, 0.5 * size_y)
-        behind, side = (tx, ty) if k == 0 else (ty, tx)
-        sign = 1.0 if offset >= 0.0 else -1.0
-        if (abs(offset) >= 0.01 and abs(side) <= band
-                and -(half + 0.06) <= sign * behind <= -half + 0.005):
-            axis = k
-    normal, lateral, half = (a, b, 0.5 * size_x) if axis == 0 else (b, a, 0.5 * size_y)
-    sign = 1.0 if normal >= 0.0 else -1.0
-    slope = max(-cone, min(cone, lateral / abs(normal)))   # tangent off the normal
-    n_ox, n_oy = (sign, 0.0) if axis == 0 else (0.0, sign)  # object frame
-    e_ox, e_oy = (sign, slope) if axis == 0 else (slope, sign)
-    norm = math.hypot(e_ox, e_oy)
-    e_ox, e_oy = e_ox / norm, e_oy / norm
-    return (c * e_ox - s * e_oy, s * e_ox + c * e_oy, c * n_ox - s * n_oy, s * n_ox + c * n_oy,
-            half)
 
 
 @njit(cache=True)

@@ -52,8 +52,6 @@ class PushSettings(Protocol):
     def push_steps(self) -> int: ...
     @property
     def face_push(self) -> bool: ...
-    @property
-    def along_faces(self) -> bool: ...
 
 
 def support_distance(obj: MovableObject, yaw: float, u: np.ndarray) -> float:
@@ -68,8 +66,7 @@ def support_distance(obj: MovableObject, yaw: float, u: np.ndarray) -> float:
 
 def push_policy_prop(physics: Physics, state: State, obj: int, target: np.ndarray,
                      max_steps: int, dt: float, speed: float, nullspace: np.ndarray,
-                     stop: Stops | None = None, facing: bool = False,
-                     along_faces: bool = False) -> Propagation:
+                     stop: Stops | None = None, facing: bool = False) -> Propagation:
     """The feedback push of object `obj` from `state` towards `target` (x, y), at most
     `max_steps` steps of `dt`, the tool at most `speed` m/s per component, compiled
     (`propagation.propagate` with a `PushTarget`). The policy: from the tool's planar position
@@ -79,8 +76,7 @@ def push_policy_prop(physics: Physics, state: State, obj: int, target: np.ndarra
     target. The hand keeps its yaw, or with `facing` turns to face the push (`PushTarget`),
     and steers by the tool point (the finger pads, `tool_reach` past it, make the contact:
     the feedback closes the gap)."""
-    push = PushTarget(int(obj), (float(target[0]), float(target[1])), float(speed), facing,
-                      along_faces)
+    push = PushTarget(int(obj), (float(target[0]), float(target[1])), float(speed), facing)
     return propagate(physics, state, max_steps, dt, nullspace, stop, push=push)
 
 
@@ -122,7 +118,7 @@ class PushPolicy:
         """One closed-loop push of `obj` from x towards `where` (`push_policy_prop`)."""
         opts = self.options
         return push_policy_prop(self.physics, x, obj, where, steps, opts.dt, opts.max_speed,
-                                nullspace, stop, opts.face_push, opts.along_faces)
+                                nullspace, stop, opts.face_push)
 
     def _nullspace(self, rng: np.random.Generator) -> np.ndarray:
         speed = self.options.nullspace_speed

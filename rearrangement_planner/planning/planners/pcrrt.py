@@ -87,9 +87,6 @@ class PCRRTOptions(PushingPlannerOptions):
     line (a line contact, the stable push of Lynch & Mason 1996), instead of keeping the
     hand's yaw; the turn has its own bound (`propagation.FACING_YAW_RATE`, 1 rad/s), not
     max_yaw_rate, which bounds the random actions. Measured: docs/experiments.md."""
-    along_faces: bool = setting(False)
-    """The closed-loop pushes move a box along its face normals only, a leg per axis, the hand
-    flat on the face's centre (`propagation._face_leg`); cylinders as before."""
 
     def __post_init__(self) -> None:
         super().__post_init__()

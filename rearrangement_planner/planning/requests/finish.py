@@ -107,8 +107,7 @@ def _pushes(physics: Physics, states: tuple[State, ...], i: int, goal_xy: np.nda
     g, x = physics.scene.goal_index, states[i]
     nullspace = np.zeros(physics.robot.nq)
     yield push_policy_prop(physics, x, g, goal_xy, FINISH_STEPS, options.dt, options.max_speed,
-                           nullspace, stops, facing=True,
-                           along_faces=bool(getattr(options, "along_faces", False)))
+                           nullspace, stops, facing=True)
     here = x.objects[g, :2]
     moving = here - states[max(0, i - MOTION_STEPS)].objects[g, :2]
     to_goal = math.atan2(goal_xy[1] - here[1], goal_xy[0] - here[0])
