@@ -368,8 +368,10 @@ def robust_search(candidates: Candidates) -> tuple[Candidate, float | None]:
     most_robust = 0.0
     last: PlanResult | None = None
     searches = candidates
-    for k in range(robust.candidates):
+    for k in range(robust.candidates + robust.fragile_candidates):
         if candidates.stop.remaining() <= 0.001:
+            break
+        if k >= robust.candidates and (best is None or most_robust >= robust.fragile_below):
             break
         k_seed = candidate_seed(seed, k)
         last = searches.plan(k_seed)

@@ -48,6 +48,12 @@ class RobustOptions(Settings):
     candidates: int = setting(2, low=1, high=20)
     """Most candidate plans for min_robustness, all within the one time limit (a hard scene's
     searches use it up after one or two)."""
+    fragile_candidates: int = setting(0, low=0, high=20)
+    """More candidates, beyond `candidates`, planned while the best so far reaches the goal in
+    fewer than `fragile_below` of its rollouts (within the time limit and `candidate_effort`):
+    a fragile best is worth another look, a sound one is not. 0 = none."""
+    fragile_below: float = setting(0.5, low=0.0, high=1.0)
+    """The robustness below which the best candidate so far earns `fragile_candidates`."""
     candidate_effort: float = setting(1.0, low=0.0, high=1000.0)
     """A candidate after the first may search at most this many times the iterations the
     first plan took (at least `MIN_CANDIDATE_ITERATIONS`), so a request does not spend its
