@@ -702,6 +702,17 @@ def _tip_travel(kind: int, size: np.ndarray, dx: float, dy: float, height: float
     return 2.0 * d * (1.0 - math.cos(critical)) + height * math.sin(critical)
 
 
+@njit(cache=True, inline="always")
+def _apart(objects: np.ndarray, obj_props: np.ndarray, i: int, j: int,
+           tolerance: float) -> bool:
+    """Objects i and j cannot overlap by more than `tolerance` (>= 0): their footprints'
+    circles (`OBJ_FOOTPRINT`) are apart, so the prisms are, and `kernels.prism_penetration`
+    would answer a depth <= 0. A broad phase before it: most pairs of a scene are far."""
+    dx, dy = objects[i, 0] - objects[j, 0], objects[i, 1] - objects[j, 1]
+    reach = obj_props[i, OBJ_FOOTPRINT] + obj_props[j, OBJ_FOOTPRINT]
+    return tolerance >= 0.0 and dx * dx + dy * dy > reach * reach
+
+
 @njit(cache=True)
 def _resolve_object_contacts(objects: np.ndarray, new_objects: np.ndarray,
                              changed: np.ndarray, count: int, c_shape: np.ndarray,
@@ -717,7 +728,8 @@ def _resolve_object_contacts(objects: np.ndarray, new_objects: np.ndarray,
     them (`pushing.multibody_twists_kernel`): the arm's contacts on any of them, and their
     contacts with each other (`_group_contacts`). Replaces the group's poses in new_objects;
     the rest keep theirs. Returns _VALID or the invalid code."""
-    group = _contact_group(objects, new_objects, changed, obj_kind, obj_size, options)
+    group = _contact_group(objects, new_objects, changed, obj_kind, obj_size, obj_props,
+                           options)
     if _drop_static(group, new_objects, changed, obj_kind, obj_size, obj_props, options, info):
         return _OBJECT_OVERLAP
     members = np.flatnonzero(group)
@@ -766,7 +778,9 @@ def _drop_static(group: np.ndarray, new_objects: np.ndarray, changed: np.ndarray
         if group[m] and obj_props[m, OBJ_STATIC] > 0.0:
             group[m] = False
             for peer in range(group.shape[0]):
-                if changed[peer] and peer != m and kernels.prism_penetration(
+                if changed[peer] and peer != m and not _apart(
+                        new_objects, obj_props, m, peer, options[OPT_OVERLAP]) and \
+                        kernels.prism_penetration(
                         obj_kind[m], obj_size[m], new_objects[m, 0], new_objects[m, 1],
                         new_objects[m, 2], obj_kind[peer], obj_size[peer],
                         new_objects[peer, 0], new_objects[peer, 1],
@@ -778,8 +792,8 @@ def _drop_static(group: np.ndarray, new_objects: np.ndarray, changed: np.ndarray
 
 @njit(cache=True)
 def _contact_group(objects: np.ndarray, new_objects: np.ndarray, changed: np.ndarray,
-                   obj_kind: np.ndarray, obj_size: np.ndarray, options: np.ndarray
-                   ) -> np.ndarray:
+                   obj_kind: np.ndarray, obj_size: np.ndarray, obj_props: np.ndarray,
+                   options: np.ndarray) -> np.ndarray:
     """(M,) the objects of one contact problem: those a moved object overlaps after the
     pushes of step 5 (beyond the overlap tolerance), and every object within
     `_CONTACT_MARGIN` substeps of one of them at the substep's start, transitively. Empty
@@ -788,7 +802,9 @@ def _contact_group(objects: np.ndarray, new_objects: np.ndarray, changed: np.nda
     group = np.zeros(M, dtype=np.bool_)
     for i in range(M):
         for j in range(i + 1, M):
-            if (changed[i] or changed[j]) and kernels.prism_penetration(
+            if (changed[i] or changed[j]) and not _apart(
+                    new_objects, obj_props, i, j, options[OPT_OVERLAP]) and \
+                    kernels.prism_penetration(
                     obj_kind[i], obj_size[i], new_objects[i, 0], new_objects[i, 1],
                     new_objects[i, 2], obj_kind[j], obj_size[j], new_objects[j, 0],
                     new_objects[j, 1], new_objects[j, 2]) > options[OPT_OVERLAP]:
@@ -933,8 +949,8 @@ start join one contact problem: within a substep nothing moves farther than one.
 @kernels.njit_bare
 def _object_checks(objects: np.ndarray, which: np.ndarray, static_centre: np.ndarray,
                    static_yaw: np.ndarray, static_size: np.ndarray, obj_kind: np.ndarray,
-                   obj_size: np.ndarray, table: np.ndarray, options: np.ndarray,
-                   info: np.ndarray) -> int:
+                   obj_size: np.ndarray, obj_props: np.ndarray, table: np.ndarray,
+                   options: np.ndarray, info: np.ndarray) -> int:
     """The objects in `which` overlap no other object or obstacle (beyond the overlap
     tolerance) and keep their centres on the table."""
     M = objects.shape[0]
@@ -942,7 +958,7 @@ def _object_checks(objects: np.ndarray, which: np.ndarray, static_centre: np.nda
     pair_tol = options[OPT_CONTACT_TOLERANCE] if options[OPT_OBJECT_CONTACT] > 0.0 else tol
     for i in range(M):
         for j in range(i + 1, M):
-            if not (which[i] or which[j]):
+            if not (which[i] or which[j]) or _apart(objects, obj_props, i, j, pair_tol):
                 continue
             depth = kernels.prism_penetration(
                 obj_kind[i], obj_size[i], objects[i, 0], objects[i, 1], objects[i, 2],
@@ -1101,7 +1117,7 @@ def _substep(poses_a: np.ndarray, poses_b: np.ndarray, objects: np.ndarray,
         return _RESIDUAL
     if any_changed:
         return _object_checks(new_objects, changed, static_centre, static_yaw, static_size,
-                              obj_kind, obj_size, table, options, info)
+                              obj_kind, obj_size, obj_props, table, options, info)
     return _VALID
 
 
@@ -1257,4 +1273,4 @@ def check_state_kernel(q: np.ndarray, objects: np.ndarray, chain: tuple, shapes:
         value[0] = depth
         return _RESIDUAL
     return _object_checks(objects, everything, static_centre, static_yaw, static_size,
-                          obj_kind, obj_size, table, options, info)
+                          obj_kind, obj_size, obj_props, table, options, info)

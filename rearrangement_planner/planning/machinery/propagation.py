@@ -120,7 +120,7 @@ class Propagation:
     @cached_property
     def states(self) -> tuple[State, ...]:
         """The state after every step."""
-        return tuple(State.trusted(self.arm[i], self.objects[i]) for i in range(self.count))
+        return tuple(State.rows(self.arm, self.objects))
 
     def prefix(self, k: int, duration: float) -> Propagation:
         """The first k steps (`duration` s), stopped for no reason of their own."""
@@ -331,7 +331,7 @@ def replay(physics: Physics, start: State, arm_path: np.ndarray | Sequence[np.nd
     info = np.zeros(4 + physics.flag_count, dtype=np.int64)
     value = np.zeros(1)
     count, code = _replay_kernel(arm, objects, goal, physics.arrays, info, value)
-    states = [start, *(State.trusted(arm[i], objects[i]) for i in range(1, count))]
+    states = [start, *State.rows(arm[1:count], objects[1:count])]
     if code > 0:
         reason = physics.reason(code)
         return states, f"{reason.value}: {physics.describe(code, info, value, arm[count])}"

@@ -84,8 +84,8 @@ class Tree:
             node = int(self.parent[node])
         states = [root]
         for start, end in reversed(pieces):
-            states.extend(State.trusted(self._step_q[k].copy(), self._step_objects[k].copy())
-                          for k in range(start, end))
+            states.extend(State.rows(self._step_q[start:end].copy(),
+                                     self._step_objects[start:end].copy()))
         return states
 
 
