@@ -236,6 +236,35 @@ def test_candidates_are_ranked_by_robustness_less_the_travel_penalty(slim, remem
     assert picks == {0.0: 0, 0.5: 0, 10.0: 2}, picks
 
 
+def test_a_fragile_best_earns_more_candidates_a_sound_one_does_not(slim, remembered_searches,
+                                                                   monkeypatch):
+    """fragile_candidates: past `candidates`, robust selection searches on while its best so
+    far is below fragile_below. The slim box's three candidates of seed 23 score 0.7, 0.4 and
+    0.5 (10 rollouts): after one candidate, with two more for a fragile best, fragile_below 0.8
+    searches all three (the best stays 0.7) and answers the best ranked, 0.6 stops at the
+    first; with none (the default) the first answers too."""
+    from rearrangement_planner.planning.requests.pipeline import Candidates
+
+    options = PCRRTOptions(time_limit=60.0)
+    scores = [score for _, score, _ in _three_candidates(slim, "slim", 23)]
+    assert scores == [0.7, 0.4, 0.5], scores
+    seeds: list[int] = []
+    remembered = Candidates.plan
+    monkeypatch.setattr(Candidates, "plan",
+                        lambda self, seed: seeds.append(seed) or remembered(self, seed))
+    searched = {}
+    for below, more in ((0.8, 2), (0.6, 2), (0.8, 0)):
+        robust = RobustOptions(min_robustness=1.0, rollouts=10, candidates=1,
+                               fragile_candidates=more, fragile_below=below,
+                               candidate_effort=0.0)
+        answer = plan_scene(PlanRequest.first_plan(slim, "pc-rrt", options, seed=23,
+                                                   robust=robust))
+        assert answer.solved and answer.robustness == 0.7
+        searched[below, more] = len(seeds)
+        seeds.clear()
+    assert searched == {(0.8, 2): 3, (0.6, 2): 1, (0.8, 0): 1}, searched
+
+
 def test_later_candidates_search_at_most_candidate_effort_times_the_first_plans_iterations(
         slim, monkeypatch):
     """The slim box with seed 23: the first plan takes 696 iterations, the next two seeds

@@ -353,14 +353,16 @@ def _answer(candidate: Candidate, t0: float, seed: int) -> Candidate:
 def robust_search(candidates: Candidates) -> tuple[Candidate, float | None]:
     """Candidates (the request's seed, then derived seeds), each shortcut, until one is robust
     enough; else the best ranked: its robustness less travel_penalty per metre it pushes the
-    goal object. The rollouts judge the shortcut path: the one the answer holds. Searches stop
-    at the time limit, shortcuts at the time limit plus shortcut_time (a request takes no
-    longer than without robust selection); the searches after the first plan also after
-    `candidate_effort` times its iterations (`robustness.candidate_iterations`: a plan the
-    first search took long to find is not worth as long again to better, a quick one is worth
-    a quick look). The answer's plan time is all of it but its own
-    shortcutting (reported apart, as without robust selection), and its seed the request's
-    (which reproduces the whole selection). A cancel ends it with the cancelled search."""
+    goal object. `candidates` of them, and up to `fragile_candidates` more while the best so
+    far is below `fragile_below`. The rollouts judge the shortcut path: the one the answer
+    holds. Searches stop at the time limit, shortcuts at the time limit plus shortcut_time
+    (a request takes no longer than without robust selection); the searches after the first
+    plan also after `candidate_effort` times its iterations
+    (`robustness.candidate_iterations`: a plan the first search took long to find is not
+    worth as long again to better, a quick one is worth a quick look). The answer's plan time
+    is all of it but its own shortcutting (reported apart, as without robust selection), and
+    its seed the request's (which reproduces the whole selection). A cancel ends it with the
+    cancelled search."""
     request = candidates.request
     robust, seed = request.robust, request.seed
     t0 = time.monotonic()
@@ -368,11 +370,13 @@ def robust_search(candidates: Candidates) -> tuple[Candidate, float | None]:
     most_robust = 0.0
     last: PlanResult | None = None
     searches = candidates
+    searched = 0
     for k in range(robust.candidates + robust.fragile_candidates):
         if candidates.stop.remaining() <= 0.001:
             break
         if k >= robust.candidates and (best is None or most_robust >= robust.fragile_below):
-            break
+            break               # past `candidates`, only a fragile best earns another look
+        searched += 1
         k_seed = candidate_seed(seed, k)
         last = searches.plan(k_seed)
         if last.outcome is Outcome.CANCELLED:
@@ -400,6 +404,6 @@ def robust_search(candidates: Candidates) -> tuple[Candidate, float | None]:
     return Candidate(dataclasses.replace(
         fragile.result, outcome=Outcome.TIMEOUT, states=(),
         message=f"no plan reached min_robustness {robust.min_robustness:g} within "
-                f"{robust.candidates} candidates: the most robust reached the goal in "
+                f"{searched} candidates: the most robust reached the goal in "
                 f"{most_robust:.0%} of {robust.rollouts} perturbed rollouts",
         plan_time=time.monotonic() - t0)), most_robust

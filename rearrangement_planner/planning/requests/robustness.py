@@ -46,13 +46,16 @@ class RobustOptions(Settings):
     rollouts: int = setting(20, low=1, high=1000)
     """Perturbed rollouts per candidate plan (with min_robustness > 0)."""
     candidates: int = setting(2, low=1, high=20)
-    """Most candidate plans for min_robustness, all within the one time limit (a hard scene's
-    searches use it up after one or two)."""
-    fragile_candidates: int = setting(0, low=0, high=20)
+    """Candidate plans for min_robustness, all within the one time limit (a hard scene's
+    searches use it up after one or two); `fragile_candidates` more for a fragile best."""
+    fragile_candidates: int = setting(3, low=0, high=20)
     """More candidates, beyond `candidates`, planned while the best so far reaches the goal in
     fewer than `fragile_below` of its rollouts (within the time limit and `candidate_effort`):
-    a fragile best is worth another look, a sound one is not. 0 = none."""
-    fragile_below: float = setting(0.5, low=0.0, high=1.0)
+    a fragile best is worth another look, a sound one is not. The score is calibrated (a plan
+    scored s reaches in about s of its perturbed executions), so a best below 0.3 is a plan
+    that mostly misses. 0 = none. Measured: docs/benchmark.md ("More candidates for a fragile
+    best")."""
+    fragile_below: float = setting(0.3, low=0.0, high=1.0)
     """The robustness below which the best candidate so far earns `fragile_candidates`."""
     candidate_effort: float = setting(1.0, low=0.0, high=1000.0)
     """A candidate after the first may search at most this many times the iterations the
