@@ -8,7 +8,7 @@ import csv, sys, statistics
 rows=list(csv.DictReader(open(sys.argv[1])))
 arms={}
 for r in rows: arms.setdefault(r['planner'],{})[(r['scene'],r['seed'])]=r
-ok=lambda r: r['solved']=='1' and r['executed_servo']=='1' and r['executed_toppled']!='1'
+ok=lambda r: r['solved']=='1' and r['executed_servo']=='1' and int(r['executed_toppled'] or 0)==0
 names=list(arms)
 common=set.intersection(*[set(a) for a in arms.values()])
 for n in names:
@@ -17,7 +17,7 @@ for n in names:
     both=[k for k in common if all(arms[m][k]['solved']=='1' for m in names)]
     tb=statistics.median(float(arms[n][k]['plan_time_s']) for k in both) if both else 0
     pr=sum(int(r['perturbed_reached'] or 0) for r in rs); pt=sum(int(r['perturbed_trials'] or 0) for r in rs)
-    print(f"{n}: n {len(rs)} reached {sum(map(ok,rs))} solved {sum(r['solved']=='1' for r in rs)} toppling {sum(r['executed_toppled']=='1' for r in rs)} perturbed {pr}/{pt} median {statistics.median(t):.1f} p90 {t[int(0.9*len(t))-1]:.1f} both-solved({len(both)}) median {tb:.1f} cand {statistics.mean(float(r['candidates'] or 0) for r in rs):.2f}")
+    print(f"{n}: n {len(rs)} reached {sum(map(ok,rs))} solved {sum(r['solved']=='1' for r in rs)} toppling {sum(int(r['executed_toppled'] or 0)>0 for r in rs)} perturbed {pr}/{pt} median {statistics.median(t):.1f} p90 {t[int(0.9*len(t))-1]:.1f} both-solved({len(both)}) median {tb:.1f} cand {statistics.mean(float(r['candidates'] or 0) for r in rs):.2f}")
 a,b=names[0],names[1]
 for k in sorted(common):
     x,y=arms[a][k],arms[b][k]

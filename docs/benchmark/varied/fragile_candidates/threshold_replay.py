@@ -10,7 +10,7 @@ perturbed executions reached, request time median and mean.
 import csv, statistics
 A={(r['scene'],r['seed']):r for r in csv.DictReader(open('docs/benchmark/varied/second_candidate/trials.csv')) if r['planner']=='pc-rrt'}
 B={(r['scene'],r['seed']):r for r in csv.DictReader(open('docs/benchmark/varied/fragile_candidates/seeds01_below05/trials.csv'))}
-ok=lambda r: r['solved']=='1' and r['executed_servo']=='1' and r['executed_toppled']!='1'
+ok=lambda r: r['solved']=='1' and r['executed_servo']=='1' and int(r['executed_toppled'] or 0)==0
 for th in (0.5,0.4,0.3,0.25,0.2):
     rows=[]
     for k,a in A.items():
@@ -18,4 +18,4 @@ for th in (0.5,0.4,0.3,0.25,0.2):
         rows.append(B[k] if use_b else a)
     t=sorted(float(r['plan_time_s']) for r in rows)
     pr=sum(int(r['perturbed_reached'] or 0) for r in rows); pt=sum(int(r['perturbed_trials'] or 0) for r in rows)
-    print(th, sum(map(ok,rows)), sum(r['executed_toppled']=='1' for r in rows), f"{pr}/{pt}", round(statistics.median(t),2), round(statistics.mean(t),1))
+    print(th, sum(map(ok,rows)), sum(int(r['executed_toppled'] or 0)>0 for r in rows), f"{pr}/{pt}", round(statistics.median(t),2), round(statistics.mean(t),1))
