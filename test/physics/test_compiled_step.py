@@ -296,3 +296,38 @@ def test_the_compiled_replay_equals_physics_steps_and_stops_at_the_goal():
     cut, problem = replay(physics, start, arm, until=until)
     inside = [np.hypot(*(s.objects[g, :2] - end)) <= 0.05 for s in full]
     assert problem == "" and len(cut) == inside.index(True) + 1 < len(arm)
+
+
+def test_the_object_pair_broad_phase_never_passes_over_an_overlap():
+    """`step._apart` lets the object checks skip a pair only when the footprints' circles are
+    apart: then `kernels.prism_penetration` says they do not overlap, so the step's verdicts
+    are those without it. Random boxes and cylinders near one another, both ways; it skips
+    far pairs, never touching ones, and never for a negative tolerance."""
+    from rearrangement_planner.physics import kernels
+    from rearrangement_planner.physics.step import OBJ_FOOTPRINT, _apart
+
+    rng = np.random.default_rng(5)
+    skipped = 0
+    for _ in range(3000):
+        kinds = rng.integers(0, 2, 2)
+        sizes = np.empty((2, 3))
+        props = np.zeros((2, OBJ_FOOTPRINT + 1))
+        for k in range(2):
+            if kinds[k] == 0:
+                sizes[k] = [*rng.uniform(0.03, 0.12, 2), 0.1]
+                kind = kernels.BOX
+            else:
+                sizes[k] = [2 * rng.uniform(0.02, 0.05)] * 2 + [0.1]
+                kind = kernels.CYLINDER
+            kinds[k] = kind
+            props[k, OBJ_FOOTPRINT] = (0.5 * sizes[k, 0] if kind == kernels.CYLINDER
+                                       else 0.5 * math.hypot(sizes[k, 0], sizes[k, 1]))
+        objects = np.array([[0.0, 0.0, rng.uniform(-3, 3)],
+                            [*rng.uniform(-0.2, 0.2, 2), rng.uniform(-3, 3)]])
+        depth = kernels.prism_penetration(kinds[0], sizes[0], *objects[0], kinds[1], sizes[1],
+                                          *objects[1])
+        if _apart(objects, props, 0, 1, 0.0):
+            skipped += 1
+            assert depth <= 0.0, (kinds, sizes, objects, depth)
+        assert not _apart(objects, props, 0, 1, -1e-3)
+    assert 500 < skipped < 2900, skipped

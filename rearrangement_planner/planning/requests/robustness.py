@@ -40,7 +40,8 @@ class RobustOptions(Settings):
     """A plan is judged by the share of `rollouts` perturbed worlds (object poses 5 mm / 2 deg,
     friction x0.7-1.3, mass x0.8-1.2, the arm's contact shapes +-5 mm) in which it reaches the
     goal in the planner's physics. The first candidate reaching min_robustness answers; else
-    up to `candidates` are planned within the time limit and the best ranked answers
+    `candidates` (and `fragile_candidates` more for a fragile best) are planned within the
+    time limit and the best ranked answers
     (`accept_best`) or the request fails. 0 = the first plan, unchecked. Results:
     docs/benchmark.md."""
     rollouts: int = setting(20, low=1, high=1000)
