@@ -37,25 +37,6 @@ def test_the_default_request_is_the_settings_defaults(scene):
     assert request.trees == 2 and request.robust == RobustOptions()
 
 
-def test_the_alternate_planner_plans_in_the_same_world_and_can_plan_the_scene(scene):
-    """PC-RRT's every second robust-selection candidate is the slice-based RRT's by default,
-    and a slice-based RRT request's PC-RRT's when asked; never a planner of another world (the
-    Static RRT's static objects, DARRT's rigid carrying), nor one that cannot plan the scene
-    (the xArm7 has no learned oracle)."""
-    assert PlanRequest(scene).alternate() is PLANNERS["slice-rrt"]
-    same = RobustOptions(alternate_planner="same")
-    assert PlanRequest(scene, robust=same).alternate() is None
-    assert PlanRequest(scene, "slice-rrt").alternate() is None
-    assert PlanRequest(scene, "slice-rrt", robust=RobustOptions(
-        alternate_planner="pc-rrt")).alternate() is PLANNERS["pc-rrt"]
-    assert PlanRequest(scene, "static-rrt").alternate() is None
-    assert PlanRequest(scene, "darrt").alternate() is None
-    xarm = load_scene("default_xarm7")
-    with pytest.raises(ValueError, match="no learned oracle for robot 'xarm7'"):
-        PlanRequest(xarm, "slice-rrt")
-    assert PlanRequest(xarm).alternate() is None
-
-
 def test_first_plan_is_the_planner_alone(scene):
     request = PlanRequest.first_plan(scene, "static-rrt", seed=4)
     assert (request.trees, request.shortcut, request.robust, request.seed) == \

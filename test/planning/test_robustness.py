@@ -33,7 +33,6 @@ from rearrangement_planner.planning.machinery.push_policy import push_policy_pro
 from rearrangement_planner.planning.requests.parallel import tree_seed
 from rearrangement_planner.planning.requests.pipeline import CANDIDATE_SEED_OFFSET
 from rearrangement_planner.planning.requests.robustness import (
-    ALTERNATE_MIN_ITERATIONS,
     MIN_CANDIDATE_ITERATIONS,
     RobustOptions,
     candidate_iterations,
@@ -46,12 +45,6 @@ from rearrangement_planner.planning.requests.shortcut import ShortcutOptions
 @pytest.fixture(scope="module")
 def easy(panda):
     return load_scene("easy_push", robot=panda)
-
-
-def _own(**values) -> RobustOptions:
-    """Robust selection among the request's own planner's candidates (these tests are about
-    PC-RRT's; `alternate_planner` has its own below)."""
-    return RobustOptions(alternate_planner="same", **values)
 
 
 FREE = PhysicsOptions(tipping=False, max_turn=0.0)
@@ -117,12 +110,12 @@ def test_the_pipeline_accepts_only_robust_enough_plans(easy):
     options = PCRRTOptions(time_limit=60.0, goal_margin=0.03)
     lenient = plan_scene(PlanRequest.first_plan(
         easy, "pc-rrt", options, seed=1,
-        robust=_own(min_robustness=0.5, rollouts=10, candidates=8, accept_best=False)))
+        robust=RobustOptions(min_robustness=0.5, rollouts=10, candidates=8, accept_best=False)))
     assert lenient.solved and lenient.robustness is not None and lenient.robustness >= 0.5
     assert lenient.to_dict()["robustness"] == lenient.robustness
     strict = plan_scene(PlanRequest.first_plan(
         easy, "pc-rrt", options, seed=1,
-        robust=_own(min_robustness=1.0, rollouts=10, candidates=1, accept_best=False)))
+        robust=RobustOptions(min_robustness=1.0, rollouts=10, candidates=1, accept_best=False)))
     if strict.robustness is not None and strict.robustness < 1.0:
         assert not strict.solved and "no plan reached min_robustness 1" in strict.result.message
     unchecked = plan_scene(PlanRequest.first_plan(easy, "pc-rrt", options, seed=1))
@@ -184,10 +177,10 @@ def remembered_searches(monkeypatch):
 
     search = Candidates.plan
 
-    def plan(self, seed, planner=None):
-        key = (id(self.request.scene), seed, planner and planner.name)
+    def plan(self, seed):
+        key = (id(self.request.scene), seed)
         if key not in _SEARCHES:
-            _SEARCHES[key] = search(self, seed, planner)
+            _SEARCHES[key] = search(self, seed)
         return _SEARCHES[key]
 
     monkeypatch.setattr(Candidates, "plan", plan)
@@ -208,14 +201,14 @@ def test_with_accept_best_the_most_robust_candidate_answers_when_none_is_robust_
     assert 0 < int(np.argmax(scores)) and max(scores) < 1.0, scores    # 0.6, 0.9, 0.9
     expected = three_candidates[int(np.argmax(scores))]
     best = plan_scene(PlanRequest.first_plan(easy, "pc-rrt", options, seed=11,
-                                             robust=_own(
+                                             robust=RobustOptions(
         min_robustness=1.0, rollouts=10, candidates=3, candidate_effort=0.0, travel_penalty=0.0,
         accept_best=True)))
     assert best.solved and best.robustness == expected[1], (best.robustness, scores)
     assert best.result.seed == 11          # the request's seed, which reproduces the choice
     assert _same_path(best, expected[0])
     refused = plan_scene(PlanRequest.first_plan(easy, "pc-rrt", options, seed=11,
-                                                robust=_own(min_robustness=1.0,
+                                                robust=RobustOptions(min_robustness=1.0,
                                                                      rollouts=10, candidates=3,
                                                                      candidate_effort=0.0,
                                                                      accept_best=False)))
@@ -235,7 +228,7 @@ def test_candidates_are_ranked_by_robustness_less_the_travel_penalty(slim, remem
         ranks = [score - penalty * travel for _, score, travel in three_candidates]
         picks[penalty] = int(np.argmax(ranks))
         chosen = plan_scene(PlanRequest.first_plan(slim, "pc-rrt", options, seed=23,
-                                                   robust=_own(
+                                                   robust=RobustOptions(
             min_robustness=1.0, rollouts=10, candidates=3, candidate_effort=0.0,
             travel_penalty=penalty)))
         expected = three_candidates[picks[penalty]]
@@ -258,11 +251,10 @@ def test_a_fragile_best_earns_more_candidates_a_sound_one_does_not(slim, remembe
     seeds: list[int] = []
     remembered = Candidates.plan
     monkeypatch.setattr(Candidates, "plan",
-                        lambda self, seed, planner=None: seeds.append(seed)
-                        or remembered(self, seed, planner))
+                        lambda self, seed: seeds.append(seed) or remembered(self, seed))
     searched = {}
     for below, more in ((0.8, 2), (0.6, 2), (0.8, 0)):
-        robust = _own(min_robustness=1.0, rollouts=10, candidates=1,
+        robust = RobustOptions(min_robustness=1.0, rollouts=10, candidates=1,
                                fragile_candidates=more, fragile_below=below,
                                candidate_effort=0.0)
         answer = plan_scene(PlanRequest.first_plan(slim, "pc-rrt", options, seed=23,
@@ -284,8 +276,8 @@ def test_later_candidates_search_at_most_candidate_effort_times_the_first_plans_
     searched: dict[int, tuple] = {}
     search = Candidates.plan
 
-    def plan(self, seed, planner=None):
-        result = search(self, seed, planner)
+    def plan(self, seed):
+        result = search(self, seed)
         searched[seed] = (self.stop.max_iterations, result.iterations, result.outcome)
         return result
 
@@ -294,7 +286,7 @@ def test_later_candidates_search_at_most_candidate_effort_times_the_first_plans_
     later = [candidate_seed(23, k) for k in (1, 2)]
     for effort, bound in ((1.0, 696), (10.0, 6960)):
         searched.clear()
-        robust = _own(min_robustness=1.0, rollouts=10, candidates=3,
+        robust = RobustOptions(min_robustness=1.0, rollouts=10, candidates=3,
                                candidate_effort=effort)
         assert candidate_iterations(robust, 696) == bound
         answer = plan_scene(PlanRequest.first_plan(slim, "pc-rrt", options, seed=23,
@@ -305,49 +297,6 @@ def test_later_candidates_search_at_most_candidate_effort_times_the_first_plans_
         solved = [searched[seed][2] is Outcome.SUCCEEDED for seed in later]
         assert solved == ([False, False] if effort == 1.0 else [True, True]), searched
     assert [searched[seed][1] for seed in later] == [5830, 2070]
-
-
-def test_every_second_candidate_is_the_alternate_planners(easy, slim, remembered_searches,
-                                                         monkeypatch):
-    """alternate_planner: robust selection's second candidate is the slice-based RRT's, searched
-    with the request's shared settings and bounded like any later candidate, but by at least
-    ALTERNATE_MIN_ITERATIONS. easy_push with seed 11: PC-RRT's first plan (2,499 iterations)
-    scores 0.6, the slice-based RRT's 0.9, which answers and says it found the plan. The slim
-    box with seed 23: PC-RRT's first takes 696 iterations, the slice-based RRT gets 2,000 and
-    finds none, and the first answers. With `same`, the second is PC-RRT's own (0.9 too)."""
-    from rearrangement_planner.planning.requests.pipeline import Candidates
-
-    searched: list[tuple] = []
-    search = Candidates.plan
-
-    def plan(self, seed, planner=None):
-        result = search(self, seed, planner)
-        searched.append((planner.name if planner else self.request.planner.name,
-                         self.stop.max_iterations, result.iterations, result.solved))
-        return result
-
-    monkeypatch.setattr(Candidates, "plan", plan)
-    options = PCRRTOptions(time_limit=60.0)
-    answers = {}
-    for scene, seed, alternate in ((easy, 11, "slice-rrt"), (slim, 23, "slice-rrt"),
-                                   (easy, 11, "same")):
-        searched.clear()
-        robust = RobustOptions(min_robustness=1.0, rollouts=10, candidates=2,
-                               alternate_planner=alternate)
-        answer = plan_scene(PlanRequest.first_plan(scene, "pc-rrt", options, seed=seed,
-                                                   robust=robust))
-        answers[seed, alternate] = (answer.found_by, answer.robustness, list(searched))
-        assert answer.to_dict()["found_by"] == answer.found_by
-    found_by, score, (first, second) = answers[11, "slice-rrt"]
-    assert (found_by, score) == ("slice-rrt", 0.9)
-    assert first == ("pc-rrt", options.max_iterations, 2499, True)
-    assert second[:2] == ("slice-rrt", 2499) and second[3]
-    found_by, score, (first, second) = answers[23, "slice-rrt"]
-    assert (found_by, score) == ("pc-rrt", 0.7)
-    assert first[2] == 696 and second == ("slice-rrt", ALTERNATE_MIN_ITERATIONS, 2000, False)
-    found_by, score, searches = answers[11, "same"]
-    assert (found_by, score) == ("pc-rrt", 0.9)
-    assert [s[0] for s in searches] == ["pc-rrt", "pc-rrt"] and searches[1][1] == 2499
 
 
 def test_the_candidate_effort_bound_has_a_floor_and_can_be_lifted():
@@ -402,7 +351,7 @@ def test_the_rollouts_judge_the_shortcut_plan_and_count_in_its_plan_time(easy, m
     from rearrangement_planner.planning.requests import pipeline
 
     options = PCRRTOptions(time_limit=60.0)
-    robust = _own(min_robustness=0.1, rollouts=10, candidates=1)
+    robust = RobustOptions(min_robustness=0.1, rollouts=10, candidates=1)
     output = plan_scene(PlanRequest.first_plan(easy, "pc-rrt", options, seed=5,
                                                shortcut=ShortcutOptions(60.0, 20), robust=robust))
     assert output.solved and output.metrics_before_shortcut is not None
@@ -493,12 +442,11 @@ def test_a_cancel_ends_the_selection_not_only_the_candidate(panda, cancel_after,
     planned = []
     plan = Candidates.plan
     monkeypatch.setattr(Candidates, "plan",
-                        lambda self, seed, planner=None: planned.append(seed)
-                        or plan(self, seed, planner))
+                        lambda self, seed: planned.append(seed) or plan(self, seed))
     clutter = load_scene("clutter", robot=panda)             # not solved in 1 s
     request = PlanRequest.first_plan(
         clutter, "pc-rrt", PCRRTOptions(time_limit=60.0, goal_bias=0.0), seed=3,
-        robust=_own(min_robustness=0.9, rollouts=4, candidates=4))
+        robust=RobustOptions(min_robustness=0.9, rollouts=4, candidates=4))
     output, running, latency = cancel_after(lambda cancel: plan_scene(request, cancel), 1.0)
     assert running and latency < 0.5
     assert output.result.outcome.name == "CANCELLED" and not output.solved

@@ -31,10 +31,8 @@ from rearrangement_planner.planning.machinery.interface import (
 from rearrangement_planner.planning.machinery.termination import Termination
 from rearrangement_planner.planning.requests.finish import FINISH_TIME, finish
 from rearrangement_planner.planning.requests.parallel import plan_race, tree_seed
-from rearrangement_planner.planning.requests.registry import PlannerSpec
 from rearrangement_planner.planning.requests.request import PlanRequest
 from rearrangement_planner.planning.requests.robustness import (
-    ALTERNATE_MIN_ITERATIONS,
     candidate_iterations,
     candidate_rank,
     goal_travel,
@@ -135,9 +133,6 @@ class PlanOutput:
     min_robustness: float = 0.0
     """The request's min_robustness (0: robustness not asked for)."""
     phases: Phases = dataclasses.field(default_factory=Phases)
-    found_by: str = ""
-    """The planner whose search found the plan: the request's, or robust selection's
-    alternate (`alternate_planner`); '' when none was found."""
 
     @property
     def solved(self) -> bool:
@@ -176,7 +171,6 @@ class PlanOutput:
             "outcome": result.outcome.value,
             "message": result.message,
             "planner": self.planner,
-            "found_by": self.found_by,
             "seed": result.seed,
             "plan_time_s": result.plan_time,
             "iterations": result.iterations,
@@ -259,7 +253,7 @@ def plan_scene(request: PlanRequest, cancel: threading.Event | None = None,
     return PlanOutput(scene, name, result, trajectory, states,
                       PathMetrics.of(scene, result.states),
                       candidate.before if shortened else None, candidate.shortcut_time,
-                      score, floor, phases, candidate.planner or name)
+                      score, floor, phases)
 
 
 @dataclass(frozen=True)
@@ -270,8 +264,6 @@ class Candidate:
     before: PathMetrics | None = None
     """The path before shortcutting."""
     shortcut_time: float = 0.0
-    planner: str = ""
-    """The planner whose search found it ('': the request's own)."""
 
 
 @dataclass(frozen=True)
@@ -289,19 +281,16 @@ class Candidates:
     progress: ProgressCallback | None = None
     phases: Phases = dataclasses.field(default_factory=Phases)
 
-    def plan(self, seed: int, planner: PlannerSpec | None = None) -> PlanResult:
-        """The request's search with `seed`, within `stop`: by the request's planner, or by
-        `planner` (robust selection's alternate) with the request's shared settings."""
+    def plan(self, seed: int) -> PlanResult:
+        """The request's search with `seed`, within `stop`."""
         request = self.request
-        spec = planner or request.planner
-        options = (request.options if spec is request.planner
-                   else spec.options_type.adopt(request.options))
         self.phases.candidates += 1
         with self.phases.timed("search"):
             if request.trees > 1:
-                return plan_race(spec, request.scene, options, request.trees, seed,
-                                 request.start, self.stop, self.progress, self.physics)
-            return spec.make(request.scene, options, self.physics).plan(
+                return plan_race(request.planner, request.scene, request.options,
+                                 request.trees, seed, request.start, self.stop, self.progress,
+                                 self.physics)
+            return request.planner.make(request.scene, request.options, self.physics).plan(
                 start=request.start, seed=seed, stop=self.stop, progress=self.progress)
 
     def bounded(self, max_iterations: int | None) -> Candidates:
@@ -313,21 +302,18 @@ class Candidates:
         return dataclasses.replace(self, stop=dataclasses.replace(self.stop,
                                                                   max_iterations=bound))
 
-    def shortcut(self, result: PlanResult, seed: int,
-                 planner: PlannerSpec | None = None) -> Candidate:
+    def shortcut(self, result: PlanResult, seed: int) -> Candidate:
         """A solved `result` shortcut for up to shortcut_time s (ending at most that long
         after the request's budget) or shortcut_attempts attempts (whichever ends first; an
         attempt bound that ends first makes it reproducible), then finished (`finish.finish`:
         the goal object pushed on to the goal point); as it is when the planner's paths are
-        not shortcut. `planner`: the one that found it, when not the request's (an alternate
-        plans in the same world, `PlannerSpec.plans_like`)."""
-        found_by = planner.name if planner is not None else ""
+        not shortcut."""
         if not result.solved:
-            return Candidate(result, planner=found_by)
+            return Candidate(result)
         request = self.request
         before = PathMetrics.of(request.scene, result.states)
         if not request.planner.shortcut:
-            return Candidate(result, before, planner=found_by)
+            return Candidate(result, before)
         # Shortcutting and the finishing push re-simulate the pushes in the planner's own world
         # (the Static RRT's non-goal objects stay obstacles there, so neither pushes them).
         physics = request.planner.physics(request.scene, self.physics)
@@ -344,7 +330,7 @@ class Candidates:
             with self.phases.timed("shortcut"):
                 states = finish(physics, states, request.options, request.finish.finish_radius,
                                 self.stop.extended(FINISH_TIME))
-        return Candidate(dataclasses.replace(result, states=states), before, elapsed, found_by)
+        return Candidate(dataclasses.replace(result, states=states), before, elapsed)
 
     def judge(self, candidate: Candidate, seed: int) -> float:
         """The candidate's robustness: the share of `request.robust.rollouts` perturbed
@@ -362,19 +348,6 @@ def _answer(candidate: Candidate, t0: float, seed: int) -> Candidate:
     spent = time.monotonic() - t0 - candidate.shortcut_time
     return dataclasses.replace(candidate, result=dataclasses.replace(
         candidate.result, plan_time=spent, seed=seed))
-
-
-def _search(candidates: Candidates, seed: int, planner: PlannerSpec | None,
-            first: int | None) -> PlanResult:
-    """One candidate's search (by the request's planner, or `planner`): after a first plan
-    found in `first` iterations, bounded by `candidate_iterations`, and an alternate planner's
-    by at least `ALTERNATE_MIN_ITERATIONS`."""
-    if first is not None:
-        bound = candidate_iterations(candidates.request.robust, first)
-        if planner is not None and bound is not None:
-            bound = max(bound, ALTERNATE_MIN_ITERATIONS)
-        candidates = candidates.bounded(bound)
-    return candidates.plan(seed, planner)
 
 
 def robust_search(candidates: Candidates) -> tuple[Candidate, float | None]:
@@ -396,8 +369,7 @@ def robust_search(candidates: Candidates) -> tuple[Candidate, float | None]:
     best: tuple[Candidate, float, float] | None = None    # candidate, robustness, rank
     most_robust = 0.0
     last: PlanResult | None = None
-    first: int | None = None    # the iterations of the first plan found
-    alternate = request.alternate()
+    searches = candidates
     searched = 0
     for k in range(robust.candidates + robust.fragile_candidates):
         if candidates.stop.remaining() <= 0.001:
@@ -406,14 +378,14 @@ def robust_search(candidates: Candidates) -> tuple[Candidate, float | None]:
             break               # past `candidates`, only a fragile best earns another look
         searched += 1
         k_seed = candidate_seed(seed, k)
-        planner = alternate if k % 2 else None
-        last = _search(candidates, k_seed, planner, first)
+        last = searches.plan(k_seed)
         if last.outcome is Outcome.CANCELLED:
             return Candidate(last), None        # the user's cancel ends the selection too
         if not last.solved:
             continue
-        first = last.iterations if first is None else first
-        candidate = candidates.shortcut(last, k_seed, planner)
+        if best is None:
+            searches = candidates.bounded(candidate_iterations(robust, last.iterations))
+        candidate = candidates.shortcut(last, k_seed)
         score = candidates.judge(candidate, k_seed)
         if score >= robust.min_robustness:
             return _answer(candidate, t0, seed), score

@@ -78,12 +78,6 @@ class PlannerSpec:
                                  f"{type(base).__name__})")
         return dataclasses.replace(self.options_type.adopt(base), **values)
 
-    def plans_like(self, other: PlannerSpec) -> bool:
-        """Whether `other`'s plans live in this planner's world: the same physics, stepped and
-        shortcut alike, so that robust selection may judge them side by side."""
-        return (self.physics is other.physics and self.steps_physics == other.steps_physics
-                and self.shortcut == other.shortcut)
-
     def settings(self) -> tuple[SettingSpec, ...]:
         """The settings this planner reads: its options', then the pushing model's when it
         steps the physics."""

@@ -88,23 +88,6 @@ class PlanRequest:
             raise SettingError("seed", f"seed must be a non-negative integer, got {self.seed}")
         planner.check(self.scene, self.options)
 
-    def alternate(self) -> PlannerSpec | None:
-        """The planner of every second robust-selection candidate (`alternate_planner`), or
-        None: `same`, the request's own planner, one that plans in another world
-        (`PlannerSpec.plans_like`), or one that cannot plan the scene (no learned oracle for
-        its arm)."""
-        name = self.robust.alternate_planner
-        if name in ("same", self.planner.name):
-            return None
-        spec = planner_spec(name)
-        if not self.planner.plans_like(spec):
-            return None
-        try:
-            spec.check(self.scene, spec.options_type.adopt(self.options))
-        except ValueError:
-            return None
-        return spec
-
     @property
     def trees(self) -> int:
         return self.race.trees

@@ -68,13 +68,6 @@ class RobustOptions(Settings):
     """Candidates are ranked by robustness less this much per metre their goal object is
     pushed (`goal_travel`): the model's error grows along every push, so of two nearly equally
     robust plans the shorter push is the safer. 0 = the most robust."""
-    alternate_planner: str = setting("slice-rrt", choices=("same", "pc-rrt", "slice-rrt"))
-    """The planner every second candidate is searched with (Haustein et al.'s slice-based RRT
-    beside King et al.'s PC-RRT), so that selection chooses between two kinds of plan: the
-    two reach different requests. `same`: every candidate by the request's own planner. Only
-    where the alternate plans in the same world as the request's planner and can plan the scene
-    (`PlanRequest.alternate`); it reads the request's shared settings and its own defaults.
-    Measured: docs/benchmark.md ("Candidates from both planners")."""
     accept_best: bool = setting(True)
     """When no candidate reaches min_robustness, answer with the best ranked one (its
     robustness reported) instead of failing: a request then fails only when no plan is found
@@ -84,13 +77,6 @@ class RobustOptions(Settings):
 MIN_CANDIDATE_ITERATIONS = 100
 """The least iterations a candidate after the first may search (`candidate_effort`): a first
 plan found in a handful of iterations still leaves the next candidates a real search."""
-
-
-ALTERNATE_MIN_ITERATIONS = 2000
-"""The least iterations an alternate planner's candidate may search (`alternate_planner`), about
-2 s of the slice-based RRT on this machine: a first plan PC-RRT found in a handful of
-iterations is no measure of the other planner's search, which on varied seed 2 found 15 of its
-22 plans within 2,500 iterations."""
 
 
 def candidate_iterations(options: RobustOptions, first: int) -> int | None:
