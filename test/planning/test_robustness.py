@@ -213,7 +213,8 @@ def test_with_accept_best_the_most_robust_candidate_answers_when_none_is_robust_
                                                                      candidate_effort=0.0,
                                                                      accept_best=False)))
     assert not refused.solved and refused.robustness == max(scores)
-    assert "the most robust reached the goal in 90% of 10" in refused.result.message
+    assert ("no plan reached min_robustness 1 within 3 candidates: the most robust reached "
+            "the goal in 90% of 10 perturbed rollouts") in refused.result.message
 
 
 def test_candidates_are_ranked_by_robustness_less_the_travel_penalty(slim, remembered_searches):
