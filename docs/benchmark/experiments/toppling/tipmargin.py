@@ -16,7 +16,10 @@ for out in sys.argv[1:]:
         if row["solved"] != "1":
             continue
         plan = np.load(plan_file(out / "plans", row))
-        scene = load_trial_scene(str(plan["scene_path"]), str(plan["robot"]))
+        scene_path = str(plan["scene_path"])
+        if not Path(scene_path).exists():   # a plan made in a clone: the same scene here
+            scene_path = "config/" + scene_path.split("/config/", 1)[1]
+        scene = load_trial_scene(scene_path, str(plan["robot"]))
         path = remove_duplicates(plan["arm_path"])
         phys = Physics(scene, simulation_options()); world = CollisionWorld(scene, scene.robot)
         st = State(np.array(path[0]), np.array(scene.object_poses))
