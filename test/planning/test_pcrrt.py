@@ -231,32 +231,49 @@ def test_a_margin_as_large_as_the_region_is_goal_invalid(easy):
     assert result.outcome is Outcome.GOAL_INVALID and "goal_margin" in result.message
 
 
-def test_the_tipping_setting_keeps_plans_from_toppling_the_goal_object(panda):
-    """`tipping` (a planner setting, honoured by plan_scene): a 4 cm x 4 cm x 20 cm post on a
-    grippy table tips under any push at the hand's height, so with the check on no plan can
-    move it; with it off (objects never tip) the same request is solved."""
-    from rearrangement_planner.physics.options import PhysicsOptions
+def _post_scene(panda):
+    """easy_push with its goal object replaced by a 4 cm x 4 cm x 20 cm post on a grippy table:
+    it tips under any push at the hand's height."""
     from rearrangement_planner.physics.validation import parse_scene
-    from rearrangement_planner.planning import PlanRequest, plan_scene
 
     easy = load_scene("easy_push", robot=panda)
     post = {"name": "post", "shape": "box", "size": [0.04, 0.04, 0.2], "mass": 0.3,
             "support_friction": 0.8, "pusher_friction": 0.3,
             "pose": easy.objects[easy.goal_index].pose.tolist()}
-    scene = parse_scene({"table": {"center": list(easy.table.center),
-                                   "size": list(easy.table.size), "height": 0.0},
-                         "start_configuration": easy.start_configuration.tolist(),
-                         "objects": [post], "goal": {"object": "post",
-                                                      "position": list(easy.goal.position),
-                                                      "radius": easy.goal.radius}}, robot=panda)
-    # (the hand keeping its yaw: facing pushes do not find this thin post within 300
-    # iterations of seeds 1-3)
-    options = PCRRTOptions(time_limit=60.0, max_iterations=300, face_push=False)
+    return parse_scene({"table": {"center": list(easy.table.center),
+                                  "size": list(easy.table.size), "height": 0.0},
+                        "start_configuration": easy.start_configuration.tolist(),
+                        "objects": [post], "goal": {"object": "post",
+                                                     "position": list(easy.goal.position),
+                                                     "radius": easy.goal.radius}}, robot=panda)
+
+
+# (the hand keeping its yaw: facing pushes do not find the thin post within 300 iterations of
+# seeds 1-3)
+POST_OPTIONS = PCRRTOptions(time_limit=60.0, max_iterations=300, face_push=False)
+
+
+def test_the_tipping_setting_keeps_plans_from_toppling_the_goal_object(panda):
+    """`tipping` (a planner setting, honoured by plan_scene): with the check on no plan can
+    move the post; with it off (objects never tip) the same request is solved."""
+    from rearrangement_planner.physics.options import PhysicsOptions
+    from rearrangement_planner.planning import PlanRequest, plan_scene
+
+    scene = _post_scene(panda)
     for tipping, solved in ((False, True), (True, False)):
-        request = PlanRequest.first_plan(scene, "pc-rrt", options, seed=1,
+        request = PlanRequest.first_plan(scene, "pc-rrt", POST_OPTIONS, seed=1,
                                          physics=PhysicsOptions(tipping=tipping))
         output = plan_scene(request)
         assert output.solved is solved, (tipping, output.result.message)
+
+
+def test_an_unsolved_search_says_what_it_saw(panda):
+    """A search that runs out of budget says how near the goal object came and why the model
+    cut its propagations short: here, the post never moves, and pushes of it would tip it."""
+    result = PCRRT(_post_scene(panda), POST_OPTIONS).plan(seed=1)
+    assert result.outcome is Outcome.PLANNING_FAILED
+    assert "the goal object never came nearer its goal point than its start" in result.message
+    assert "object_would_tip of the goal object" in result.message, result.message
 
 
 def test_the_pushing_model_settings_reach_the_planners_physics(easy):

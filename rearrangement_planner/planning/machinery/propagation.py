@@ -98,6 +98,8 @@ class Propagation:
     duration: float                 # s actually applied (a multiple of dt)
     stopped: Invalid | StopReason | None   # why it stopped early, None if it did not
     pushing_links: frozenset[str]
+    subject: int = -1
+    """The object whose rule cut it short (`Invalid.TIPPING`, `Invalid.TURNING`), else -1."""
 
     @classmethod
     def of_states(cls, states: Sequence[State], duration: float,
@@ -169,19 +171,21 @@ def propagate(physics: Physics, state: State, steps: int, dt: float, nullspace: 
     held = np.zeros(3) if velocity is None else np.asarray(velocity, dtype=float)
     policy = _policy_array(physics, push)
     nullspace = np.asarray(nullspace, dtype=float)
-    done = 0
+    done, subject = 0, -1
     stopped: Invalid | StopReason | None = None
     while done < steps and stopped is None:
         batch = min(_CHECK_EVERY, steps - done)
         # Writable copies (one compiled signature, whether from the state or the last batch).
         q0 = np.array(state.q if done == 0 else arm[done - 1])
         objects0 = np.array(state.objects if done == 0 else objects[done - 1])
-        count, code = _propagate_kernel(q0, objects0, held, policy, nullspace, batch, dt, goal,
-                                        project, physics.arrays, arm[done:], objects[done:],
-                                        flags)
+        count, code, named = _propagate_kernel(q0, objects0, held, policy, nullspace, batch, dt,
+                                               goal, project, physics.arrays, arm[done:],
+                                               objects[done:], flags)
         done += count
         if code > 0:
             stopped = physics.reason(code)
+            if stopped in (Invalid.TIPPING, Invalid.TURNING):
+                subject = named
         elif code == -_GOAL:
             stopped = StopReason.GOAL
         elif code == -_ARRIVED:
@@ -191,7 +195,7 @@ def propagate(physics: Physics, state: State, steps: int, dt: float, nullspace: 
     arm, objects = arm[:done], objects[:done]
     arm.setflags(write=False)
     objects.setflags(write=False)
-    return Propagation(arm, objects, done * dt, stopped, physics.pushing_links(flags))
+    return Propagation(arm, objects, done * dt, stopped, physics.pushing_links(flags), subject)
 
 
 FACING_YAW_RATE = 1.0
@@ -285,12 +289,13 @@ def _tool_planar(q: np.ndarray, project: tuple, policy: np.ndarray) -> tuple[flo
 def _propagate_kernel(q: np.ndarray, objects: np.ndarray, held: np.ndarray,
                       policy: np.ndarray, nullspace: np.ndarray, steps: int, dt: float,
                       goal: np.ndarray, project: tuple, world: tuple, arm: np.ndarray,
-                      out: np.ndarray, flags: np.ndarray) -> tuple[int, int]:
+                      out: np.ndarray, flags: np.ndarray) -> tuple[int, int, int]:
     """Up to `steps` steps of Project and the physics step from (q, objects), the tool velocity
     `held` or, for policy[0] >= 0, the push policy's; the valid ones into arm[i], out[i], the
     pushing shapes and moved objects OR-ed into `flags`. Returns (valid steps, 0 | the invalid
     step's code | -_GOAL when the goal test held after the last valid step | -_ARRIVED when
-    the pushed object reached its target)."""
+    the pushed object reached its target, the first index the invalid step names (the object
+    of a tipping or turning push) or -1)."""
     info = np.zeros(4 + flags.shape[0], dtype=np.int64)
     value = np.zeros(1)
     work = step_workspace(world, q, objects)
@@ -301,20 +306,20 @@ def _propagate_kernel(q: np.ndarray, objects: np.ndarray, held: np.ndarray,
             x, y, tool_yaw = _tool_planar(q, project, policy)
             if not _push_velocity(x, y, tool_yaw, objects[pushed, 0], objects[pushed, 1],
                                   objects[pushed, 2], policy, dt, velocity):
-                return i, -_ARRIVED
+                return i, -_ARRIVED, -1
         q_new = project_kernel(q, velocity, dt, nullspace, project[0], project[1], project[2],
                                project[3], project[4], project[5], project[6], 0.5, 1.0, 1.0)
         info[:] = 0
         code = step_kernel(q, q_new, objects, world, out[i], info, value, work)
         if code != 0:
-            return i, code
+            return i, code, info[1]
         arm[i] = q_new
         for k in range(flags.shape[0]):
             flags[k] |= info[4 + k]
         q, objects = arm[i], out[i]
         if g >= 0 and math.hypot(objects[g, 0] - goal[1], objects[g, 1] - goal[2]) <= goal[3]:
-            return i + 1, -_GOAL
-    return steps, 0
+            return i + 1, -_GOAL, -1
+    return steps, 0, -1
 
 
 def replay(physics: Physics, start: State, arm_path: np.ndarray | Sequence[np.ndarray],

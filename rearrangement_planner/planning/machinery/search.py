@@ -7,12 +7,13 @@ from __future__ import annotations
 
 import math
 import time
+from collections import Counter
 from collections.abc import Sequence
 
 import numpy as np
 
 from rearrangement_planner.model.state import State
-from rearrangement_planner.physics.step import Physics
+from rearrangement_planner.physics.step import Invalid, Physics
 from rearrangement_planner.planning.machinery.interface import (
     Outcome,
     PlannerOptions,
@@ -20,8 +21,12 @@ from rearrangement_planner.planning.machinery.interface import (
     Progress,
     ProgressCallback,
 )
+from rearrangement_planner.planning.machinery.propagation import Propagation
 from rearrangement_planner.planning.machinery.termination import Termination
 from rearrangement_planner.planning.machinery.tree import Tree
+
+NEVER_NEARER = 1e-3
+"""m: a goal object that came no nearer its goal point than this never moved towards it."""
 
 
 class Search:
@@ -38,6 +43,12 @@ class Search:
         self.iterations = self.steps = 0
         self.best = math.inf
         """The smallest goal distance (m) reached so far."""
+        self.start_distance = math.inf
+        """The goal object's distance (m) from its goal point at the start."""
+        self.refused: Counter[str] = Counter()
+        """The propagations the model cut short, by why (an `Invalid` value, "of the goal
+        object" added to a rule that named it): what an unsolved search reports."""
+        self.goal_index = -1
 
     def check(self) -> PlanResult | None:
         """Before each iteration: the termination condition, then a progress report; a result
@@ -64,11 +75,40 @@ class Search:
         problem = physics.check_state(start)
         if problem is not None:
             return PlanResult(Outcome.START_INVALID, f"start state invalid: {problem[1]}", seed)
-        self.best = scene.goal.distance(start.objects[scene.goal_index, :2])
+        self.goal_index = scene.goal_index
+        self.best = self.start_distance = scene.goal.distance(
+            start.objects[scene.goal_index, :2])
         if self.best <= radius:
             return PlanResult(Outcome.SUCCEEDED, "start already in the goal region", seed,
                               (start,), plan_time=self.elapsed(), best_goal_distance=self.best)
         return None
+
+    def propagated(self, result: Propagation) -> None:
+        """Count a propagation's steps and, when the model cut it short, why."""
+        self.steps += result.count
+        if isinstance(result.stopped, Invalid):
+            whose = " of the goal object" if result.subject == self.goal_index >= 0 else ""
+            self.refused[result.stopped.value + whose] += 1
+
+    def why_unsolved(self) -> str:
+        """What a search that ends without a plan saw, for its message: how near the goal
+        object came to its goal point, and the commonest reasons the model cut its
+        propagations short (a goal object that never moves while most are cut for
+        `object_would_tip` tips under every push the arm can make, as a slim cylinder does)."""
+        parts = []
+        if math.isfinite(self.start_distance):
+            if self.best >= self.start_distance - NEVER_NEARER:
+                parts.append(f"the goal object never came nearer its goal point than its start, "
+                             f"{self.start_distance:.2f} m away")
+            else:
+                parts.append(f"the goal object came within {self.best:.2f} m of its goal point "
+                             f"(from {self.start_distance:.2f} m)")
+        total = sum(self.refused.values())
+        if total:
+            shares = ", ".join(f"{reason} {count / total:.0%}"
+                               for reason, count in self.refused.most_common(3))
+            parts.append(f"of the {total} propagations the model cut short: {shares}")
+        return "".join(f"; {part}" for part in parts)
 
     def elapsed(self) -> float:
         return time.monotonic() - self.t0
@@ -79,5 +119,8 @@ class Search:
                           self.elapsed(), distance)
 
     def failure(self, outcome: Outcome, message: str) -> PlanResult:
+        """The search ended without a plan; one that ran out of budget says what it saw."""
+        if outcome in (Outcome.TIMEOUT, Outcome.PLANNING_FAILED):
+            message += self.why_unsolved()
         return PlanResult(outcome, message, self.seed, (), self.iterations, self.tree.n,
                           self.steps, self.elapsed(), self.best)

@@ -173,7 +173,7 @@ class PCRRT:
             else:
                 result = constrained_prop(self.physics, x_near, self._sample_action(rng),
                                           opts.dt, run.stop)
-            run.steps += result.count
+            run.propagated(result)
             if not result.count:
                 continue
             end = result.end
@@ -200,7 +200,7 @@ class PCRRT:
                 return None
             run.best = distance
             chosen = run.policy.goal_push(end, run.rng, run.stop)
-            run.steps += chosen.count
+            run.propagated(chosen)
             if not chosen.count:
                 return None
             parent = node

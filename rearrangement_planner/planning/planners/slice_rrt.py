@@ -346,7 +346,7 @@ class _SliceRun(Search):
         """Add the end of `result` (its states the edge) as a node; the plan when it is in the
         goal region: stopped there (GOAL), or, with `goal_at_end`, ending there (unless the
         budget ran out or the plan was cancelled)."""
-        self.steps += result.count
+        self.propagated(result)
         if not result.count:
             return None
         end = result.end
