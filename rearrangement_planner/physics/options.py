@@ -32,11 +32,6 @@ class PhysicsOptions(Settings):
     most pushes of one (a point push more than 12 degrees off the normal turns a cylinder of
     3 cm radius faster), so cylinders turn freely. 0 = no limit, as in King et al. 2015. Measured:
     docs/experiments.md."""
-    turn_limited: str = setting("boxes", choices=("boxes", "goal"))
-    """Which objects `max_turn` holds: every box ('boxes'), or only the goal object, when it
-    is a box ('goal'): how another object turns matters less than where the goal object
-    goes, and the limit refused most pushes of clutter boxes in the searches that found no
-    plan (the reasons an unsolved search reports)."""
     object_contact: bool = setting(True)
     """Objects that meet push each other (one complementarity problem over every object in
     contact, `pushing.build_multibody_lcp_kernel`), as in Haustein et al.'s Box2D model and

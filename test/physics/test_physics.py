@@ -459,24 +459,6 @@ def test_the_turn_limit_leaves_cylinders_alone(panda):
             assert result.reason is Invalid.TURNING
 
 
-@pytest.mark.parametrize(("turn_limited", "box_is_goal", "valid"), [
-    ("boxes", False, False), ("goal", False, True), ("goal", True, False)])
-def test_the_turn_limit_holds_every_box_or_only_the_goal_object(panda, turn_limited,
-                                                               box_is_goal, valid):
-    """`turn_limited`: the box pushed off its centre line turns too fast for max_turn 5 and
-    is refused, unless the limit holds only the goal object and the box is another."""
-    path = _push_path(panda, 0.55)
-    pushed = box("b", [0.46, 0.025, 0.0], size=(0.06, 0.06, 0.12))
-    other = cylinder("c", [0.35, -0.45, 0.0])
-    scene = make_scene([pushed, other] if box_is_goal else [other, pushed], path[0],
-                       robot=panda)
-    result, _ = _walk(Physics(scene, PhysicsOptions(max_turn=5.0, turn_limited=turn_limited)),
-                      scene.initial_state(), path[1:])
-    assert result.valid is valid, result.detail
-    if not valid:
-        assert result.reason is Invalid.TURNING
-
-
 def test_the_packed_options_follow_the_named_columns(panda):
     """The compiled step reads `World.options` by the OPT_* constants: each column holds the
     `PhysicsOptions` field `OPTION_FIELDS` names (distinct values, so a swapped column shows),
