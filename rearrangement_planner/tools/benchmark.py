@@ -467,7 +467,7 @@ CSV_COLUMNS = (
     "shortcut_time_s", "pushing_links", "non_goal_objects_moved",
     "goal_start_distance_m", "goal_push_path_m", "goal_turn_rad",
     "executed_ideal", "executed_servo", "executed_goal_distance_m", "executed_toppled",
-    "trial_wall_s", "ray_node", "robot",
+    "executed_toppled_goal", "trial_wall_s", "ray_node", "robot",
     "robustness", "executed_object_contacts", "perturbed_reached", "perturbed_trials",
     "trajectory_s", "replan", "replan_reached", "replans_made", "time_to_goal_s",
     "perturbed_replan_reached", "closed_loop_endings",
@@ -482,7 +482,7 @@ executed_ideal / executed_servo: 1 when the solved plan, executed open loop in M
 (`execution.mujoco_check`, ideal / servo-driven arm), reaches the goal region with nothing
 toppled, else 0 (empty when not solved); executed_goal_distance_m: the goal object's final
 distance there (ideal arm); executed_toppled: how many objects toppled in the servo arm's
-execution.
+execution; executed_toppled_goal: 1 when the goal object is one of them.
 goal_start_distance_m: the goal object's start distance from the goal point; goal_push_path_m
 and goal_turn_rad: how far its centre travels and how much it turns (sum of |Δyaw|) along the
 final path (empty when not solved).
@@ -633,7 +633,7 @@ def run_trial(trial: Trial, settings: dict[str, Any]) -> dict:
     row["pushing_links"] = ";".join(sorted(links))
     row["non_goal_objects_moved"] = str(len(moved)) if result.solved else ""
     executions = _executions(output, trial.seed, trial.perturbed)
-    row.update(_executed(executions))
+    row.update(_executed(executions, scene.objects[scene.goal_index].name))
     row.update(_closed_loop(request, output, trial, executions))
     row["robustness"] = _num(output.robustness)
     row["trajectory_s"] = _num(output.trajectory.duration if output.trajectory else None, 3)
@@ -689,17 +689,19 @@ def _executions(output, seed: int, perturbed_executions: int):
                                     ExecutionOptions(arm="servo"))
 
 
-def _executed(executions) -> dict[str, str]:
-    """The executed_* and perturbed_* columns of `_executions`."""
+def _executed(executions, goal_name: str) -> dict[str, str]:
+    """The executed_* and perturbed_* columns of `_executions` (`goal_name`: the goal object's)."""
     if executions is None:
         return {"executed_ideal": "", "executed_servo": "", "executed_goal_distance_m": "",
-                "executed_toppled": "", "executed_object_contacts": "",
+                "executed_toppled": "", "executed_toppled_goal": "",
+                "executed_object_contacts": "",
                 "perturbed_reached": "", "perturbed_trials": ""}
     reports, perturbed = executions
     return {"executed_ideal": str(int(reports["ideal"].reached)),
             "executed_servo": str(int(reports["servo"].reached)),
             "executed_goal_distance_m": _num(reports["ideal"].goal_distance_m),
             "executed_toppled": str(len(reports["servo"].toppled)),
+            "executed_toppled_goal": str(int(goal_name in reports["servo"].toppled)),
             "executed_object_contacts": str(len(reports["servo"].object_contacts)),
             "perturbed_reached": str(perturbed.reached),
             "perturbed_trials": str(perturbed.trials)}
@@ -1077,7 +1079,9 @@ def _planner_summary(rows: Sequence[dict], planner: str, protocol: dict,
         "deadline_overrun_s": deadline_overrun(rows),
         "toppled": {"checked": len(checked),
                     "plans_toppling": sum(int(r["executed_toppled"]) > 0 for r in checked),
-                    "objects": sum(int(r["executed_toppled"]) for r in checked)},
+                    "objects": sum(int(r["executed_toppled"]) for r in checked),
+                    # rows written before the column: unknown, not counted
+                    "goal_object": sum(r.get("executed_toppled_goal") == "1" for r in checked)},
         "solved": len(solved),
         "solved_share": _rounded(len(solved) / len(rows)) if rows else None,
         # a plan found by an iteration that began within the budget but ended after it: solved

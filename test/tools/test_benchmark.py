@@ -10,6 +10,7 @@ import subprocess
 import sys
 import time
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -278,6 +279,7 @@ def test_summary_success_at_budget_shortcut_means_and_pushing_links():
         row.update(executed_ideal=ideal, executed_servo=servo, executed_goal_distance_m="0.2",
                    goal_start_distance_m="0.3", goal_push_path_m=path, goal_turn_rad="0.1",
                    executed_toppled=toppled, executed_object_contacts=toppled,
+                   executed_toppled_goal=str(int(toppled != "0")),
                    perturbed_reached=servo, perturbed_trials="1")
     summary = benchmark.summarize(rows, protocol, {"panda_hand", "panda_link7"})
     json.dumps(summary)   # JSON-safe
@@ -296,7 +298,7 @@ def test_summary_success_at_budget_shortcut_means_and_pushing_links():
                                             "share": round(2 / 3, 4)}}
     # the headline: 2 of the 4 requests reached the goal executed with the servo arm
     assert pc["end_to_end"] == {"requests": 4, "reached": 2, "share": 0.5}
-    assert pc["toppled"] == {"checked": 3, "plans_toppling": 1, "objects": 2}
+    assert pc["toppled"] == {"checked": 3, "plans_toppling": 1, "objects": 2, "goal_object": 1}
     # plan times of all requests (2, 5, 8, 60 s) and of the solved ones (2, 5, 8 s)
     assert pc["request_time_s"] == {"median": 6.5, "p90": 44.4}
     assert pc["plan_time_s"]["p90"] == 7.4
@@ -461,6 +463,19 @@ def test_the_closed_loop_summary_sets_the_loop_beside_the_open_loop():
     assert benchmark.closed_loop_table({"planners": {"pc-rrt": {"closed_loop": None}}}) == ""
 
 
+def test_the_executed_columns_say_whether_the_goal_object_toppled():
+    """executed_toppled counts the servo arm's toppled objects; executed_toppled_goal is 1 only
+    when the goal object is one of them."""
+    reports = {arm: SimpleNamespace(reached=False, goal_distance_m=0.3, toppled=("clutter_2",),
+                                    object_contacts=()) for arm in ("ideal", "servo")}
+    executions = (reports, SimpleNamespace(reached=0, trials=0))
+    other = benchmark._executed(executions, "target")
+    goal = benchmark._executed(executions, "clutter_2")
+    assert other["executed_toppled"] == goal["executed_toppled"] == "1"
+    assert (other["executed_toppled_goal"], goal["executed_toppled_goal"]) == ("0", "1")
+    assert benchmark._executed(None, "target")["executed_toppled_goal"] == ""
+
+
 def test_goal_push_sums_the_goal_objects_travel_and_turn():
     from rearrangement_planner.model.state import State
 
@@ -495,6 +510,8 @@ def test_tiny_protocol_writes_csv_json_and_plots_and_resumes(tmp_path, capsys):
             assert float(r["goal_turn_rad"]) >= 0.0
             assert r["perturbed_trials"] == "1" and r["perturbed_reached"] in ("0", "1")
             assert r["executed_object_contacts"] == "0"     # one object touches none
+            # one object: what toppled, if anything, is the goal object
+            assert r["executed_toppled_goal"] == r["executed_toppled"]
             assert r["robustness"] == ""                    # first plans are not scored
             # the plan is kept beside the CSV, to be replayed later
             plan = np.load(out / "plans" / f"{r['scene']}__{r['planner']}__0.npz")
