@@ -32,11 +32,6 @@ class PhysicsOptions(Settings):
     most pushes of one (a point push more than 12 degrees off the normal turns a cylinder of
     3 cm radius faster), so cylinders turn freely. 0 = no limit, as in King et al. 2015. Measured:
     docs/experiments.md."""
-    clutter_turn_scale: float = setting(1.0, low=0.0, high=100.0)
-    """The turn limit of a box that is not the goal object, as a multiple of `max_turn` (0: no
-    limit for it): how another object turns matters less than where the goal object goes, and
-    the limit on clutter boxes cut the most propagations in the searches that found no plan
-    (the reasons an unsolved search reports)."""
     object_contact: bool = setting(True)
     """Objects that meet push each other (one complementarity problem over every object in
     contact, `pushing.build_multibody_lcp_kernel`), as in Haustein et al.'s Box2D model and

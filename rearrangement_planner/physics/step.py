@@ -146,11 +146,10 @@ OPTION_FIELDS = ("max_substep", "penetration_tolerance", "overlap_tolerance",
 """The `PhysicsOptions` field packed in each `World.options` column (None: a module constant,
 `FREE_SPACE_MARGIN`)."""
 (OBJ_CENTRE_Z, OBJ_C, OBJ_PUSHER_MU, OBJ_SUPPORT_MU, OBJ_FOOTPRINT, OBJ_STATIC, OBJ_COF_X,
- OBJ_COF_Y, OBJ_MASS, OBJ_TURN_SCALE) = range(10)
+ OBJ_COF_Y, OBJ_MASS) = range(9)
 """The columns of `World.obj_props`: the centre's height, the limit surface's c, the pusher and
 support frictions, the footprint radius, 1 for a static object, the centre of friction (x, y)
-in the object frame, the mass, and the factor on `PhysicsOptions.max_turn` for this object (0
-for a cylinder, `clutter_turn_scale` for a box that is not the goal object, else 1)."""
+in the object frame and the mass."""
 
 
 class World(NamedTuple):
@@ -168,7 +167,7 @@ class World(NamedTuple):
     obj_kind: np.ndarray            # (M,) kernels.BOX | kernels.CYLINDER
     obj_dims: np.ndarray            # (M, 3)
     obj_size: np.ndarray            # (M, 3) full extents (x, y, z), a cylinder's (2r, 2r, h)
-    obj_props: np.ndarray           # (M, 10): columns OBJ_CENTRE_Z .. OBJ_TURN_SCALE
+    obj_props: np.ndarray           # (M, 9): columns OBJ_CENTRE_Z .. OBJ_MASS
     table: np.ndarray               # (5,): top z, centre x, y, half size x, y
     options: np.ndarray             # (10,): columns OPT_MAX_SUBSTEP .. OPT_CONTACT_TOLERANCE
 
@@ -321,13 +320,6 @@ class Physics:
         return "joint limit"
 
 
-def _turn_scale(obj, is_goal: bool, options: PhysicsOptions) -> float:
-    """The factor on `max_turn` for one object (`OBJ_TURN_SCALE`)."""
-    if obj.shape == "cylinder":
-        return 0.0
-    return 1.0 if is_goal else options.clutter_turn_scale
-
-
 def _world_arrays(scene: Scene, robot: RobotModel, options: PhysicsOptions,
                   static: frozenset[int]) -> World:
     for i, shape in enumerate(robot.contact_shapes):
@@ -363,9 +355,8 @@ def _world_arrays(scene: Scene, robot: RobotModel, options: PhysicsOptions,
     obj_props = np.array([[top + 0.5 * o.size[2], object_limit_surface_c(o),
                            o.pusher_friction, o.support_friction, o.footprint_radius,
                            float(i in static), o.support.centre[0], o.support.centre[1],
-                           o.mass, _turn_scale(o, i == scene.goal_index, options)]
-                          for i, o in enumerate(objects)],
-                         dtype=float).reshape(-1, 10)
+                           o.mass] for i, o in enumerate(objects)],
+                         dtype=float).reshape(-1, 9)
     return World(
         chain=chain.arrays,
         shapes=shapes, limits=np.array([robot.lower, robot.upper], dtype=float),
@@ -652,8 +643,8 @@ def _object_rules(m: int, twist: np.ndarray, height: float, obj_kind: np.ndarray
     cylinder's turn leaves its footprint where it was) and tipping refuse the push; with the
     tip judgement on, a tipping push is not refused but reported in value[1 + m] as the travel
     that topples the object (`_tip_travel`)."""
-    turn = options[OPT_MAX_TURN] * obj_props[m, OBJ_TURN_SCALE]
-    if turn > 0.0 \
+    turn = options[OPT_MAX_TURN]
+    if turn > 0.0 and obj_kind[m] != kernels.CYLINDER \
             and abs(twist[2]) > turn * math.hypot(twist[0], twist[1]) + TURN_SLACK:
         value[0] = abs(twist[2]) / max(math.hypot(twist[0], twist[1]), 1e-9)
         return _TURNING

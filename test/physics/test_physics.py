@@ -459,23 +459,6 @@ def test_the_turn_limit_leaves_cylinders_alone(panda):
             assert result.reason is Invalid.TURNING
 
 
-@pytest.mark.parametrize(("scale", "box_is_goal", "valid"), [
-    (1.0, False, False), (0.0, False, True), (0.0, True, False), (100.0, False, True)])
-def test_the_turn_limit_of_clutter_boxes_is_scaled(panda, scale, box_is_goal, valid):
-    """`clutter_turn_scale`: the box pushed off its centre line turns too fast for max_turn 5
-    and is refused, unless it is not the goal object and its limit is scaled away."""
-    path = _push_path(panda, 0.55)
-    pushed = box("b", [0.46, 0.025, 0.0], size=(0.06, 0.06, 0.12))
-    other = cylinder("c", [0.35, -0.45, 0.0])
-    scene = make_scene([pushed, other] if box_is_goal else [other, pushed], path[0],
-                       robot=panda)
-    options = PhysicsOptions(max_turn=5.0, clutter_turn_scale=scale)
-    result, _ = _walk(Physics(scene, options), scene.initial_state(), path[1:])
-    assert result.valid is valid, result.detail
-    if not valid:
-        assert result.reason is Invalid.TURNING
-
-
 def test_the_packed_options_follow_the_named_columns(panda):
     """The compiled step reads `World.options` by the OPT_* constants: each column holds the
     `PhysicsOptions` field `OPTION_FIELDS` names (distinct values, so a swapped column shows),
@@ -499,8 +482,7 @@ def test_the_packed_options_follow_the_named_columns(panda):
         assert packed[column] == float(getattr(options, name)), name
     assert packed[step.OPT_FREE_SPACE] == step.FREE_SPACE_MARGIN
     settings = {s.name for s in PhysicsOptions.describe()}
-    # every setting reaches the kernels (the clutter's turn scale through obj_props)
-    assert settings - {"clutter_turn_scale"} <= set(step.OPTION_FIELDS)
+    assert settings <= set(step.OPTION_FIELDS)        # every setting reaches the kernels
     scene = make_scene([box("b", [0.5, -0.3, 0.0], size=(0.06, 0.08, 0.1),
                             )], LOW_ARM, robot=panda)
     props = Physics(scene, SIM).arrays.obj_props[0]
