@@ -268,6 +268,8 @@ class RobotModel:
         self._idx_q = np.array(idx_q)
         self._idx_v = np.array(idx_v)
         self._q_full = pin.neutral(model)
+        self._point_data = model.createData()       # `frame_position`'s own
+        self._point_q = pin.neutral(model)
         self.lower = _readonly(model.lowerPositionLimit[self._idx_q])
         self.upper = _readonly(model.upperPositionLimit[self._idx_q])
         self.velocity_limits = _readonly(model.velocityLimit[self._idx_v])
@@ -406,6 +408,15 @@ class RobotModel:
         self._update(q)
         fid = frame if isinstance(frame, int) else self.frame_id(frame)
         return self.data.oMf[fid].homogeneous.copy()
+
+    def frame_position(self, q: np.ndarray, frame: int) -> np.ndarray:
+        """Position (3,) of frame id `frame` in the base frame at q: `frame_pose`'s
+        translation, the same numbers for less than half its time (the joints' kinematics
+        and this one frame, in data of its own: `frame_pose`'s cache stays as it is). The
+        search's metric asks it of every state it compares."""
+        self._point_q[self._idx_q] = q
+        pin.forwardKinematics(self.model, self._point_data, self._point_q)
+        return pin.updateFramePlacement(self.model, self._point_data, frame).translation.copy()
 
     def tool_pose(self, q: np.ndarray) -> np.ndarray:
         return self.frame_pose(q, self.tool_frame_id)

@@ -327,6 +327,8 @@ class CollisionWorld:
         self._obj_pairs = np.triu_indices(len(objects), k=1)
         self._obj_pair_limit2 = (self._obj_footprint[self._obj_pairs[0]]
                                  + self._obj_footprint[self._obj_pairs[1]]) ** 2
+        self._obj_kind = np.array([_PRISM_KIND[o.shape] for o in objects], dtype=np.int64)
+        self._obj_size_array = np.array(self._obj_size, dtype=float).reshape(-1, 3)
         self._all_objects = np.arange(len(objects))
         # Object centres (x, y, z) for the object broad phase: z is fixed, x and y are filled
         # in per query.
@@ -543,6 +545,14 @@ class CollisionWorld:
             if depth > tol:
                 overlaps.append((i, j))
         return overlaps
+
+    def objects_overlap(self, object_poses: np.ndarray, tol: float = 0.0) -> bool:
+        """Whether `object_overlaps` finds a pair: the same test in one compiled call (the
+        samplers ask it of every arrangement they draw)."""
+        poses = np.array(self._object_poses(object_poses), dtype=float)   # writable: one signature
+        first, second = self._obj_pairs
+        return bool(kernels.any_prism_overlap(self._obj_kind, self._obj_size_array, poses,
+                                              first, second, self._obj_pair_limit2, float(tol)))
 
     def object_obstacle_overlaps(self, object_poses: np.ndarray,
                                  tol: float = 0.0) -> list[tuple[int, str]]:

@@ -500,6 +500,25 @@ def prism_penetration(kind_a: int, size_a: np.ndarray, xa: float, ya: float, yaw
 
 
 @njit_bare
+def any_prism_overlap(kinds: np.ndarray, sizes: np.ndarray, poses: np.ndarray,
+                      first: np.ndarray, second: np.ndarray, limit2: np.ndarray,
+                      tol: float) -> bool:
+    """Whether any pair (first[k], second[k]) of upright prisms (`prism_penetration`'s kinds,
+    full sizes and planar poses by row) penetrates deeper than `tol` (m); a pair is tested
+    only when its centres are nearer than the square root of limit2[k] (the sum of their
+    footprint radii, squared)."""
+    for k in range(first.shape[0]):
+        i, j = first[k], second[k]
+        dx = poses[i, 0] - poses[j, 0]
+        dy = poses[i, 1] - poses[j, 1]
+        if dx * dx + dy * dy < limit2[k] and prism_penetration(
+                kinds[i], sizes[i], poses[i, 0], poses[i, 1], poses[i, 2], kinds[j], sizes[j],
+                poses[j, 0], poses[j, 1], poses[j, 2]) > tol:
+            return True
+    return False
+
+
+@njit_bare
 def near_prism(a: Vector, b: Vector, grow: float, kind: int, centre: Vector,
                dims: Vector) -> bool:
     """Broad phase: the axis-aligned box of segment a-b grown by `grow` overlaps the box of the

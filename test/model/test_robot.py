@@ -68,6 +68,23 @@ def test_fk_at_zero_matches_published_offsets(panda):
     np.testing.assert_allclose(panda.tool_pose(q)[:3, 3], [0.088, 0, 0.926 - 0.1034], atol=1e-9)
 
 
+def test_frame_position_is_frame_poses_translation_and_leaves_its_cache(panda):
+    """`frame_position` gives the very numbers of `frame_pose`'s translation (the search's
+    metric compares them, so a plan does not depend on which was asked), in data of its own:
+    a `frame_pose` cached at one configuration is still right after it."""
+    rng = np.random.default_rng(0)
+    tool = panda.tool_frame_id
+    q0 = rng.uniform(panda.lower, panda.upper)
+    before = panda.frame_pose(q0, tool)
+    for _ in range(50):
+        q = rng.uniform(panda.lower, panda.upper)
+        assert np.array_equal(panda.frame_position(q, tool), panda.frame_pose(q, tool)[:3, 3])
+    q1 = rng.uniform(panda.lower, panda.upper)
+    panda.frame_pose(q0, tool)
+    panda.frame_position(q1, tool)
+    assert np.array_equal(panda.frame_pose(q0, tool), before)
+
+
 @pytest.mark.parametrize("seed", range(5))
 def test_fk_matches_dh_table_at_random_configurations(panda, seed):
     for q in random_configurations(panda, 4, seed):

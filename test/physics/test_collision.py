@@ -400,6 +400,24 @@ def test_box_and_cylinder_overlap(probe: RobotModel) -> None:
         assert world.object_overlaps(world.scene.object_poses) == expected
 
 
+def test_objects_overlap_says_whether_object_overlaps_finds_a_pair(probe: RobotModel) -> None:
+    """The compiled yes-or-no the samplers ask agrees with `object_overlaps` on crowded random
+    arrangements of boxes and cylinders, at depth 0 and at a tolerance."""
+    objects = (BOX, CAN, FAR, MovableObject.cylinder("slim", 0.025, 0.1, (0.3, 0.2, 0.0)),
+               MovableObject.box("flat", (0.12, 0.04, 0.05), (0.7, -0.2, 0.0)))
+    world = CollisionWorld(make_scene(probe, objects=objects))
+    rng = np.random.default_rng(3)
+    seen = {True: 0, False: 0}
+    for _ in range(400):
+        poses = np.column_stack([rng.uniform(0.3, 0.55, 5), rng.uniform(-0.15, 0.15, 5),
+                                 rng.uniform(-math.pi, math.pi, 5)])
+        for tol in (0.0, 0.01):
+            found = world.objects_overlap(poses, tol)
+            assert found == bool(world.object_overlaps(poses, tol)), (poses, tol)
+            seen[found] += 1
+    assert min(seen.values()) > 50          # both answers were tested
+
+
 def test_object_against_obstacle(probe: RobotModel) -> None:
     near = MovableObject.box("near", (0.06, 0.06, 0.12), (0.80 - 0.025 - 0.03 + 0.005, 0.40, 0))
     clear = MovableObject.cylinder("clear", 0.03, 0.1, (0.80, 0.40 + 0.025 + 0.031, 0))

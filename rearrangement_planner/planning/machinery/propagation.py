@@ -42,6 +42,8 @@ from rearrangement_planner.planning.machinery.manifold import project_arrays, pr
 from rearrangement_planner.planning.machinery.termination import NEVER, Termination
 
 _GOAL, _ARRIVED, _CHECK_EVERY = 1, 2, 64
+_NO_GOAL = np.array([-1.0, 0.0, 0.0, 0.0])
+"""`Stops.packed` of no goal test."""
 PUSH_BAND = 0.02
 """Lateral offset (m) of the tool from the push line within which the push policy pushes."""
 
@@ -75,6 +77,11 @@ class Stops:
 
     def interrupted(self) -> StopReason | None:
         return self.termination.interrupted()
+
+    @cached_property
+    def packed(self) -> np.ndarray:
+        """The goal test for `_propagate_kernel`: (goal_index, x, y, radius)."""
+        return np.array([self.goal_index, *self.goal_xy, self.goal_radius], dtype=float)
 
 
 @dataclass(frozen=True)
@@ -165,8 +172,7 @@ def propagate(physics: Physics, state: State, steps: int, dt: float, nullspace: 
     nq, shape = len(state.q), state.objects.shape
     arm, objects = np.empty((steps, nq)), np.empty((steps, *shape))
     flags = np.zeros(physics.flag_count, dtype=np.int64)
-    goal = (np.array([stop.goal_index, *stop.goal_xy, stop.goal_radius]) if stop is not None
-            else np.array([-1.0, 0.0, 0.0, 0.0]))
+    goal = stop.packed if stop is not None else _NO_GOAL
     project = project_arrays(physics.robot, physics.scene.table.height)
     held = np.zeros(3) if velocity is None else np.asarray(velocity, dtype=float)
     policy = _policy_array(physics, push)
@@ -211,13 +217,14 @@ def _policy_array(physics: Physics, push: PushTarget | None) -> np.ndarray:
     size y, footprint radius, push band, the rows of R0, the posture's tool rotation, the
     facing yaw rate (0: the hand keeps its yaw)); object -1: no push (the velocity is
     held)."""
-    posture = physics.robot.config.push_posture.rotation
     if push is None:
         held = _HELD.get(physics.robot)
         if held is None:
             held = _HELD[physics.robot] = np.concatenate(
-                [[-1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, PUSH_BAND], posture.ravel(), [0.0]])
+                [[-1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, PUSH_BAND],
+                 physics.robot.config.push_posture.rotation.ravel(), [0.0]])
         return held
+    posture = physics.robot.config.push_posture.rotation
     obj = physics.scene.objects[push.obj]
     return np.concatenate([[push.obj, push.target[0], push.target[1], push.speed,
                             float(obj.shape == "cylinder"), obj.size[0], obj.size[1],

@@ -104,14 +104,16 @@ def sample_arrangement(scene: Scene, rng: np.random.Generator, goal_bias: float,
     redrawn while objects overlap (at most 100 draws)."""
     lo, hi = scene.table.lower, scene.table.upper
     m = len(scene.objects)
+    objects = np.empty((m, 3))
     for _ in range(100):
-        objects = np.column_stack([rng.uniform(lo[0], hi[0], m), rng.uniform(lo[1], hi[1], m),
-                                   rng.uniform(-math.pi, math.pi, m)])
+        objects[:, 0] = rng.uniform(lo[0], hi[0], m)
+        objects[:, 1] = rng.uniform(lo[1], hi[1], m)
+        objects[:, 2] = rng.uniform(-math.pi, math.pi, m)
         if rng.random() < goal_bias:
             r = goal_radius * math.sqrt(rng.random())
             a = rng.uniform(-math.pi, math.pi)
             objects[scene.goal_index, :2] = goal_xy + r * np.array([math.cos(a), math.sin(a)])
-        if not world.object_overlaps(objects):
+        if not world.objects_overlap(objects):
             break
     return objects
 
@@ -165,7 +167,7 @@ class PCRRT:
         sample_arm, sample_objects = self._sample(rng)
         near = self._nearest(tree, sample_arm, sample_objects)
         x_near = tree.state(near)
-        chosen, chosen_cost = None, math.inf
+        chosen, chosen_cost, chosen_arm = None, math.inf, None
         policy = opts.push_bias > 0 and rng.random() < opts.push_bias
         for k in range(opts.k_actions):
             if policy and k == 0:
@@ -177,20 +179,27 @@ class PCRRT:
             if not result.count:
                 continue
             end = result.end
-            cost = -math.inf if result.stopped is StopReason.GOAL else self._distance(
-                self._arm_feature(end.q), end.objects, sample_arm, sample_objects)
+            if result.stopped is StopReason.GOAL:
+                arm, cost = None, -math.inf
+            else:
+                arm = self._arm_feature(end.q)
+                cost = self._distance(arm, end.objects, sample_arm, sample_objects)
             if cost < chosen_cost:
-                chosen, chosen_cost = result, cost
+                chosen, chosen_cost, chosen_arm = result, cost, arm
             if result.stopped in (StopReason.CANCEL, StopReason.TIMEOUT):
                 break
-        return None if chosen is None else self._extend(run, near, chosen)
+        return None if chosen is None else self._extend(run, near, chosen, chosen_arm)
 
-    def _extend(self, run: _Run, parent: int, chosen: Propagation) -> PlanResult | None:
-        """Add the chosen edge; from a new best goal distance, push the goal object on for the
-        goal (`greedy_goal`) and add that edge too, as long as each brings a new best."""
+    def _extend(self, run: _Run, parent: int, chosen: Propagation,
+                arm: np.ndarray | None = None) -> PlanResult | None:
+        """Add the chosen edge (`arm`: its end's `_arm_feature`, if known); from a new best
+        goal distance, push the goal object on for the goal (`greedy_goal`) and add that edge
+        too, as long as each brings a new best."""
         while True:
             end = chosen.end
-            node = run.tree.add(end, self._arm_feature(end.q), parent, chosen)
+            node = run.tree.add(end, self._arm_feature(end.q) if arm is None else arm, parent,
+                                chosen)
+            arm = None
             if chosen.stopped is StopReason.GOAL:
                 return run.reached(node, self._goal_distance(end))
             distance = self._goal_distance(end)
@@ -225,7 +234,7 @@ class PCRRT:
         """What the metric compares of the arm: q ('uniform') or the tool's (x, y) ('tool')."""
         if self.options.sampler == "uniform":
             return np.asarray(q, dtype=float)
-        return self.robot.frame_pose(q, self._tool_frame)[:2, 3]
+        return self.robot.frame_position(q, self._tool_frame)[:2]
 
     def _sample(self, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
         """SampleConfiguration (§III-B): object poses (`sample_arrangement`), then the arm."""

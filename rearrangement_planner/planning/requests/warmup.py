@@ -61,6 +61,7 @@ def _exercise() -> None:
     start = State(default_push_configuration(scene.robot, scene.table.height),
                   scene.initial_state().objects)
     physics.check_state(start)
+    physics.world.objects_overlap(start.objects)
     physics.step(start, project_step(scene.robot, start.q, np.array([0.0, 0.1, 0.0]), 0.05,
                                      scene.table.height))
     manifold_error(scene.robot, start.q, scene.table.height)
