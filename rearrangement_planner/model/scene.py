@@ -34,6 +34,7 @@ import math
 import numbers
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from functools import cached_property
 from pathlib import Path
 from typing import Any, NoReturn
 
@@ -99,15 +100,15 @@ class Table:
         object.__setattr__(self, "size", _readonly(self.size))
         object.__setattr__(self, "height", float(self.height))
 
-    @property
+    @cached_property
     def lower(self) -> np.ndarray:
-        """(x_min, y_min) of the table top, m."""
-        return self.center - 0.5 * self.size
+        """(x_min, y_min) of the table top, m (read-only; the samplers ask it every draw)."""
+        return _readonly(self.center - 0.5 * self.size)
 
-    @property
+    @cached_property
     def upper(self) -> np.ndarray:
-        """(x_max, y_max) of the table top, m."""
-        return self.center + 0.5 * self.size
+        """(x_max, y_max) of the table top, m (read-only)."""
+        return _readonly(self.center + 0.5 * self.size)
 
     def contains(self, xy: np.ndarray) -> np.ndarray:
         """Whether points (..., 2) lie on the table rectangle (its edge counts as on)."""
