@@ -268,8 +268,7 @@ class RobotModel:
         self._idx_q = np.array(idx_q)
         self._idx_v = np.array(idx_v)
         self._q_full = pin.neutral(model)
-        self._point_data = model.createData()       # `frame_position`'s own
-        self._point_q = pin.neutral(model)
+        self._point_data, self._point_q = model.createData(), pin.neutral(model)  # frame_position
         self.lower = _readonly(model.lowerPositionLimit[self._idx_q])
         self.upper = _readonly(model.upperPositionLimit[self._idx_q])
         self.velocity_limits = _readonly(model.velocityLimit[self._idx_v])

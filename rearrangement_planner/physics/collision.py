@@ -186,6 +186,25 @@ def prism_penetration(shape_a: str, size_a: Sequence[float], pose_a: Sequence[fl
 _PRISM_KIND = {"box": kernels.BOX, "cylinder": kernels.CYLINDER}
 
 
+def _inward_normal(shape: str, half: np.ndarray, centre_z: float, pose: np.ndarray,
+                   point: np.ndarray) -> np.ndarray:
+    """Inward unit normal (base frame) of the face nearest to `point` of an upright box or
+    cylinder (`shape`) of half extents `half`, its centre at (pose x, y, centre_z), yaw pose[2]."""
+    rot = _rot_z(pose[2])
+    local = rot.T @ (point - np.array([pose[0], pose[1], centre_z]))
+    if shape == "cylinder":
+        radial = math.hypot(local[0], local[1])
+        if radial / half[0] >= abs(local[2]) / half[2] and radial > 0.0:
+            outward = np.array([local[0] / radial, local[1] / radial, 0.0])
+        else:
+            outward = np.array([0.0, 0.0, 1.0 if local[2] >= 0 else -1.0])
+    else:
+        axis = int(np.argmax(np.abs(local) / half))
+        outward = np.zeros(3)
+        outward[axis] = 1.0 if local[axis] >= 0 else -1.0
+    return -(rot @ outward)
+
+
 class _ArmBodies:
     """The fcl bodies of the arm's contact shapes with their placement and broad-phase boxes,
     reused while the arm configuration is unchanged (one substep asks several queries at one
@@ -392,25 +411,6 @@ class CollisionWorld:
                              f"({len(self._obj_fcl)}, 3): one (x, y, yaw) per scene object")
         return poses
 
-    # -- arm narrow phase ---------------------------------------------------------------------
-
-    def _inward_normal(self, i: int, pose: np.ndarray, point: np.ndarray) -> np.ndarray:
-        """Inward unit normal (base frame) of object i's face nearest to `point`."""
-        rot = _rot_z(pose[2])
-        local = rot.T @ (point - np.array([pose[0], pose[1], self._obj_z[i]]))
-        half = self._obj_half[i]
-        if self._obj_shape[i] == "cylinder":
-            radial = math.hypot(local[0], local[1])
-            if radial / half[0] >= abs(local[2]) / half[2] and radial > 0.0:
-                outward = np.array([local[0] / radial, local[1] / radial, 0.0])
-            else:
-                outward = np.array([0.0, 0.0, 1.0 if local[2] >= 0 else -1.0])
-        else:
-            axis = int(np.argmax(np.abs(local) / half))
-            outward = np.zeros(3)
-            outward[axis] = 1.0 if local[axis] >= 0 else -1.0
-        return -(rot @ outward)
-
     # -- arm vs static world ------------------------------------------------------------------
 
     def _static_hit(self, shape_poses: np.ndarray, tol: float) -> tuple[int, str, float] | None:
@@ -513,7 +513,8 @@ class CollisionWorld:
                 continue
             d, point, normal = hit
             if normal is None:
-                normal = self._inward_normal(i, poses[i], point)
+                normal = _inward_normal(self._obj_shape[i], self._obj_half[i], self._obj_z[i],
+                                        poses[i], point)
             contacts.append(Contact(s, i, point, normal, -float(d)))
         return contacts
 

@@ -670,9 +670,18 @@ def test_a_flood_of_varied_bad_inputs_is_one_short_report_a_second(ros):
         for i in range(200):
             client.joint_pub.publish(JointState(name=[*good.name[:6], f"extra_{i}"],
                                                 position=[*good.position[:6], float(i)]))
+
+        def burst_reports() -> list:
+            return [s for _, s in client.statuses_since(t1)
+                    if "rejected joint_states" in s.message]
+
+        # A loaded machine may take seconds to deliver the burst: wait for its first report,
+        # then count over the whole window, at most one a second (not one per message).
+        assert wait_until(lambda: bool(burst_reports()), 20.0, period=0.1), "burst not reported"
         time.sleep(1.5)
-        reports = [s for _, s in client.statuses_since(t1) if "rejected joint_states" in s.message]
-        assert 1 <= len(reports) <= 3, len(reports)
+        window = time.monotonic() - t1
+        reports = burst_reports()
+        assert 1 <= len(reports) <= 2 + window, (len(reports), window)
     finally:
         client.joint_state = good
     client.wait_inputs_flowing()
