@@ -38,11 +38,6 @@ class PhysicsOptions(Settings):
     Pang & Tedrake's quasistatic simulator, so that a plan may push a row of objects and the
     model predicts what execution does when objects meet. Off: a state in which objects touch
     is invalid, as in King et al. 2015 (§III-A). Results: docs/experiments.md."""
-    hand_pushes_goal: bool = setting(False)
-    """Only the hand (the links the last planning joint carries: for the Panda link7, the hand
-    and its fingers) may touch the goal object; any link still pushes the others. Executed in
-    MuJoCo, plans whose goal object the forearm or wrist (link4-6) pushed reached the goal in
-    12 of 22, against 42 of 56 where only the hand did (docs/experiments.md)."""
     tip_judgement: bool = internal(False)
     """Judge rather than refuse a push that would tip its object: the step reports, per
     object, how far the pusher must carry it while it tips to topple it (`step._tip_travel`),

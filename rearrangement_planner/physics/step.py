@@ -78,7 +78,6 @@ class Invalid(str, Enum):
     RESIDUAL_PENETRATION = "residual_penetration"
     TIPPING = "object_would_tip"
     TURNING = "object_turns"
-    GOAL_PUSHER = "goal_object_touched_by_arm"
 
 
 @dataclass(frozen=True)
@@ -129,12 +128,11 @@ def tips_over(obj: MovableObject, twist: np.ndarray, height: float) -> bool:
 
 # Outcome codes of the compiled step (`_REASONS[code]`; 0 is a valid step).
 (_VALID, _JOINT_LIMIT, _ARM_TABLE, _ARM_OBSTACLE, _OBJECT_OVERLAP, _OBJECT_OBSTACLE, _OFF_TABLE,
- _FROM_ABOVE, _JAMMING, _RESIDUAL, _TIPPING, _STATIC_OBJECT, _TURNING, _GOAL_PUSHER) = range(14)
+ _FROM_ABOVE, _JAMMING, _RESIDUAL, _TIPPING, _STATIC_OBJECT, _TURNING) = range(13)
 _REASONS: tuple[Invalid | None, ...] = (
     None, Invalid.JOINT_LIMIT, Invalid.ARM_TABLE, Invalid.ARM_OBSTACLE, Invalid.OBJECT_OVERLAP,
     Invalid.OBJECT_OBSTACLE, Invalid.OFF_TABLE, Invalid.CONTACT_FROM_ABOVE, Invalid.JAMMING,
-    Invalid.RESIDUAL_PENETRATION, Invalid.TIPPING, Invalid.ARM_OBSTACLE, Invalid.TURNING,
-    Invalid.GOAL_PUSHER)
+    Invalid.RESIDUAL_PENETRATION, Invalid.TIPPING, Invalid.ARM_OBSTACLE, Invalid.TURNING)
 
 # The compiled step takes its options and per-object constants as packed float arrays (Numba
 # takes no Python objects); these name their columns. `_world_arrays` packs them in this order
@@ -148,14 +146,10 @@ OPTION_FIELDS = ("max_substep", "penetration_tolerance", "overlap_tolerance",
 """The `PhysicsOptions` field packed in each `World.options` column (None: a module constant,
 `FREE_SPACE_MARGIN`)."""
 (OBJ_CENTRE_Z, OBJ_C, OBJ_PUSHER_MU, OBJ_SUPPORT_MU, OBJ_FOOTPRINT, OBJ_STATIC, OBJ_COF_X,
- OBJ_COF_Y, OBJ_MASS, OBJ_HAND_ONLY) = range(10)
+ OBJ_COF_Y, OBJ_MASS) = range(9)
 """The columns of `World.obj_props`: the centre's height, the limit surface's c, the pusher and
 support frictions, the footprint radius, 1 for a static object, the centre of friction (x, y)
-in the object frame, the mass, and 1 for an object only the hand may touch
-(`PhysicsOptions.hand_pushes_goal`)."""
-SHAPE_HAND = 4
-"""The column of `World.shapes` that is 1 for a shape on a link the last planning joint
-carries (the hand: for the Panda link7, the hand and its fingers)."""
+in the object frame and the mass."""
 
 
 class World(NamedTuple):
@@ -173,7 +167,7 @@ class World(NamedTuple):
     obj_kind: np.ndarray            # (M,) kernels.BOX | kernels.CYLINDER
     obj_dims: np.ndarray            # (M, 3)
     obj_size: np.ndarray            # (M, 3) full extents (x, y, z), a cylinder's (2r, 2r, h)
-    obj_props: np.ndarray           # (M, 10): columns OBJ_CENTRE_Z .. OBJ_HAND_ONLY
+    obj_props: np.ndarray           # (M, 9): columns OBJ_CENTRE_Z .. OBJ_MASS
     table: np.ndarray               # (5,): top z, centre x, y, half size x, y
     options: np.ndarray             # (10,): columns OPT_MAX_SUBSTEP .. OPT_CONTACT_TOLERANCE
 
@@ -298,8 +292,6 @@ class Physics:
             return f"{links[a]} penetrates obstacle '{self._obstacle_names[b]}'"
         if code == _STATIC_OBJECT:
             return f"{links[a]} touches '{names[b]}', a static object for this planner"
-        if code == _GOAL_PUSHER:
-            return f"{links[a]} touches the goal object '{names[b]}', which only the hand pushes"
         if code == _TURNING:
             return f"'{names[a]}' would turn too fast: {v:.1f} rad per m it moves"
         if code == _FROM_ABOVE:
@@ -340,11 +332,9 @@ def _world_arrays(scene: Scene, robot: RobotModel, options: PhysicsOptions,
     # table and obstacles (a `RobotModel.grown` arm meets objects a few mm off, the static world
     # as it was: the offset stands for where the real links touch objects, not for the arm's
     # clearance, which the plans keep with their own margin).
-    hand = hand_shapes(robot, chain)
     shapes = np.array([[0.5 * s.dims[1] if s.kind == "capsule" else 0.0, s.dims[0],
-                        s.bounding_radius, max(s.dims[0] - robot.contact_offset, 1e-4),
-                        float(hand[i])]
-                       for i, s in enumerate(robot.contact_shapes)], dtype=float)
+                        s.bounding_radius, max(s.dims[0] - robot.contact_offset, 1e-4)]
+                       for s in robot.contact_shapes], dtype=float)
     table = scene.table
     top = float(table.height)
     static_centre = [[table.center[0], table.center[1], top - 0.5 * TABLE_THICKNESS]]
@@ -365,9 +355,8 @@ def _world_arrays(scene: Scene, robot: RobotModel, options: PhysicsOptions,
     obj_props = np.array([[top + 0.5 * o.size[2], object_limit_surface_c(o),
                            o.pusher_friction, o.support_friction, o.footprint_radius,
                            float(i in static), o.support.centre[0], o.support.centre[1],
-                           o.mass, float(options.hand_pushes_goal and i == scene.goal_index)]
-                          for i, o in enumerate(objects)],
-                         dtype=float).reshape(-1, 10)
+                           o.mass] for i, o in enumerate(objects)],
+                         dtype=float).reshape(-1, 9)
     return World(
         chain=chain.arrays,
         shapes=shapes, limits=np.array([robot.lower, robot.upper], dtype=float),
@@ -378,20 +367,6 @@ def _world_arrays(scene: Scene, robot: RobotModel, options: PhysicsOptions,
         table=np.array([top, table.center[0], table.center[1], 0.5 * table.size[0],
                         0.5 * table.size[1]], dtype=float),
         options=packed_options(options))
-
-
-def hand_shapes(robot: RobotModel, chain: kernels.CompiledChain) -> np.ndarray:
-    """Per contact shape, whether the last planning joint carries it (its nearest planning
-    joint up the chain is the tool frame's): the hand and what is fixed to it."""
-    parents, q_index = chain.parents, chain.q_index
-
-    def planned(j: int) -> int:
-        while j > 0 and q_index[j] < 0:
-            j = int(parents[j])
-        return j
-
-    tool = planned(chain.tool_joint)
-    return np.array([planned(int(j)) == tool for j in chain.shape_joint], dtype=bool)
 
 
 def packed_options(options: PhysicsOptions) -> np.ndarray:
@@ -1017,10 +992,9 @@ moves a contact at most `max_substep`, 4 mm: a grazing touch may nudge an object
 def _admissible(count: int, c_shape: np.ndarray, c_obj: np.ndarray, c_point: np.ndarray,
                 c_normal: np.ndarray, objects: np.ndarray, obj_kind: np.ndarray,
                 obj_dims: np.ndarray, obj_props: np.ndarray, options: np.ndarray,
-                shapes: np.ndarray, touched: np.ndarray, info: np.ndarray,
-                value: np.ndarray) -> int:
-    """No contact presses from above (module docstring, step 3), touches a static object or
-    touches an object only the hand may push with another link; marks the touched objects."""
+                touched: np.ndarray, info: np.ndarray, value: np.ndarray) -> int:
+    """No contact presses from above (module docstring, step 3) or touches a static object;
+    marks the touched objects."""
     for i in range(count):
         if abs(c_normal[i, 2]) > options[OPT_VERTICAL_NORMAL]:
             info[1], info[2] = c_shape[i], c_obj[i]
@@ -1029,9 +1003,6 @@ def _admissible(count: int, c_shape: np.ndarray, c_obj: np.ndarray, c_point: np.
         if obj_props[c_obj[i], OBJ_STATIC] > 0.0:
             info[1], info[2] = c_shape[i], c_obj[i]
             return _STATIC_OBJECT
-        if obj_props[c_obj[i], OBJ_HAND_ONLY] > 0.0 and shapes[c_shape[i], SHAPE_HAND] == 0.0:
-            info[1], info[2] = c_shape[i], c_obj[i]
-            return _GOAL_PUSHER
         touched[c_obj[i]] = True
     return _VALID
 
@@ -1120,7 +1091,7 @@ def _substep(poses_a: np.ndarray, poses_b: np.ndarray, objects: np.ndarray,
     touched = work[_TOUCHED]
     touched[:] = False
     code = _admissible(count, c_shape, c_obj, c_point, c_normal, objects, obj_kind, obj_dims,
-                       obj_props, options, shapes, touched, info, value)
+                       obj_props, options, touched, info, value)
     if code != _VALID:
         return code
     changed = work[_CHANGED]

@@ -482,8 +482,7 @@ def test_the_packed_options_follow_the_named_columns(panda):
         assert packed[column] == float(getattr(options, name)), name
     assert packed[step.OPT_FREE_SPACE] == step.FREE_SPACE_MARGIN
     settings = {s.name for s in PhysicsOptions.describe()}
-    # every setting reaches the kernels (hand_pushes_goal through obj_props)
-    assert settings - {"hand_pushes_goal"} <= set(step.OPTION_FIELDS)
+    assert settings <= set(step.OPTION_FIELDS)        # every setting reaches the kernels
     scene = make_scene([box("b", [0.5, -0.3, 0.0], size=(0.06, 0.08, 0.1),
                             )], LOW_ARM, robot=panda)
     props = Physics(scene, SIM).arrays.obj_props[0]
@@ -495,41 +494,3 @@ def test_the_packed_options_follow_the_named_columns(panda):
     assert props[step.OBJ_STATIC] == 0.0
     assert (props[step.OBJ_COF_X], props[step.OBJ_COF_Y]) == obj.support.centre == (0.0, 0.0)
     assert props[step.OBJ_MASS] == obj.mass
-    assert props[step.OBJ_HAND_ONLY] == 0.0
-    hand_only = Physics(scene, dataclasses.replace(SIM, hand_pushes_goal=True))
-    assert hand_only.arrays.obj_props[0, step.OBJ_HAND_ONLY] == 1.0     # the goal object
-
-
-def test_the_hand_links_are_those_the_last_joint_carries(panda):
-    """`hand_shapes`: the Panda's link7 and hand shapes (its finger pads are on the hand);
-    link6 and below are not."""
-    from rearrangement_planner.physics import kernels, step
-
-    hand = step.hand_shapes(panda, kernels.compiled_chain(panda))
-    links = {s.link for s, h in zip(panda.contact_shapes, hand, strict=True) if h}
-    assert links == {"panda_link7", "panda_hand"}
-    physics = Physics(make_scene([box("b", [0.5, -0.3, 0.0])], LOW_ARM, robot=panda), SIM)
-    assert list(physics.arrays.shapes[:, step.SHAPE_HAND]) == [float(h) for h in hand]
-
-
-@pytest.mark.parametrize(("hand_only", "hand_links", "valid"), [
-    (False, True, True), (True, True, True), (True, False, False), (False, False, True)])
-def test_only_the_hand_touches_the_goal_object_when_asked(panda, hand_only, hand_links, valid):
-    """`hand_pushes_goal`: the finger tips push the goal object straight; with the option on
-    the push stays valid, unless the shapes that touch it are not the hand's (here every
-    shape's hand flag cleared), when it is refused as `GOAL_PUSHER`, naming the link."""
-    from rearrangement_planner.physics import step
-
-    path = _push_path(panda, 0.55)
-    scene = make_scene([box("b", [0.46, 0.0, 0.0], size=(0.06, 0.06, 0.12))], path[0],
-                       robot=panda)
-    physics = Physics(scene, PhysicsOptions(hand_pushes_goal=hand_only))
-    if not hand_links:
-        physics.arrays.shapes[:, step.SHAPE_HAND] = 0.0
-    result, state = _walk(physics, scene.initial_state(), path[1:])
-    assert result.valid is valid, result.detail
-    if valid:
-        assert state.objects[0, 0] > 0.55
-    else:
-        assert result.reason is Invalid.GOAL_PUSHER
-        assert "only the hand pushes" in result.detail and "panda_" in result.detail

@@ -184,12 +184,10 @@ def rollout_options(options: PhysicsOptions) -> PhysicsOptions:
     turn limit chooses which pushes the planner may plan with; a perturbed world that turns an
     object a little faster does not fail the plan. Objects that meet push each other, and a
     push that would tip an object is judged by whether it topples it (`rollout_kernel`), not
-    refused; and every object is movable (the Static RRT's static objects are its rule too), by
-    any link (`hand_pushes_goal` is a rule for choosing pushes)."""
+    refused; and every object is movable (the Static RRT's static objects are its rule too)."""
     return dataclasses.replace(options, penetration_tolerance=max(
         options.penetration_tolerance, ROLLOUT_PENETRATION_TOLERANCE), max_turn=0.0,
-        tipping=False, tip_judgement=True, object_contact=True, static_objects=frozenset(),
-        hand_pushes_goal=False)
+        tipping=False, tip_judgement=True, object_contact=True, static_objects=frozenset())
 
 
 def robustness(scene: Scene, states: Sequence[State], rollouts: int, seed: int,
