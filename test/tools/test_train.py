@@ -35,6 +35,22 @@ def test_the_data_is_reproducible_and_holds_real_pushes():
     assert np.max(np.hypot(*a.successors[:, :, :2].mean(axis=1).T)) > 0.03
 
 
+def test_the_executions_of_a_push_draw_how_the_object_rests_on_the_table():
+    """With no pose or friction noise, a push's executions differ only by the drawn support
+    pressure (c and the centre of friction): they spread where the pushed object turns, and
+    coincide when the pressure is not drawn."""
+    still = dict(noise_draws=4, arm_states=2, pose_noise=0.0, yaw_noise=0.0,
+                 friction_noise=0.0)
+    drawn = push_data.generate(60, seed=2, options=push_data.DataOptions(**still))
+    nominal = push_data.generate(60, seed=2, options=push_data.DataOptions(
+        **still, pressure=(1.0, 1.0), centre_offset=0.0))
+    assert np.all(np.ptp(nominal.successors, axis=1) < 1e-12)
+    moved = np.hypot(*drawn.successors[:, :, :2].mean(axis=1).T) > 0.02
+    assert moved.sum() >= 3
+    spread = np.ptp(drawn.successors[moved, :, 2], axis=1)
+    assert np.max(spread) > 0.05          # rad: the same push turns the object differently
+
+
 def test_a_tiny_run_lowers_its_losses(tiny):
     trainer, _, _ = tiny
     for name in ("forward", "policy"):
