@@ -160,3 +160,20 @@ def test_a_worker_that_misses_the_budget_is_left_out_and_waited_for_next_time(
     after = plan_race(PC_RRT, easy, PCRRTOptions(time_limit=60.0), 2, seed=RACE_SEED)
     assert after.solved and "tree 1 of 2" in after.message
     assert time.monotonic() - t0 < parallel.STRAGGLER_WAIT
+
+
+def test_the_warm_up_starts_the_race_workers_and_the_race_uses_them(easy):
+    """`warm_up_race` starts the workers a race needs and returns once they have loaded the
+    compiled core, so that the first plan's clock holds no worker's start; the race then runs
+    on those same processes. One tree needs no worker."""
+    from rearrangement_planner.planning.requests import parallel
+
+    parallel.shutdown()                     # a fresh pool, as in a new process
+    assert parallel.warm_up_race(1) == 0 and parallel._POOL is None
+    assert parallel.warm_up_race(3) == 2
+    started = [w.process.pid for w in parallel._pool().workers]
+    assert len(started) == 2 and all(w.ready.is_set() for w in parallel._pool().workers)
+    result = plan_race(PC_RRT, easy, PCRRTOptions(time_limit=60.0), 2, seed=RACE_SEED)
+    assert result.solved and "tree 1 of 2" in result.message
+    assert parallel._pool().workers[0].process.pid == started[0]
+    parallel.shutdown()

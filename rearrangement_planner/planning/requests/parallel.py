@@ -144,15 +144,16 @@ def _exit_with_parent(parent: int) -> None:
     os._exit(0)
 
 
-def _serve(conn, best, cancel) -> None:
+def _serve(conn, best, cancel, ready) -> None:
     """A worker process: plan one tree per task until the pipe closes. It loads the compiled
-    core first (`warm_up`), while the first task is on its way."""
+    core first (`warm_up`), while the first task is on its way, and then sets `ready`."""
     from rearrangement_planner.planning.requests.warmup import warm_up
 
     threading.Thread(target=_exit_with_parent, args=(os.getppid(),), daemon=True,
                      name="parent-watch").start()
 
     warm_up()
+    ready.set()
     built: dict[str, tuple[Scene, Physics]] = {}
     while True:
         try:
@@ -184,8 +185,9 @@ def _serve(conn, best, cancel) -> None:
 class _Worker:
     def __init__(self, context, best, cancel):
         self.conn, child = context.Pipe()
-        self.process = context.Process(target=_serve, args=(child, best, cancel), daemon=True,
-                                       name="rearrangement-tree")
+        self.ready = context.Event()
+        self.process = context.Process(target=_serve, args=(child, best, cancel, self.ready),
+                                       daemon=True, name="rearrangement-tree")
         self.process.start()
         child.close()
         self.busy = False
@@ -244,6 +246,28 @@ def _pool() -> _Pool:
         if _POOL is None:
             _POOL = _Pool()
         return _POOL
+
+
+WORKER_START_WAIT = 120.0
+"""Seconds `warm_up_race` waits for a fresh worker to load the compiled core (well under two
+when the disk cache holds it; a first compile takes about half a minute)."""
+
+
+def warm_up_race(trees: int) -> int:
+    """Load the compiled core in this process (`warm_up`) and, at the same time, in the worker
+    processes a race of `trees` trees needs (started here if they are not yet running), and
+    wait until they have: a plan's clock then holds no worker's start (about 2 s on this
+    machine, which the caller's own warm-up now overlaps). Returns the workers ready."""
+    from rearrangement_planner.planning.requests.warmup import warm_up
+
+    workers: list[_Worker] = []
+    if trees > 1:
+        pool = _pool()
+        with pool.lock:
+            workers = pool.take(trees - 1)
+    warm_up()
+    deadline = time.monotonic() + WORKER_START_WAIT
+    return sum(w.ready.wait(max(deadline - time.monotonic(), 0.0)) for w in workers)
 
 
 def shutdown() -> None:

@@ -30,7 +30,7 @@ from rearrangement_planner.planning.machinery.interface import (
 )
 from rearrangement_planner.planning.machinery.termination import Termination
 from rearrangement_planner.planning.requests.finish import FINISH_TIME, finish
-from rearrangement_planner.planning.requests.parallel import plan_race, tree_seed
+from rearrangement_planner.planning.requests.parallel import plan_race, tree_seed, warm_up_race
 from rearrangement_planner.planning.requests.request import PlanRequest
 from rearrangement_planner.planning.requests.robustness import (
     candidate_iterations,
@@ -44,7 +44,6 @@ from rearrangement_planner.planning.requests.trajectory import (
     Trajectory,
     time_parameterize,
 )
-from rearrangement_planner.planning.requests.warmup import warm_up
 
 CANDIDATE_SEED_OFFSET = 1000
 """Candidate k > 0 of a robust search plans with `tree_seed(seed, CANDIDATE_SEED_OFFSET + k)`
@@ -228,10 +227,11 @@ def plan_scene(request: PlanRequest, cancel: threading.Event | None = None,
     is a different world model from the quasistatic physics shortcutting re-simulates), robust
     selection among candidates (`request.robust`, `robust_search`), the trajectory timed
     (`request.timing`) and the object poses predicted along it. The compiled core is warmed up
-    first (`warmup.warm_up`), outside the plan's clock."""
+    first (`warmup.warm_up`), and with it the race's worker processes (`parallel.warm_up_race`),
+    outside the plan's clock."""
     phases = Phases()
     with phases.timed("warm_up"):
-        warm_up()
+        warm_up_race(request.trees)
     scene = request.scene
     candidates = Candidates(request, Physics(scene, request.physics),
                             request.options.termination(cancel), progress, phases)
