@@ -177,3 +177,20 @@ def test_the_warm_up_starts_the_race_workers_and_the_race_uses_them(easy):
     assert result.solved and "tree 1 of 2" in result.message
     assert parallel._pool().workers[0].process.pid == started[0]
     parallel.shutdown()
+
+
+def test_the_warm_up_does_not_wait_for_a_worker_that_died_starting(monkeypatch):
+    """A worker that dies before it has loaded the compiled core is not waited for (the race
+    that uses it reports the death); only a live one gets WORKER_START_WAIT (120 s)."""
+    from rearrangement_planner.planning.requests import parallel
+
+    parallel.shutdown()
+    pool = parallel._pool()
+    dead = parallel._Worker(pool.context, pool.best, pool.cancel)
+    dead.process.kill()
+    dead.process.join(10.0)
+    monkeypatch.setattr(parallel._Pool, "take", lambda self, n: [dead])
+    t0 = time.monotonic()
+    assert parallel.warm_up_race(2) == 0
+    assert time.monotonic() - t0 < 0.5 * parallel.WORKER_START_WAIT
+    parallel.shutdown()

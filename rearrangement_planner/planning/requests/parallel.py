@@ -253,6 +253,10 @@ WORKER_START_WAIT = 120.0
 when the disk cache holds it; a first compile takes about half a minute)."""
 
 
+READY_POLL = 0.02
+"""Seconds between `warm_up_race`'s checks that a starting worker is still alive."""
+
+
 def warm_up_race(trees: int) -> int:
     """Load the compiled core in this process (`warm_up`) and, at the same time, in the worker
     processes a race of `trees` trees needs (started here if they are not yet running), and
@@ -267,7 +271,11 @@ def warm_up_race(trees: int) -> int:
             workers = pool.take(trees - 1)
     warm_up()
     deadline = time.monotonic() + WORKER_START_WAIT
-    return sum(w.ready.wait(max(deadline - time.monotonic(), 0.0)) for w in workers)
+    for w in workers:       # a worker that died starting is not waited for: its race says why
+        while (not w.ready.wait(READY_POLL) and w.process.is_alive()
+               and time.monotonic() < deadline):
+            pass
+    return sum(w.ready.is_set() for w in workers)
 
 
 def shutdown() -> None:
