@@ -55,9 +55,9 @@ from msg_adapters import (
 from rearrangement_planner.model.errors import RearrangementError
 from rearrangement_planner.model.resources import NODE_NAME
 from rearrangement_planner.planning.machinery.interface import Outcome, Progress
-from rearrangement_planner.planning.requests.parallel import warm_up_race
+from rearrangement_planner.planning.requests.parallel import start_workers
 from rearrangement_planner.planning.requests.status import PlannerStatus
-from rearrangement_planner.planning.requests.warmup import compile_seconds
+from rearrangement_planner.planning.requests.warmup import warm_up
 from rearrangement_planner.ros.action import (
     DIVERGED,
     PlanActionServer,
@@ -99,15 +99,13 @@ input of any size."""
 
 
 def _warm_up(node: Node) -> None:
-    """Compile the fast core at node start (or load it from the disk cache), and start the
-    race's tree workers with it (`warm_up_race`), not in the first plan."""
-    t0 = time.monotonic()
-    ready = warm_up_race(int(node.get_parameter("trees").value))
-    seconds = compile_seconds() or 0.0
+    """Compile the fast core at node start (or load it from the disk cache), not in the first
+    plan; the race's tree workers start beside it (`start_workers`) and load theirs while the
+    node serves, so that the first plan's warm-up (`warm_up_race`) finds them ready."""
+    start_workers(int(node.get_parameter("trees").value))
+    seconds = warm_up()
     if seconds > 0.0:
-        node.get_logger().info(f"physics core compiled or loaded in {seconds:.1f} s, "
-                               f"{ready} tree worker(s) ready after "
-                               f"{time.monotonic() - t0:.1f} s")
+        node.get_logger().info(f"physics core compiled or loaded in {seconds:.1f} s")
 
 
 class PlannerNode(Node):

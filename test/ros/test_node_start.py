@@ -1,5 +1,6 @@
 """planner_node refuses a bad scene at start with its one `[FATAL] cannot start: ...` line and a
-non-zero exit, never a traceback."""
+non-zero exit, never a traceback; Ctrl-C mid-plan is quiet; the race's workers start with the
+node."""
 
 import os
 import subprocess
@@ -97,3 +98,32 @@ def test_ctrl_c_while_a_goal_plans_is_quiet(tmp_path):
         spinner.join(timeout=5.0)
     assert node.returncode == 0, stderr
     assert "Traceback" not in stderr and "Exception in thread" not in stderr, stderr
+
+
+def test_the_node_starts_its_race_workers_with_it():
+    """At start the node starts the worker processes its `trees` need, without waiting for
+    them (it serves at once; the first plan's warm-up waits for what is left of their start),
+    and none for one tree."""
+    import rclpy
+    from rclpy.context import Context
+    from rclpy.parameter import Parameter
+
+    from rearrangement_planner.planning.requests import parallel
+    from rearrangement_planner.ros.node import PlannerNode
+
+    for trees, workers in ((3, 2), (1, 0)):
+        parallel.shutdown()
+        context = Context()
+        rclpy.init(context=context, domain_id=230 + os.getpid() % 10)
+        try:
+            node = PlannerNode(context=context, parameter_overrides=[
+                Parameter("scene", value="easy_push"), Parameter("record", value=False),
+                Parameter("trees", value=trees)])
+            alive = [w for w in (parallel._POOL.workers if parallel._POOL else [])
+                     if w.process.is_alive()]
+            assert len(alive) == workers
+            node.stop()
+            node.destroy_node()
+        finally:
+            rclpy.shutdown(context=context)
+            parallel.shutdown()

@@ -257,18 +257,25 @@ READY_POLL = 0.02
 """Seconds between `warm_up_race`'s checks that a starting worker is still alive."""
 
 
+def start_workers(trees: int) -> list[_Worker]:
+    """Start the worker processes a race of `trees` trees needs, if they are not yet running,
+    without waiting for them; they load the compiled core on their own (`_serve`). Returns
+    them."""
+    if trees <= 1:
+        return []
+    pool = _pool()
+    with pool.lock:
+        return pool.take(trees - 1)
+
+
 def warm_up_race(trees: int) -> int:
     """Load the compiled core in this process (`warm_up`) and, at the same time, in the worker
-    processes a race of `trees` trees needs (started here if they are not yet running), and
-    wait until they have: a plan's clock then holds no worker's start (about 2 s on this
-    machine, which the caller's own warm-up now overlaps). Returns the workers ready."""
+    processes a race of `trees` trees needs (`start_workers`), and wait until they have: a
+    plan's clock then holds no worker's start (about 2 s on this machine, which the caller's
+    own warm-up now overlaps). Returns the workers ready."""
     from rearrangement_planner.planning.requests.warmup import warm_up
 
-    workers: list[_Worker] = []
-    if trees > 1:
-        pool = _pool()
-        with pool.lock:
-            workers = pool.take(trees - 1)
+    workers = start_workers(trees)
     warm_up()
     deadline = time.monotonic() + WORKER_START_WAIT
     for w in workers:       # a worker that died starting is not waited for: its race says why
