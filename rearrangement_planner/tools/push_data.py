@@ -13,13 +13,6 @@ table:
 - u (3,): the tool's planar velocity (v_x, v_y) in the object frame (m/s) and its duration (s);
 - x_o' (K, 3): where the object came to rest, (x, y, yaw) in its start frame.
 
-Each execution draws what the robustness rollouts draw and no camera sees (`model.perturbation.
-Perturbation`): the pose noise, the frictions, and how the object's weight rests on the table
-(its `SupportPressure`: the limit surface's c and the centre of friction). The pressure is what
-decides how a pushed object turns, so a push whose successors spread under it is an unstable
-push, and the oracle, which picks pushes of small variance, learns to avoid it (Lynch & Mason
-1996, "Stable pushing"; issue: plans that survive the world).
-
 The arm starts from a few resting configurations on the pushing manifold with the tool at
 different places and yaws over the table (`_arm_states`); for each sample the object is put
 where x_r says relative to one of them. A sample whose start is invalid (the object would
@@ -41,18 +34,10 @@ from typing import cast
 
 import numpy as np
 
-from rearrangement_planner.model.perturbation import Perturbation
 from rearrangement_planner.model.resources import scenes_dir
 from rearrangement_planner.model.scene import Goal, MovableObject, Scene
 from rearrangement_planner.model.state import State
-from rearrangement_planner.physics.step import (
-    OBJ_C,
-    OBJ_COF_X,
-    OBJ_COF_Y,
-    OBJ_PUSHER_MU,
-    OBJ_SUPPORT_MU,
-    Physics,
-)
+from rearrangement_planner.physics.step import OBJ_PUSHER_MU, OBJ_SUPPORT_MU, Physics
 from rearrangement_planner.physics.validation import load_scene
 from rearrangement_planner.planning.machinery.approach import approach_path
 from rearrangement_planner.planning.machinery.manifold import tool_planar_pose
@@ -87,12 +72,6 @@ class DataOptions:
     """rad: the standard deviation of the object's yaw noise."""
     friction_noise: float = 0.3
     """Frictions are scaled by U(1 - this, 1 + this)."""
-    pressure: tuple[float, float] = Perturbation.pressure
-    """The limit surface's c is scaled by U(pressure) (`Perturbation.pressure`: from
-    centre-loaded to rim- or corner-loaded support)."""
-    centre_offset: float = Perturbation.centre_offset
-    """The centre of friction is drawn within this share of the footprint's half extents
-    (`Perturbation.centre_offset`)."""
     aimed: float = 0.8
     """Share of pushes that head at the object's centre (within N(0, 0.35) rad)."""
     arm_states: int = 12
@@ -212,16 +191,12 @@ class PushSimulator:
         velocity = np.array([c * u[0] - s * u[1], s * u[0] + c * u[1], 0.0])
         action = Action(velocity, duration, np.zeros(physics.robot.nq))
         successors = np.empty((opts.noise_draws, 3))
-        support = Perturbation(pressure=opts.pressure, centre_offset=opts.centre_offset)
         for k in range(opts.noise_draws):
             noisy = object_pose + rng.normal(0.0, 1.0, 3) * [opts.pose_noise, opts.pose_noise,
                                                               opts.yaw_noise]
             scale = rng.uniform(1.0 - opts.friction_noise, 1.0 + opts.friction_noise, 2)
             props[0, OBJ_SUPPORT_MU] = nominal[OBJ_SUPPORT_MU] * scale[0]
             props[0, OBJ_PUSHER_MU] = nominal[OBJ_PUSHER_MU] * scale[1]
-            drawn = support.support(obj, rng)
-            props[0, OBJ_C] = nominal[OBJ_C] * drawn.c_scale
-            props[0, OBJ_COF_X], props[0, OBJ_COF_Y] = drawn.centre
             start = State(arm.q, noisy[None])
             end = noisy
             if physics.check_state(start) is None:
