@@ -176,7 +176,6 @@ def test_the_warm_up_starts_the_race_workers_and_the_race_uses_them(easy):
     result = plan_race(PC_RRT, easy, PCRRTOptions(time_limit=60.0), 2, seed=RACE_SEED)
     assert result.solved and "tree 1 of 2" in result.message
     assert parallel._pool().workers[0].process.pid == started[0]
-    parallel.shutdown()
 
 
 def test_the_warm_up_does_not_wait_for_a_worker_that_died_starting(monkeypatch):
@@ -193,4 +192,6 @@ def test_the_warm_up_does_not_wait_for_a_worker_that_died_starting(monkeypatch):
     t0 = time.monotonic()
     assert parallel.warm_up_race(2) == 0
     assert time.monotonic() - t0 < 0.5 * parallel.WORKER_START_WAIT
+    monkeypatch.undo()
     parallel.shutdown()
+    assert parallel.warm_up_race(2) == 1      # the next test's race finds a ready worker
