@@ -101,29 +101,39 @@ def test_ctrl_c_while_a_goal_plans_is_quiet(tmp_path):
 
 
 def test_the_node_starts_its_race_workers_with_it():
-    """At start the node starts the worker processes its `trees` need, without waiting for
-    them (it serves at once; the first plan's warm-up waits for what is left of their start),
-    and none for one tree."""
-    import rclpy
-    from rclpy.context import Context
-    from rclpy.parameter import Parameter
+    """At start the node starts the worker processes its `trees` need (here 3 trees: 2
+    workers), without waiting for them: it serves at once, and the first plan's warm-up waits
+    for what is left of their start. Run as its own process, as a user starts it."""
+    import time
 
-    from rearrangement_planner.planning.requests import parallel
-    from rearrangement_planner.ros.node import PlannerNode
+    env = {**os.environ, "ROS_DOMAIN_ID": str(230 + os.getpid() % 3),   # 232 is the last
+           "ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST"}
+    node = subprocess.Popen([sys.executable, "-m", "rearrangement_planner.ros.node",
+                             "--ros-args", "-p", "scene:=easy_push", "-p", "record:=false",
+                             "-p", "trees:=3"],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env)
 
-    for trees, workers in ((3, 2), (1, 0)):
-        parallel.shutdown()
-        context = Context()
-        rclpy.init(context=context, domain_id=230 + os.getpid() % 10)
-        try:
-            node = PlannerNode(context=context, parameter_overrides=[
-                Parameter("scene", value="easy_push"), Parameter("record", value=False),
-                Parameter("trees", value=trees)])
-            alive = [w for w in (parallel._POOL.workers if parallel._POOL else [])
-                     if w.process.is_alive()]
-            assert len(alive) == workers
-            node.stop()
-            node.destroy_node()
-        finally:
-            rclpy.shutdown(context=context)
-            parallel.shutdown()
+    def tree_workers() -> int:
+        """The node's child processes that multiprocessing spawned (/proc: their parent)."""
+        count = 0
+        for entry in os.listdir("/proc"):
+            if not entry.isdigit():
+                continue
+            try:
+                with open(f"/proc/{entry}/stat") as stat:
+                    parent = int(stat.read().rsplit(")", 1)[1].split()[1])
+                with open(f"/proc/{entry}/cmdline", "rb") as cmdline:
+                    spawned = b"spawn_main" in cmdline.read()
+            except (FileNotFoundError, ProcessLookupError, IndexError, ValueError):
+                continue
+            count += parent == node.pid and spawned
+        return count
+
+    try:
+        deadline = time.monotonic() + 120.0
+        while tree_workers() < 2 and time.monotonic() < deadline and node.poll() is None:
+            time.sleep(0.2)
+        assert tree_workers() == 2
+    finally:
+        node.kill()
+        node.wait(30)
