@@ -43,7 +43,10 @@ njit_bare = cast(Any, njit)(cache=True, _nrt=False)
 """`njit` for a kernel that allocates no array, nor does any kernel it calls: compiled
 without Numba's reference counting (an atomic count up and down for every array it takes and
 every view it makes, which was a fifth of a physics step). A kernel that allocates fails to
-compile under it ("NRT required")."""
+compile under it ("NRT required"). A kernel that returns a view and is called from kernels of
+both kinds must be inlined (`inline="always"`): Numba compiles it once per kind, but its
+cache keys the machine code by the argument types alone, so a caller may be linked with the
+other kind's code, and a view counted by one kind and not the other frees its buffer early."""
 
 Vec3 = tuple[float, float, float]
 """A point or direction as three floats (a tuple: no allocation in compiled code)."""
@@ -643,12 +646,13 @@ def _box_box_contacts(va: np.ndarray, vb: np.ndarray, margin: float, points: np.
 def planar_contacts(kind_a: int, size_a: np.ndarray, xa: float, ya: float, yaw_a: float,
                     kind_b: int, size_b: np.ndarray, xb: float, yb: float, yaw_b: float,
                     margin: float, points: np.ndarray, normals: np.ndarray,
-                    gaps: np.ndarray) -> int:
+                    gaps: np.ndarray, corners: np.ndarray) -> int:
     """The contacts of two upright prisms standing on the table, seen from above: up to two
     points (2, 2) (m, world), unit normals (2, 2) from a into b and signed gaps (2,) (m,
     negative when they penetrate), for every contact whose gap is at most `margin`. A disk
     meets anything at one point; two rectangles at one (a corner) or two (faces side by side).
-    `size_*` are the full extents as in `prism_penetration`. Returns how many."""
+    `size_*` are the full extents as in `prism_penetration`. Returns how many. `corners`
+    (2, 4, 2) is scratch for two rectangles' corners."""
     if kind_a == CYLINDER and kind_b == CYLINDER:
         dx, dy = xb - xa, yb - ya
         d = math.hypot(dx, dy)
@@ -691,7 +695,7 @@ def planar_contacts(kind_a: int, size_a: np.ndarray, xa: float, ya: float, yaw_a
         normals[0, 0], normals[0, 1] = (-nx, -ny) if flip else (nx, ny)
         gaps[0] = gap
         return 1
-    va, vb = np.empty((4, 2)), np.empty((4, 2))
+    va, vb = corners[0], corners[1]
     _box_vertices(size_a, xa, ya, yaw_a, va)
     _box_vertices(size_b, xb, yb, yaw_b, vb)
     return _box_box_contacts(va, vb, margin, points, normals, gaps)

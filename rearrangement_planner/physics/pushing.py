@@ -368,13 +368,82 @@ def _as_contacts(points: np.ndarray | Sequence[Sequence[float]],
 
 
 @njit(cache=True)
-def build_lcp_kernel(c: float, P: np.ndarray, N: np.ndarray, V: np.ndarray,
-                     mus: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def lcp_scratch(contacts: int, bodies: int) -> tuple[np.ndarray, np.ndarray]:
+    """Buffers for the LCP of up to `contacts` contacts on up to `bodies` objects (floats,
+    integers): what `object_twist_kernel` and `multibody_twists_kernel` carve their matrices
+    and Lemke's tableau from (`_lcp_views`, `_lemke_views`), so that they allocate nothing
+    and a physics step compiles without Numba's reference counting (`kernels.njit_bare`)."""
+    n, r, cb = 4 * contacts, 3 * contacts, 3 * bodies
+    floats = 2 * r * cb + n * n + n + cb * r + n * (2 * n + 2) + (2 * n + 2) + n \
+        + (2 * n + 1) + 2 * n + cb
+    return np.empty(floats), np.empty(2 * n, dtype=np.int64)
+
+
+@njit(cache=True, inline="always")
+def _lcp_views(floats: np.ndarray, K: int, B: int) -> tuple:
+    """(G (3K, 3B), GA (3K, 3B), M (4K, 4K), q (4K,), twist_map (3B, 3K), the offset where
+    Lemke's views begin) in `floats` (`lcp_scratch`). Inlined: kernels with and without
+    reference counting call it, and a function that returns views must count them as its
+    caller does (`kernels.njit_bare`)."""
+    n, r, cb = 4 * K, 3 * K, 3 * B
+    G = floats[:r * cb].reshape((r, cb))
+    o = r * cb
+    GA = floats[o:o + r * cb].reshape((r, cb))
+    o += r * cb
+    M = floats[o:o + n * n].reshape((n, n))
+    o += n * n
+    q = floats[o:o + n]
+    o += n
+    twist_map = floats[o:o + cb * r].reshape((cb, r))
+    return G, GA, M, q, twist_map, o + cb * r
+
+
+@njit(cache=True, inline="always")
+def _lemke_views(floats: np.ndarray, integers: np.ndarray, o: int, n: int) -> tuple:
+    """(T (n, 2n+2), row, col, x, z, w, basis, cand, the offset after them) of `lemke_into`
+    for an LCP of size n, from offset `o` of `floats` (`lcp_scratch`). Inlined, as
+    `_lcp_views`."""
+    T = floats[o:o + n * (2 * n + 2)].reshape((n, 2 * n + 2))
+    o += n * (2 * n + 2)
+    row = floats[o:o + 2 * n + 2]
+    o += 2 * n + 2
+    col = floats[o:o + n]
+    o += n
+    x = floats[o:o + 2 * n + 1]
+    o += 2 * n + 1
+    z = floats[o:o + n]
+    o += n
+    w = floats[o:o + n]
+    return T, row, col, x, z, w, integers[:n], integers[n:2 * n], o + n
+
+
+@njit(cache=True, inline="always")
+def _abs_max(a: np.ndarray) -> float:
+    """max |a_i| of a 1-D array (0 when empty), without the temporary of np.abs(a).max()."""
+    best = 0.0
+    for i in range(a.shape[0]):
+        best = max(best, abs(a[i]))
+    return best
+
+
+@njit(cache=True)
+def _product_transposed(A: np.ndarray, B: np.ndarray, out: np.ndarray, rows: int) -> None:
+    """out[:rows, :rows] = A @ B.T for A, B (rows, k), written out (no temporary)."""
+    for i in range(rows):
+        for j in range(rows):
+            s = 0.0
+            for k in range(A.shape[1]):
+                s += A[i, k] * B[j, k]
+            out[i, j] = s
+
+
+@njit(cache=True)
+def _build_lcp_into(c: float, P: np.ndarray, N: np.ndarray, V: np.ndarray, mus: np.ndarray,
+                    G: np.ndarray, GA: np.ndarray, M: np.ndarray, q: np.ndarray,
+                    twist_map: np.ndarray) -> None:
     """(M, q, twist_map) of the contact LCP (module docstring, §3) for K contacts with unit
-    normals, compiled; `build_contact_lcp` checks the inputs."""
+    normals, written into the views of `_lcp_views` (B = 1), G and GA its scratch."""
     K = P.shape[0]
-    G = np.empty((3 * K, 3))
-    Vrow = np.empty((3 * K, 2))
     for i in range(K):
         nx, ny = N[i, 0], N[i, 1]
         tx, ty = -ny, nx                                    # t_i = R(+90°) n_i
@@ -383,21 +452,48 @@ def build_lcp_kernel(c: float, P: np.ndarray, N: np.ndarray, V: np.ndarray,
         for row, dx, dy in ((i, nx, ny), (K + 2 * i, tx, ty), (K + 2 * i + 1, -tx, -ty)):
             G[row, 0], G[row, 1] = dx, dy
             G[row, 2] = P[i, 0] * dy - P[i, 1] * dx
-            Vrow[row, 0], Vrow[row, 1] = V[i, 0], V[i, 1]
+            q[row] = -(dx * V[i, 0] + dy * V[i, 1])         # -(n_i.v_i), -D_i^T v_i
     inv_c2 = 1.0 / (c * c)
-    GA = G.copy()
-    GA[:, 2] *= inv_c2                                      # G A, A = diag(1, 1, 1/c^2) (LS)
+    for row in range(3 * K):                                # G A, A = diag(1, 1, 1/c^2) (LS)
+        GA[row, 0], GA[row, 1], GA[row, 2] = G[row, 0], G[row, 1], G[row, 2] * inv_c2
     n = 4 * K
-    M = np.zeros((n, n))
-    M[:3 * K, :3 * K] = GA @ G.T                            # [N; D] A [N; D]^T
+    _fill(M, 0.0)
+    _product_transposed(GA, G, M, 3 * K)                    # [N; D] A [N; D]^T
     for i in range(K):
         M[K + 2 * i, 3 * K + i] = M[K + 2 * i + 1, 3 * K + i] = 1.0     # E
         M[3 * K + i, K + 2 * i] = M[3 * K + i, K + 2 * i + 1] = -1.0    # -E^T
         M[3 * K + i, i] = mus[i]                                        # U = diag(mu_i)
-    q = np.zeros(n)
-    for row in range(3 * K):
-        q[row] = -(G[row, 0] * Vrow[row, 0] + G[row, 1] * Vrow[row, 1])  # -(n_i.v_i), -D_i^T v_i
-    return M, q, GA.T.copy()
+    for row in range(3 * K, n):
+        q[row] = 0.0
+    _transpose_into(GA, twist_map)
+
+
+@njit(cache=True)
+def _fill(a: np.ndarray, value: float) -> None:
+    """Every entry of the 2-D array a set to `value`."""
+    for i in range(a.shape[0]):
+        for j in range(a.shape[1]):
+            a[i, j] = value
+
+
+@njit(cache=True)
+def _transpose_into(a: np.ndarray, out: np.ndarray) -> None:
+    """out = a.T, written out."""
+    for i in range(a.shape[0]):
+        for j in range(a.shape[1]):
+            out[j, i] = a[i, j]
+
+
+@njit(cache=True)
+def build_lcp_kernel(c: float, P: np.ndarray, N: np.ndarray, V: np.ndarray,
+                     mus: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(M, q, twist_map) of the contact LCP (module docstring, §3) for K contacts with unit
+    normals, compiled, in arrays of their own; `build_contact_lcp` checks the inputs."""
+    K = P.shape[0]
+    floats, _ = lcp_scratch(K, 1)
+    G, GA, M, q, twist_map, _ = _lcp_views(floats, K, 1)
+    _build_lcp_into(c, P, N, V, mus, G, GA, M, q, twist_map)
+    return M.copy(), q.copy(), twist_map.copy()
 
 
 def build_contact_lcp(c: float, points: np.ndarray | Sequence[Sequence[float]],
@@ -417,14 +513,20 @@ def build_contact_lcp(c: float, points: np.ndarray | Sequence[Sequence[float]],
 
 
 @njit(cache=True)
-def _pivot(T: np.ndarray, basis: np.ndarray, r: int, e: int) -> int:
-    """Variable e enters the basis in row r of the tableau; returns the variable that leaves."""
-    row = T[r] / T[r, e]
-    col = T[:, e].copy()
+def _pivot(T: np.ndarray, basis: np.ndarray, r: int, e: int, row: np.ndarray,
+           col: np.ndarray) -> int:
+    """Variable e enters the basis in row r of the tableau; returns the variable that leaves.
+    `row` and `col` are scratch (2n + 2 and n)."""
+    pivot = T[r, e]
+    for j in range(T.shape[1]):
+        row[j] = T[r, j] / pivot
+    for i in range(T.shape[0]):
+        col[i] = T[i, e]
     for i in range(T.shape[0]):
         for j in range(T.shape[1]):
             T[i, j] -= col[i] * row[j]
-    T[r] = row
+    for j in range(T.shape[1]):
+        T[r, j] = row[j]
     leaving = basis[r]
     basis[r] = e
     return leaving
@@ -432,15 +534,19 @@ def _pivot(T: np.ndarray, basis: np.ndarray, r: int, e: int) -> int:
 
 @njit(cache=True)
 def _leaving_row(T: np.ndarray, basis: np.ndarray, n: int, entering: int,
-                 pivot_tol: float) -> int:
+                 pivot_tol: float, cand: np.ndarray) -> int:
     """The minimum-ratio test over the rows with a positive entry in the entering column; ties
     go to z0's row (z0 leaves: solved), else to the lexicographic rule on the rows of B^-1
-    (tolerance 1e-12). -1: no positive entry (ray termination)."""
+    (tolerance 1e-12). -1: no positive entry (ray termination). `cand` is scratch (n)."""
     col = T[:, entering]
     # Entries below pivot_tol relative to the column are rounding noise of exact zeros.
-    threshold = pivot_tol * max(1.0, max(col.max(), -col.min()))
+    largest = -math.inf
+    smallest = math.inf
+    for i in range(col.shape[0]):
+        largest = max(largest, col[i])
+        smallest = min(smallest, col[i])
+    threshold = pivot_tol * max(1.0, max(largest, -smallest))
     best = math.inf
-    cand = np.empty(n, dtype=np.int64)
     count = 0
     for i in range(n):
         if col[i] > threshold:
@@ -475,68 +581,110 @@ def _leaving_row(T: np.ndarray, basis: np.ndarray, n: int, entering: int,
 
 @njit(cache=True)
 def _lemke_solution(M: np.ndarray, q: np.ndarray, T: np.ndarray, basis: np.ndarray,
-                    scale: float) -> tuple[np.ndarray, np.ndarray]:
+                    scale: float, x: np.ndarray, z: np.ndarray, w: np.ndarray) -> None:
+    """The tableau's basic solution: z (unscaled) and w = M z + q, with the scratch x."""
     n = q.shape[0]
-    x = np.zeros(2 * n + 1)
+    for i in range(2 * n + 1):
+        x[i] = 0.0
     for r in range(n):
         x[basis[r]] = T[r, -1]
-    z = np.maximum(x[n:2 * n], 0.0) * scale
-    return z, M @ z + q
+    for i in range(n):
+        z[i] = max(x[n + i], 0.0) * scale
+    for i in range(n):
+        s = 0.0
+        for j in range(n):
+            s += M[i, j] * z[j]
+        w[i] = s + q[i]
 
 
 @njit(cache=True)
-def lemke_kernel(M: np.ndarray, q: np.ndarray, cap: int,
-                 pivot_tol: float) -> tuple[np.ndarray, np.ndarray, int, int]:
-    """Lemke's method as `lemke` describes it, compiled: (z, w, status code, iterations)."""
+def _lemke_tableau(M: np.ndarray, q: np.ndarray, T: np.ndarray,
+                   basis: np.ndarray) -> tuple[float, float]:
+    """Lemke's starting tableau [I | -M | -d | q] over (w_1..w_n, z_1..z_n, z0), scaled to
+    unit max-norm, into T; row r holds the basic variable basis[r] (initially w_r), columns
+    0..n-1 hold B^-1 (initially I). Returns the scales of q and M."""
     n = q.shape[0]
-    if n == 0 or q.min() >= 0.0:                         # z = 0 is a solution
-        return np.zeros(n), q.copy(), SOLVED, 0
-    # The tableau [I | -M | -d | q] over (w_1..w_n, z_1..z_n, z0), scaled to unit max-norm;
-    # row r holds the basic variable basis[r]; columns 0..n-1 hold B^-1 (initially I).
-    q_scale = np.abs(q).max()
-    m_scale = np.abs(M).max()
+    q_scale = _abs_max(q)
+    m_scale = 0.0
+    for i in range(n):
+        m_scale = max(m_scale, _abs_max(M[i]))
     if m_scale == 0.0:
         m_scale = 1.0
-    z0 = 2 * n
-    T = np.zeros((n, 2 * n + 2))
+    _fill(T, 0.0)
     m_factor, q_factor = -1.0 / m_scale, 1.0 / q_scale
     for i in range(n):
         T[i, i] = 1.0
         for j in range(n):
             T[i, n + j] = M[i, j] * m_factor
-        T[i, z0] = -1.0
+        T[i, 2 * n] = -1.0
         T[i, 2 * n + 1] = q[i] * q_factor
-    basis = np.arange(n)
+        basis[i] = i
+    return q_scale, m_scale
+
+
+@njit(cache=True)
+def lemke_into(M: np.ndarray, q: np.ndarray, cap: int, pivot_tol: float, T: np.ndarray,
+               row: np.ndarray, col: np.ndarray, x: np.ndarray, z: np.ndarray, w: np.ndarray,
+               basis: np.ndarray, cand: np.ndarray) -> tuple[int, int]:
+    """Lemke's method as `lemke` describes it, compiled, in the scratch of `_lemke_views`:
+    writes z and w, returns (status code, iterations)."""
+    n = q.shape[0]
+    q_min = math.inf
+    for i in range(n):
+        q_min = min(q_min, q[i])
+    if n == 0 or q_min >= 0.0:                           # z = 0 is a solution
+        for i in range(n):
+            z[i], w[i] = 0.0, q[i]
+        return SOLVED, 0
+    q_scale, m_scale = _lemke_tableau(M, q, T, basis)
+    z0 = 2 * n
     # First pivot: z0 enters at max(-q_i); among ties the largest row index leaves (the
     # lexicographic rule for the perturbation q + (eps, eps^2, ...)).
-    rhs_min = T[:, -1].min()
+    rhs_min = math.inf
+    for i in range(n):
+        rhs_min = min(rhs_min, T[i, -1])
     first = 0
     for i in range(n):
         if T[i, -1] <= rhs_min + 1e-14:
             first = i
-    leaving = _pivot(T, basis, first, z0)
+    leaving = _pivot(T, basis, first, z0, row, col)
     entering = leaving + n                               # complement of the w that left
     scale = q_scale / m_scale
     status, iterations = ITERATION_LIMIT, cap
     for it in range(1, cap + 1):
-        r = _leaving_row(T, basis, n, entering, pivot_tol)
+        r = _leaving_row(T, basis, n, entering, pivot_tol, cand)
         if r < 0:
             status, iterations = RAY_TERMINATION, it
             break
-        leaving = _pivot(T, basis, r, entering)
+        leaving = _pivot(T, basis, r, entering, row, col)
         if leaving == z0:
-            z, w = _lemke_solution(M, q, T, basis, scale)
-            return z, w, SOLVED, it
+            _lemke_solution(M, q, T, basis, scale, x, z, w)
+            return SOLVED, it
         entering = leaving + n if leaving < n else leaving - n
     # Degenerate end: z0 is still basic but already ~0 (rounding kept it from leaving on a
     # tie), so the current almost-complementary point is complementary.
     for r in range(n):
         if basis[r] == z0 and T[r, -1] <= 1e-12:
-            z, w = _lemke_solution(M, q, T, basis, scale)
-            if w.min() >= -1e-9 * q_scale:               # verified: w = M z + q >= 0
-                return z, w, SOLVED, iterations
-    nan = np.full(n, np.nan)
-    return nan, nan.copy(), status, iterations
+            _lemke_solution(M, q, T, basis, scale, x, z, w)
+            w_min = math.inf
+            for i in range(n):
+                w_min = min(w_min, w[i])
+            if w_min >= -1e-9 * q_scale:                 # verified: w = M z + q >= 0
+                return SOLVED, iterations
+    for i in range(n):
+        z[i] = w[i] = np.nan
+    return status, iterations
+
+
+@njit(cache=True)
+def lemke_kernel(M: np.ndarray, q: np.ndarray, cap: int,
+                 pivot_tol: float) -> tuple[np.ndarray, np.ndarray, int, int]:
+    """`lemke_into` in arrays of its own: (z, w, status code, iterations)."""
+    n = q.shape[0]
+    floats, integers = lcp_scratch(n // 4 + 1, 1)
+    T, row, col, x, z, w, basis, cand, _ = _lemke_views(floats, integers, 0, n)
+    status, iterations = lemke_into(M, q, cap, pivot_tol, T, row, col, x, z, w, basis, cand)
+    return z.copy(), w.copy(), status, iterations
 
 
 def lemke(M: np.ndarray, q: np.ndarray, *, max_iterations: int | None = None,
@@ -570,7 +718,7 @@ def _forces_and_modes(twist_map: np.ndarray, q: np.ndarray, z: np.ndarray, K: in
                       modes: np.ndarray) -> int:
     """Read the object twist V = A G^T (f_n, beta), the forces and the contact modes off an
     LCP solution z (module docstring, §3) into the output arrays; returns the mode code."""
-    tol = 1e-9 * max(np.abs(q).max(), 1e-300)
+    tol = 1e-9 * max(_abs_max(q), 1e-300)
     loaded = False
     for i in range(K):
         f_n[i] = z[i]
@@ -581,18 +729,29 @@ def _forces_and_modes(twist_map: np.ndarray, q: np.ndarray, z: np.ndarray, K: in
             loaded = True
             modes[i] = SLIDING if z[3 * K + i] > tol else STICKING
     if not loaded:
-        twist[:] = 0.0
+        twist[0] = twist[1] = twist[2] = 0.0
         return SEPARATING
-    twist[:] = twist_map @ z[:3 * K]
+    _map_into(twist_map, z, 3 * K, twist)
     return MOVING
+
+
+@njit(cache=True)
+def _map_into(twist_map: np.ndarray, z: np.ndarray, count: int, out: np.ndarray) -> None:
+    """out = twist_map @ z[:count], written out."""
+    for r in range(twist_map.shape[0]):
+        s = 0.0
+        for k in range(count):
+            s += twist_map[r, k] * z[k]
+        out[r] = s
 
 
 @njit(cache=True)
 def object_twist_kernel(c: float, P: np.ndarray, N: np.ndarray, V: np.ndarray, mus: np.ndarray,
                         cap: int, twist: np.ndarray, f_n: np.ndarray, f_t: np.ndarray,
-                        modes: np.ndarray) -> int:
+                        modes: np.ndarray, floats: np.ndarray, integers: np.ndarray) -> int:
     """`object_twist` compiled (K >= 1 contacts with unit normals): writes the twist, the
-    forces and the contact modes, returns the mode code (JAMMED: zero twist, NaN forces)."""
+    forces and the contact modes, returns the mode code (JAMMED: zero twist, NaN forces).
+    `floats` and `integers`: the LCP's scratch (`lcp_scratch`, K contacts or more)."""
     K = P.shape[0]
     if K == 1:
         vx, vy, w, code = single_contact_kernel(c, P[0, 0], P[0, 1], N[0, 0], N[0, 1],
@@ -608,10 +767,9 @@ def object_twist_kernel(c: float, P: np.ndarray, N: np.ndarray, V: np.ndarray, m
             pushing += 1
             pusher = i
     if pushing == 0:
-        twist[:] = 0.0
-        f_n[:] = 0.0
-        f_t[:] = 0.0
-        modes[:] = SEPARATING
+        twist[0] = twist[1] = twist[2] = 0.0
+        for i in range(K):
+            f_n[i], f_t[i], modes[i] = 0.0, 0.0, SEPARATING
         return SEPARATING
     if pushing == 1:
         # The closed form of the one pushing contact is an LCP solution when it penetrates no
@@ -619,7 +777,9 @@ def object_twist_kernel(c: float, P: np.ndarray, N: np.ndarray, V: np.ndarray, m
         i = pusher
         vx, vy, w, code = single_contact_kernel(c, P[i, 0], P[i, 1], N[i, 0], N[i, 1],
                                                 V[i, 0], V[i, 1], mus[i])
-        vmax = max(np.abs(V).max(), 1e-300)
+        vmax = 1e-300
+        for j in range(K):
+            vmax = max(vmax, abs(V[j, 0]), abs(V[j, 1]))
         clear = True
         for j in range(K):
             if j != i:
@@ -630,20 +790,20 @@ def object_twist_kernel(c: float, P: np.ndarray, N: np.ndarray, V: np.ndarray, m
                     break
         if clear:
             twist[0], twist[1], twist[2] = vx, vy, w
-            f_n[:] = 0.0
-            f_t[:] = 0.0
-            modes[:] = SEPARATING
+            for j in range(K):
+                f_n[j], f_t[j], modes[j] = 0.0, 0.0, SEPARATING
             f_n[i] = vx * N[i, 0] + vy * N[i, 1]
             f_t[i] = -vx * N[i, 1] + vy * N[i, 0]
             modes[i] = code
             return MOVING
-    M, q, twist_map = build_lcp_kernel(c, P, N, V, mus)
-    z, _, status, _ = lemke_kernel(M, q, cap, 1e-9)
+    G, GA, M, q, twist_map, o = _lcp_views(floats, K, 1)
+    _build_lcp_into(c, P, N, V, mus, G, GA, M, q, twist_map)
+    T, row, col, x, z, w, basis, cand, _ = _lemke_views(floats, integers, o, 4 * K)
+    status, _ = lemke_into(M, q, cap, 1e-9, T, row, col, x, z, w, basis, cand)
     if status != SOLVED:
-        twist[:] = 0.0
-        f_n[:] = np.nan
-        f_t[:] = np.nan
-        modes[:] = JAMMED
+        twist[0] = twist[1] = twist[2] = 0.0
+        for i in range(K):
+            f_n[i], f_t[i], modes[i] = np.nan, np.nan, JAMMED
         return JAMMED
     return _forces_and_modes(twist_map, q, z, K, twist, f_n, f_t, modes)
 
@@ -651,7 +811,8 @@ def object_twist_kernel(c: float, P: np.ndarray, N: np.ndarray, V: np.ndarray, m
 @njit(cache=True)
 def object_twist_about_kernel(c: float, cx: float, cy: float, P: np.ndarray, N: np.ndarray,
                               V: np.ndarray, mus: np.ndarray, cap: int, twist: np.ndarray,
-                              f_n: np.ndarray, f_t: np.ndarray, modes: np.ndarray) -> int:
+                              f_n: np.ndarray, f_t: np.ndarray, modes: np.ndarray,
+                              floats: np.ndarray, integers: np.ndarray) -> int:
     """`object_twist_kernel` for an object whose centre of friction is (cx, cy) in its frame
     (m; the support pressure's centre, `model.scene.SupportPressure`): the limit surface
     (LS) holds about that point, so the contacts are taken relative to it, and the twist it
@@ -659,11 +820,13 @@ def object_twist_about_kernel(c: float, cx: float, cy: float, P: np.ndarray, N: 
     v_o = v_c + omega x (o - c) = (v_cx + omega cy, v_cy - omega cx). With (cx, cy) = 0 it
     is `object_twist_kernel` exactly. P is shifted in place and restored."""
     if cx == 0.0 and cy == 0.0:
-        return object_twist_kernel(c, P, N, V, mus, cap, twist, f_n, f_t, modes)
+        return object_twist_kernel(c, P, N, V, mus, cap, twist, f_n, f_t, modes, floats,
+                                   integers)
     for i in range(P.shape[0]):
         P[i, 0] -= cx
         P[i, 1] -= cy
-    code = object_twist_kernel(c, P, N, V, mus, cap, twist, f_n, f_t, modes)
+    code = object_twist_kernel(c, P, N, V, mus, cap, twist, f_n, f_t, modes, floats,
+                               integers)
     for i in range(P.shape[0]):
         P[i, 0] += cx
         P[i, 1] += cy
@@ -679,13 +842,14 @@ def object_twist_about_kernel(c: float, cx: float, cy: float, P: np.ndarray, N: 
 
 @njit(cache=True)
 def _multibody_rows(centres: np.ndarray, P: np.ndarray, N: np.ndarray, body: np.ndarray,
-                    other: np.ndarray, V: np.ndarray, gaps: np.ndarray
-                    ) -> tuple[np.ndarray, np.ndarray]:
-    """G (3K x 3B) and q (4K,) of `build_multibody_lcp_kernel`: per contact k the rows
-    d^T J for d = n_k, +t_k, -t_k (+J for body[k], -J for other[k]) and their q."""
-    K, B = P.shape[0], centres.shape[0]
-    G = np.zeros((3 * K, 3 * B))
-    q = np.zeros(4 * K)
+                    other: np.ndarray, V: np.ndarray, gaps: np.ndarray, G: np.ndarray,
+                    q: np.ndarray) -> None:
+    """G (3K x 3B) and q (4K,) of `build_multibody_lcp_kernel`, written: per contact k the
+    rows d^T J for d = n_k, +t_k, -t_k (+J for body[k], -J for other[k]) and their q."""
+    K = P.shape[0]
+    _fill(G, 0.0)
+    for r in range(4 * K):
+        q[r] = 0.0
     for k in range(K):
         nx, ny = N[k, 0], N[k, 1]
         tx, ty = -ny, nx
@@ -703,14 +867,14 @@ def _multibody_rows(centres: np.ndarray, P: np.ndarray, N: np.ndarray, body: np.
             else:
                 q[row] = -(dx * V[k, 0] + dy * V[k, 1])
         q[k] += gaps[k]
-    return G, q
 
 
 @njit(cache=True)
-def build_multibody_lcp_kernel(centres: np.ndarray, cs: np.ndarray, weights: np.ndarray,
-                               P: np.ndarray, N: np.ndarray, body: np.ndarray,
-                               other: np.ndarray, V: np.ndarray, gaps: np.ndarray,
-                               mus: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def build_multibody_lcp_into(centres: np.ndarray, cs: np.ndarray, weights: np.ndarray,
+                             P: np.ndarray, N: np.ndarray, body: np.ndarray,
+                             other: np.ndarray, V: np.ndarray, gaps: np.ndarray,
+                             mus: np.ndarray, G: np.ndarray, GA: np.ndarray, M: np.ndarray,
+                             q: np.ndarray, twist_map: np.ndarray) -> None:
     """(M, q, twist_map) of the quasistatic LCP of module docstring §3 over B objects at once
     (module docstring, §3b), compiled. Everything is in the world frame (m):
 
@@ -734,29 +898,47 @@ def build_multibody_lcp_kernel(centres: np.ndarray, cs: np.ndarray, weights: np.
     (p_y - c_y), v_y + w (p_x - c_x)) for body[k] and -J for other[k]; M, E, U as in §3 with
     A the block-diagonal of the weighted limit surfaces; q = -(d . V[k]) + (gaps[k] on the
     normal row). The twists are twist_map @ z[:3K] (3B: v_x, v_y, omega per object, about its
-    centre of friction, world frame)."""
+    centre of friction, world frame). Written into the views of `_lcp_views`, G and GA its
+    scratch."""
     K, B = P.shape[0], centres.shape[0]
-    G, q = _multibody_rows(centres, P, N, body, other, V, gaps)
-    GA = G.copy()
-    for b in range(B):
-        GA[:, 3 * b] *= weights[b]
-        GA[:, 3 * b + 1] *= weights[b]
-        GA[:, 3 * b + 2] *= weights[b] / (cs[b] * cs[b])
-    M = np.zeros((4 * K, 4 * K))
-    M[:3 * K, :3 * K] = GA @ G.T
+    _multibody_rows(centres, P, N, body, other, V, gaps, G, q)
+    for r in range(3 * K):
+        for b in range(B):
+            GA[r, 3 * b] = G[r, 3 * b] * weights[b]
+            GA[r, 3 * b + 1] = G[r, 3 * b + 1] * weights[b]
+            GA[r, 3 * b + 2] = G[r, 3 * b + 2] * (weights[b] / (cs[b] * cs[b]))
+    _fill(M, 0.0)
+    _product_transposed(GA, G, M, 3 * K)
     # A compliance of MULTIBODY_COMPLIANCE times the largest diagonal entry on the force
     # block: a group in contact has many redundant contacts (a face pushed flat against a
     # face), whose singular M stalls Lemke's method on its degenerate pivots; the regularised
     # M is strictly copositive on the forces; the twists move by a relative 1e-3 or less
     # (1e-8 leaves three of seven pushed rows of objects in test jammed).
-    eps = MULTIBODY_COMPLIANCE * max(np.abs(np.diag(M)).max(), 1e-300)
+    largest = 0.0
+    for r in range(4 * K):
+        largest = max(largest, abs(M[r, r]))
+    eps = MULTIBODY_COMPLIANCE * max(largest, 1e-300)
     for r in range(3 * K):
         M[r, r] += eps
     for k in range(K):
         M[K + 2 * k, 3 * K + k] = M[K + 2 * k + 1, 3 * K + k] = 1.0     # E
         M[3 * K + k, K + 2 * k] = M[3 * K + k, K + 2 * k + 1] = -1.0    # -E^T
         M[3 * K + k, k] = mus[k]                                        # U
-    return M, q, GA.T.copy()
+    _transpose_into(GA, twist_map)
+
+
+@njit(cache=True)
+def build_multibody_lcp_kernel(centres: np.ndarray, cs: np.ndarray, weights: np.ndarray,
+                               P: np.ndarray, N: np.ndarray, body: np.ndarray,
+                               other: np.ndarray, V: np.ndarray, gaps: np.ndarray,
+                               mus: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(M, q, twist_map) of `build_multibody_lcp_into`, in arrays of their own."""
+    K, B = P.shape[0], centres.shape[0]
+    floats, _ = lcp_scratch(K, B)
+    G, GA, M, q, twist_map, _ = _lcp_views(floats, K, B)
+    build_multibody_lcp_into(centres, cs, weights, P, N, body, other, V, gaps, mus, G, GA, M,
+                             q, twist_map)
+    return M.copy(), q.copy(), twist_map.copy()
 
 
 MULTIBODY_COMPLIANCE = 1e-6
@@ -767,22 +949,30 @@ MULTIBODY_COMPLIANCE = 1e-6
 def multibody_twists_kernel(centres: np.ndarray, cs: np.ndarray, weights: np.ndarray,
                             P: np.ndarray, N: np.ndarray, body: np.ndarray, other: np.ndarray,
                             V: np.ndarray, gaps: np.ndarray, mus: np.ndarray, cap: int,
-                            twists: np.ndarray) -> int:
+                            twists: np.ndarray, floats: np.ndarray,
+                            integers: np.ndarray) -> int:
     """Solve the LCP of `build_multibody_lcp_kernel` (Lemke): writes each object's twist
     about its centre of friction (B, 3) (world frame) and returns MOVING, SEPARATING (no
     contact loaded: nothing moves) or JAMMED (no solution: the pushers squeeze the group;
-    zero twists)."""
-    M, q, twist_map = build_multibody_lcp_kernel(centres, cs, weights, P, N, body, other, V,
-                                                 gaps, mus)
-    z, _, status, _ = lemke_kernel(M, q, cap, 1e-9)
-    twists[:] = 0.0
+    zero twists). `floats` and `integers` are its scratch (`lcp_scratch`, for K contacts
+    and B objects or more): it allocates nothing."""
+    K, B = P.shape[0], centres.shape[0]
+    G, GA, M, q, twist_map, o = _lcp_views(floats, K, B)
+    build_multibody_lcp_into(centres, cs, weights, P, N, body, other, V, gaps, mus, G, GA, M,
+                             q, twist_map)
+    T, row, col, x, z, w, basis, cand, o = _lemke_views(floats, integers, o, 4 * K)
+    status, _ = lemke_into(M, q, cap, 1e-9, T, row, col, x, z, w, basis, cand)
+    _fill(twists, 0.0)
     if status != SOLVED:
         return JAMMED
-    K = P.shape[0]
-    if z[:K].max() <= 1e-9 * max(np.abs(q).max(), 1e-300):
+    loaded = -math.inf
+    for k in range(K):
+        loaded = max(loaded, z[k])
+    if loaded <= 1e-9 * max(_abs_max(q), 1e-300):
         return SEPARATING
-    flat = twist_map @ z[:3 * K]
-    for b in range(centres.shape[0]):
+    flat = floats[o:o + 3 * B]
+    _map_into(twist_map, z, 3 * K, flat)
+    for b in range(B):
         twists[b, 0], twists[b, 1], twists[b, 2] = flat[3 * b], flat[3 * b + 1], flat[3 * b + 2]
     return MOVING
 
@@ -801,10 +991,11 @@ def multibody_twists(centres: np.ndarray, cs: np.ndarray, weights: np.ndarray,
     if Nrm.shape[0] and not norms.min() > 1e-12:
         raise PushingError("every contact normal must be a non-zero vector")
     twists = np.zeros((centres_.shape[0], 3))
+    floats, integers = lcp_scratch(P.reshape(-1, 2).shape[0], centres_.reshape(-1, 2).shape[0])
     code = multibody_twists_kernel(
         centres_.reshape(-1, 2), cs_, weights_, P.reshape(-1, 2), Nrm.reshape(-1, 2)
         / norms[:, None], np.asarray(body, dtype=np.int64), np.asarray(other, dtype=np.int64),
-        Vp.reshape(-1, 2), gaps_, mus_, max(100, 80 * P.shape[0]), twists)
+        Vp.reshape(-1, 2), gaps_, mus_, max(100, 80 * P.shape[0]), twists, floats, integers)
     return MODES[code], twists
 
 
@@ -881,8 +1072,10 @@ def object_twist(c: float, points: np.ndarray | Sequence[Sequence[float]],
         return single_contact_twist(c, P[0], Nrm[0], Vp[0], float(mus[0]))
     twist, f_n, f_t = np.empty(3), np.empty(K), np.empty(K)
     modes = np.empty(K, dtype=np.int64)
+    floats, integers = lcp_scratch(K, 1)
     code = object_twist_about_kernel(float(c), cx, cy, P.copy(), np.ascontiguousarray(Nrm),
-                                     Vp, mus, 20 * 4 * K, twist, f_n, f_t, modes)
+                                     Vp, mus, 20 * 4 * K, twist, f_n, f_t, modes, floats,
+                                     integers)
     return _push_result(code, twist, f_n, f_t, modes)
 
 

@@ -603,23 +603,26 @@ def _push_object(m: int, pose: np.ndarray, count: int, c_shape: np.ndarray,
                  c_depth: np.ndarray, poses_a: np.ndarray, poses_b: np.ndarray,
                  obj_kind: np.ndarray, obj_size: np.ndarray, obj_props: np.ndarray,
                  table: np.ndarray, options: np.ndarray, new_pose: np.ndarray,
-                 value: np.ndarray) -> int:
+                 value: np.ndarray, work: tuple) -> int:
     """Object m's motion from its contacts (module docstring, steps 4-6): writes its new pose
-    and returns _VALID, -1 when it does not move, or the invalid code."""
+    and returns _VALID, -1 when it does not move, or the invalid code. Its arrays are views
+    of the step's `work` (`step_workspace`)."""
     k = 0
     for i in range(count):
         if c_obj[i] == m:
             k += 1
-    P, N, V = np.empty((k, 2)), np.empty((k, 2)), np.empty((k, 2))
+    P, N, V = work[_P][:k], work[_N][:k], work[_V][:k]
     height = _object_frame_contacts(m, pose, count, c_shape, c_obj, c_point, c_normal,
                                     c_depth, poses_a, poses_b, options[OPT_PENETRATION], P, N,
                                     V)
-    twist, f_n, f_t = np.empty(3), np.empty(k), np.empty(k)
-    modes = np.empty(k, dtype=np.int64)
-    mus = np.full(k, obj_props[m, OBJ_PUSHER_MU])
+    twist, f_n, f_t = work[_TWIST], work[_F_N][:k], work[_F_T][:k]
+    modes, mus = work[_MODES][:k], work[_MUS][:k]
+    for i in range(k):
+        mus[i] = obj_props[m, OBJ_PUSHER_MU]
     code = pushing.object_twist_about_kernel(obj_props[m, OBJ_C], obj_props[m, OBJ_COF_X],
                                              obj_props[m, OBJ_COF_Y], P, N, V, mus,
-                                             max(100, 80 * k), twist, f_n, f_t, modes)
+                                             max(100, 80 * k), twist, f_n, f_t, modes,
+                                             work[_FLOATS], work[_INTEGERS])
     if code == pushing.JAMMED:
         return _JAMMING
     if twist[0] == 0.0 and twist[1] == 0.0 and twist[2] == 0.0:
@@ -721,39 +724,47 @@ def _resolve_object_contacts(objects: np.ndarray, new_objects: np.ndarray,
                              obj_kind: np.ndarray, obj_size: np.ndarray,
                              obj_props: np.ndarray, table: np.ndarray, options: np.ndarray,
                              moved: np.ndarray, near: np.ndarray, info: np.ndarray,
-                             value: np.ndarray) -> int:
+                             value: np.ndarray, work: tuple) -> int:
     """Objects that meet push each other (`PhysicsOptions.object_contact`; module docstring,
     step 5b). When the pushes of step 5 leave a moved object overlapping another, the group of
     objects in contact (`_contact_group`) is moved by one complementarity problem over all of
     them (`pushing.multibody_twists_kernel`): the arm's contacts on any of them, and their
     contacts with each other (`_group_contacts`). Replaces the group's poses in new_objects;
-    the rest keep theirs. Returns _VALID or the invalid code."""
-    group = _contact_group(objects, new_objects, changed, obj_kind, obj_size, obj_props,
-                           options)
+    the rest keep theirs. Returns _VALID or the invalid code. Its arrays are views of the
+    step's `work` (`step_workspace`)."""
+    group = work[_GROUP]
+    _contact_group(objects, new_objects, changed, obj_kind, obj_size, obj_props, options,
+                   group)
     if _drop_static(group, new_objects, changed, obj_kind, obj_size, obj_props, options, info):
         return _OBJECT_OVERLAP
-    members = np.flatnonzero(group)
-    if members.shape[0] == 0:
+    B = 0
+    members = work[_MEMBERS]
+    for m in range(group.shape[0]):
+        if group[m]:
+            members[B] = m
+            B += 1
+    if B == 0:
         return _VALID
+    members = members[:B]
     K = 0
     for i in range(count):
         if group[c_obj[i]]:
             K += 1
-    K += _object_pair_contacts(members, objects, obj_kind, obj_size, options, None)
-    B = members.shape[0]
-    P, N, V = np.zeros((K, 2)), np.zeros((K, 2)), np.zeros((K, 2))
-    body, other = np.empty(K, dtype=np.int64), np.full(K, -1, dtype=np.int64)
-    gaps, mus, heights = np.zeros(K), np.empty(K), np.full(B, -math.inf)
-    centres, cs, weights = np.empty((B, 2)), np.empty(B), np.empty(B)
+    K += _object_pair_contacts(members, objects, obj_kind, obj_size, options, None,
+                               work[_PAIR_POINTS], work[_PAIR_NORMALS], work[_PAIR_GAPS],
+                               work[_CORNERS])
+    P, N, V, body, other, gaps, mus, heights, centres, cs, weights = _group_buffers(work, K, B)
     _group_contacts(members, objects, count, c_shape, c_obj, c_point, c_normal, c_depth,
                     poses_a, poses_b, obj_kind, obj_size, obj_props, table, options, P, N, V,
-                    body, other, gaps, mus, heights, centres, cs, weights)
-    twists = np.empty((B, 3))
+                    body, other, gaps, mus, heights, centres, cs, weights, work)
+    twists = work[_TWISTS][:B]
     code = pushing.multibody_twists_kernel(centres, cs, weights, P, N, body, other, V, gaps,
-                                           mus, max(100, 80 * K), twists)
+                                           mus, max(100, 80 * K), twists, work[_FLOATS],
+                                           work[_INTEGERS])
     if code == pushing.JAMMED:       # name a member the arm touches, and the links on it
         pushing_shapes = info[4:4 + poses_b.shape[0]]
-        pushing_shapes[:] = 0
+        for s in range(pushing_shapes.shape[0]):
+            pushing_shapes[s] = 0
         info[1] = members[0]
         for i in range(count):
             if group[c_obj[i]]:
@@ -764,7 +775,25 @@ def _resolve_object_contacts(objects: np.ndarray, new_objects: np.ndarray,
         for b in range(members.shape[0]):
             value[1 + members[b]] = 0.0
     return _move_group(members, twists, centres, heights, objects, new_objects, obj_kind,
-                       obj_size, obj_props, options, changed, moved, near, info, value)
+                       obj_size, obj_props, options, changed, moved, near, info, value,
+                       work[_TWIST])
+
+
+@njit(cache=True, inline="always")
+def _group_buffers(work: tuple, K: int, B: int) -> tuple:
+    """The contact problem's arrays for K contacts on B objects, as `_group_contacts` expects
+    them before it writes (zero points, normals, displacements and gaps, no other object,
+    heights -inf): views of the step's `work`. Inlined (it returns views;
+    `kernels.njit_bare`)."""
+    P, N, V = work[_P][:K], work[_N][:K], work[_V][:K]
+    body, other, gaps, mus = work[_BODY][:K], work[_OTHER][:K], work[_GAPS][:K], work[_MUS][:K]
+    for k in range(K):
+        P[k, 0] = P[k, 1] = N[k, 0] = N[k, 1] = V[k, 0] = V[k, 1] = gaps[k] = 0.0
+        other[k] = -1
+    heights, centres = work[_HEIGHTS][:B], work[_CENTRES][:B]
+    for b in range(B):
+        heights[b] = -math.inf
+    return P, N, V, body, other, gaps, mus, heights, centres, work[_CS][:B], work[_WEIGHTS][:B]
 
 
 @njit(cache=True)
@@ -793,13 +822,15 @@ def _drop_static(group: np.ndarray, new_objects: np.ndarray, changed: np.ndarray
 @njit(cache=True)
 def _contact_group(objects: np.ndarray, new_objects: np.ndarray, changed: np.ndarray,
                    obj_kind: np.ndarray, obj_size: np.ndarray, obj_props: np.ndarray,
-                   options: np.ndarray) -> np.ndarray:
-    """(M,) the objects of one contact problem: those a moved object overlaps after the
-    pushes of step 5 (beyond the overlap tolerance), and every object within
+                   options: np.ndarray, group: np.ndarray) -> None:
+    """Into `group` (M,), the objects of one contact problem: those a moved object overlaps
+    after the pushes of step 5 (beyond the overlap tolerance), and every object within
     `_CONTACT_MARGIN` substeps of one of them at the substep's start, transitively. Empty
     when nothing overlaps."""
     M = objects.shape[0]
-    group = np.zeros(M, dtype=np.bool_)
+    grown = False
+    for m in range(M):
+        group[m] = False
     for i in range(M):
         for j in range(i + 1, M):
             if (changed[i] or changed[j]) and not _apart(
@@ -808,9 +839,8 @@ def _contact_group(objects: np.ndarray, new_objects: np.ndarray, changed: np.nda
                     obj_kind[i], obj_size[i], new_objects[i, 0], new_objects[i, 1],
                     new_objects[i, 2], obj_kind[j], obj_size[j], new_objects[j, 0],
                     new_objects[j, 1], new_objects[j, 2]) > options[OPT_OVERLAP]:
-                group[i] = group[j] = True
+                group[i] = group[j] = grown = True
     margin = _CONTACT_MARGIN * options[OPT_MAX_SUBSTEP]
-    grown = bool(group.any())
     while grown:                     # every object within the margin of the group joins it
         grown = False
         for j in range(M):
@@ -823,20 +853,20 @@ def _contact_group(objects: np.ndarray, new_objects: np.ndarray, changed: np.nda
                         objects[j, 1], objects[j, 2]) > -margin:
                     group[j] = grown = True
                     break
-    return group
 
 
 @njit(cache=True)
 def _object_pair_contacts(members: np.ndarray, objects: np.ndarray, obj_kind: np.ndarray,
-                          obj_size: np.ndarray, options: np.ndarray,
-                          out: tuple | None) -> int:
+                          obj_size: np.ndarray, options: np.ndarray, out: tuple | None,
+                          pts: np.ndarray, nrm: np.ndarray, gps: np.ndarray,
+                          corners: np.ndarray) -> int:
     """The contacts between the members (`kernels.planar_contacts` within the margin), at
     the substep's start: counted, and when `out` = (first row, P, N, body, other, gaps, mus,
     heights, obj_props) is given, written from its first row on (normal into the second
     object of a pair; friction MuJoCo's max of the two mu_c; the force at half the lower
-    object's height, both standing on the table). Returns how many."""
+    object's height, both standing on the table). Returns how many. pts (2, 2), nrm (2, 2),
+    gps (2,) and corners (2, 4, 2) are scratch."""
     margin = _CONTACT_MARGIN * options[OPT_MAX_SUBSTEP]
-    pts, nrm, gps = np.empty((2, 2)), np.empty((2, 2)), np.empty(2)
     total = 0
     for a in range(members.shape[0]):
         for b in range(a + 1, members.shape[0]):
@@ -844,7 +874,7 @@ def _object_pair_contacts(members: np.ndarray, objects: np.ndarray, obj_kind: np
             n = kernels.planar_contacts(
                 obj_kind[i], obj_size[i], objects[i, 0], objects[i, 1], objects[i, 2],
                 obj_kind[j], obj_size[j], objects[j, 0], objects[j, 1], objects[j, 2],
-                margin, pts, nrm, gps)
+                margin, pts, nrm, gps, corners)
             if out is not None:
                 row, P, N, body, other, gaps, mus, heights, props = out
                 level = 0.5 * min(obj_size[i, 2], obj_size[j, 2])
@@ -869,12 +899,12 @@ def _group_contacts(members: np.ndarray, objects: np.ndarray, count: int,
                     P: np.ndarray, N: np.ndarray, V: np.ndarray, body: np.ndarray,
                     other: np.ndarray, gaps: np.ndarray, mus: np.ndarray,
                     heights: np.ndarray, centres: np.ndarray, cs: np.ndarray,
-                    weights: np.ndarray) -> None:
+                    weights: np.ndarray, work: tuple) -> None:
     """The group's contact problem in the world frame (`pushing.build_multibody_lcp_kernel`
     says what each array is): per member its centre of friction, c and support-load weight
     (1 / (mu_s m), the largest 1), and the arm's contacts on it (`_object_frame_contacts`,
     turned into the world frame; heights the highest, above the table); then the members'
-    contacts with each other (`_object_pair_contacts`)."""
+    contacts with each other (`_object_pair_contacts`). Its scratch is the step's `work`."""
     row = 0
     for b in range(members.shape[0]):
         m = members[b]
@@ -890,7 +920,7 @@ def _group_contacts(members: np.ndarray, objects: np.ndarray, count: int,
                 k += 1
         if k == 0:
             continue
-        Pm, Nm, Vm = np.empty((k, 2)), np.empty((k, 2)), np.empty((k, 2))
+        Pm, Nm, Vm = work[_P_OBJECT][:k], work[_N_OBJECT][:k], work[_V_OBJECT][:k]
         top = _object_frame_contacts(m, objects[m], count, c_shape, c_obj, c_point, c_normal,
                                      c_depth, poses_a, poses_b, options[OPT_PENETRATION], Pm,
                                      Nm, Vm)
@@ -902,9 +932,15 @@ def _group_contacts(members: np.ndarray, objects: np.ndarray, count: int,
             V[row, 0], V[row, 1] = cos * Vm[r, 0] - sin * Vm[r, 1], sin * Vm[r, 0] + cos * Vm[r, 1]
             body[row], mus[row] = b, obj_props[m, OBJ_PUSHER_MU]
             row += 1
-    weights /= weights.max()
+    heaviest = -math.inf
+    for b in range(weights.shape[0]):
+        heaviest = max(heaviest, weights[b])
+    for b in range(weights.shape[0]):
+        weights[b] /= heaviest
     _object_pair_contacts(members, objects, obj_kind, obj_size, options,
-                          (row, P, N, body, other, gaps, mus, heights, obj_props))
+                          (row, P, N, body, other, gaps, mus, heights, obj_props),
+                          work[_PAIR_POINTS], work[_PAIR_NORMALS], work[_PAIR_GAPS],
+                          work[_CORNERS])
 
 
 @njit(cache=True)
@@ -912,14 +948,16 @@ def _move_group(members: np.ndarray, twists: np.ndarray, centres: np.ndarray,
                 heights: np.ndarray, objects: np.ndarray, new_objects: np.ndarray,
                 obj_kind: np.ndarray, obj_size: np.ndarray, obj_props: np.ndarray,
                 options: np.ndarray, changed: np.ndarray, moved: np.ndarray,
-                near: np.ndarray, info: np.ndarray, value: np.ndarray) -> int:
+                near: np.ndarray, info: np.ndarray, value: np.ndarray,
+                twist: np.ndarray) -> int:
     """Each member moved by its twist about its centre of friction (world frame): the
     origin's displacement v_o = v_c + w x (o - c), turned into the object frame, checked by
-    the pushing model's rules (`_object_rules`) and applied on SE(2)."""
-    twist = np.empty(3)
+    the pushing model's rules (`_object_rules`) and applied on SE(2). `twist` (3,) is
+    scratch."""
     for b in range(members.shape[0]):
         m = members[b]
-        new_objects[m] = objects[m]
+        new_objects[m, 0], new_objects[m, 1] = objects[m, 0], objects[m, 1]
+        new_objects[m, 2] = objects[m, 2]
         vx, vy, w = twists[b, 0], twists[b, 1], twists[b, 2]
         if vx == 0.0 and vy == 0.0 and w == 0.0:
             continue
@@ -937,7 +975,8 @@ def _move_group(members: np.ndarray, twists: np.ndarray, centres: np.ndarray,
         new_objects[m, 0], new_objects[m, 1], new_objects[m, 2] = x, y, yaw
         changed[m] = True
         moved[m] = 1
-        near[:, m] = True
+        for s in range(near.shape[0]):
+            near[s, m] = True
     return _VALID
 
 
@@ -1028,14 +1067,14 @@ def _residual_depth(poses: np.ndarray, shapes: np.ndarray, new_objects: np.ndarr
     return depth
 
 
-@njit(cache=True)
+@kernels.njit_bare
 def _push_touched(touched: np.ndarray, objects: np.ndarray, new_objects: np.ndarray,
                   count: int, c_shape: np.ndarray, c_obj: np.ndarray, c_point: np.ndarray,
                   c_normal: np.ndarray, c_depth: np.ndarray, poses_a: np.ndarray,
                   poses_b: np.ndarray, obj_kind: np.ndarray, obj_size: np.ndarray,
                   obj_props: np.ndarray, table: np.ndarray, options: np.ndarray,
                   changed: np.ndarray, pushing_shapes: np.ndarray, moved: np.ndarray,
-                  near: np.ndarray, info: np.ndarray, value: np.ndarray) -> int:
+                  near: np.ndarray, info: np.ndarray, value: np.ndarray, work: tuple) -> int:
     """Push every touched object (`_push_object`) into new_objects; flags the moved objects,
     their pushing shapes and (for the rest of the step) every shape as near them."""
     for m in range(objects.shape[0]):
@@ -1043,27 +1082,29 @@ def _push_touched(touched: np.ndarray, objects: np.ndarray, new_objects: np.ndar
             continue
         code = _push_object(m, objects[m], count, c_shape, c_obj, c_point, c_normal, c_depth,
                             poses_a, poses_b, obj_kind, obj_size, obj_props, table, options,
-                            new_objects[m], value)
+                            new_objects[m], value, work)
         if code == -1:
             continue
         if code != _VALID:
             info[1] = m
             if code == _JAMMING:       # the links that squeeze it, for the detail
-                pushing_shapes[:] = 0
+                for s in range(pushing_shapes.shape[0]):
+                    pushing_shapes[s] = 0
                 for i in range(count):
                     if c_obj[i] == m:
                         pushing_shapes[c_shape[i]] = 1
             return code
         changed[m] = True
         moved[m] = 1
-        near[:, m] = True
+        for s in range(near.shape[0]):
+            near[s, m] = True
         for i in range(count):
             if c_obj[i] == m:
                 pushing_shapes[c_shape[i]] = 1
     return _VALID
 
 
-@njit(cache=True)
+@kernels.njit_bare
 def _substep(poses_a: np.ndarray, poses_b: np.ndarray, objects: np.ndarray,
              new_objects: np.ndarray, shapes: np.ndarray, static_centre: np.ndarray,
              static_yaw: np.ndarray, static_dims: np.ndarray, static_size: np.ndarray,
@@ -1085,30 +1126,32 @@ def _substep(poses_a: np.ndarray, poses_b: np.ndarray, objects: np.ndarray,
         return code
     count = _contacts(poses_b, shapes, objects, everything, near, obj_kind, obj_dims,
                       obj_props, c_shape, c_obj, c_point, c_normal, c_depth)
-    new_objects[:] = objects
+    _copy_rows(objects, new_objects)
     if count == 0:
         return _VALID
-    touched = work[_TOUCHED]
-    touched[:] = False
+    touched, changed = work[_TOUCHED], work[_CHANGED]
+    for m in range(touched.shape[0]):
+        touched[m] = changed[m] = False
     code = _admissible(count, c_shape, c_obj, c_point, c_normal, objects, obj_kind, obj_dims,
                        obj_props, options, touched, info, value)
     if code != _VALID:
         return code
-    changed = work[_CHANGED]
-    changed[:] = False
     code = _push_touched(touched, objects, new_objects, count, c_shape, c_obj, c_point,
                          c_normal, c_depth, poses_a, poses_b, obj_kind, obj_size, obj_props,
-                         table, options, changed, pushing_shapes, moved, near, info, value)
+                         table, options, changed, pushing_shapes, moved, near, info, value,
+                         work)
     if code != _VALID:
         return code
-    if options[OPT_OBJECT_CONTACT] > 0.0 and changed.any():
+    any_changed = False
+    for m in range(changed.shape[0]):
+        any_changed = any_changed or changed[m]
+    if options[OPT_OBJECT_CONTACT] > 0.0 and any_changed:
         code = _resolve_object_contacts(objects, new_objects, changed, count, c_shape, c_obj,
                                         c_point, c_normal, c_depth, poses_a, poses_b,
                                         obj_kind, obj_size, obj_props, table, options, moved,
-                                        near, info, value)
+                                        near, info, value, work)
         if code != _VALID:
             return code
-    any_changed = bool(changed.any())
     depth = _residual_depth(poses_b, shapes, new_objects, changed, any_changed, count,
                             c_shape, c_obj, c_point, c_normal, c_depth, near, obj_kind,
                             obj_dims, obj_props)
@@ -1119,6 +1162,14 @@ def _substep(poses_a: np.ndarray, poses_b: np.ndarray, objects: np.ndarray,
         return _object_checks(new_objects, changed, static_centre, static_yaw, static_size,
                               obj_kind, obj_size, obj_props, table, options, info)
     return _VALID
+
+
+@kernels.njit_bare
+def _copy_rows(source: np.ndarray, out: np.ndarray) -> None:
+    """out[:] = source for (M, 3) pose arrays, written out (a whole-array assignment may
+    allocate a temporary, which a kernel without reference counting cannot)."""
+    for m in range(source.shape[0]):
+        out[m, 0], out[m, 1], out[m, 2] = source[m, 0], source[m, 1], source[m, 2]
 
 
 @kernels.njit_bare
@@ -1166,7 +1217,12 @@ def single_step(q0: np.ndarray, q1: np.ndarray, objects: np.ndarray, world: tupl
 _POSES_A, _POSES_B, _Q_B, _NEAR, _NEAR_STATIC, _CURRENT, _FOLLOWING = 0, 1, 2, 3, 4, 5, 6
 _C_SHAPE, _C_OBJ, _C_POINT, _C_NORMAL, _C_DEPTH, _EVERYTHING = 7, 8, 9, 10, 11, 12
 _JOINTS, _TURN, _TOUCHED, _CHANGED = 13, 14, 15, 16
-"""The buffers of `step_workspace`, by name."""
+_P, _N, _V, _BODY, _OTHER, _GAPS, _MUS, _F_N, _F_T, _MODES = range(17, 27)
+_HEIGHTS, _CENTRES, _CS, _WEIGHTS, _TWISTS, _TWIST, _GROUP, _MEMBERS = range(27, 35)
+_P_OBJECT, _N_OBJECT, _V_OBJECT, _PAIR_POINTS, _PAIR_NORMALS, _PAIR_GAPS = 35, 36, 37, 38, 39, 40
+_FLOATS, _INTEGERS, _CORNERS = 41, 42, 43
+"""The buffers of `step_workspace`, by name: the step's (_POSES_A .. _CHANGED), then those of
+the pushes' contact problems (_P .. _CORNERS)."""
 
 
 @njit(cache=True)
@@ -1174,10 +1230,15 @@ def step_workspace(world: tuple, q: np.ndarray, objects: np.ndarray) -> tuple:
     """The buffers of a physics step (`step_kernel`) in the scene's arrays `world` (a
     `World`), for the arm at q and the `objects` (M, 3): allocated once for a loop of
     steps, as allocating them at every step cost a tenth of the step (`rearrangement-bench
-    physics`). Named by _POSES_A .. _CHANGED."""
+    physics`), and so that the step compiles without reference counting
+    (`kernels.njit_bare`). Named by _POSES_A .. _CORNERS. The contact problems' buffers
+    hold the most contacts one problem can have: one per (contact shape, object) pair and
+    two per object pair (`kernels.planar_contacts`)."""
     chain, shapes, static_centre = world[0], world[1], world[3]
     S, M = shapes.shape[0], objects.shape[0]
     capacity = S * M
+    most = capacity + M * (M - 1)
+    floats, integers = pushing.lcp_scratch(most, M)
     return (np.empty((S, 4, 4)), np.empty((S, 4, 4)), np.empty(q.shape[0]),
             np.empty((S, M), dtype=np.bool_), np.empty((S, static_centre.shape[0]),
                                                         dtype=np.bool_),
@@ -1185,10 +1246,17 @@ def step_workspace(world: tuple, q: np.ndarray, objects: np.ndarray) -> tuple:
             np.empty(capacity, dtype=np.int64), np.empty((capacity, 3)),
             np.empty((capacity, 3)), np.empty(capacity), np.ones(M, dtype=np.bool_),
             np.empty((chain[0].shape[0], 4, 4)), np.empty((2, 4, 4)),
-            np.empty(M, dtype=np.bool_), np.empty(M, dtype=np.bool_))
+            np.empty(M, dtype=np.bool_), np.empty(M, dtype=np.bool_),
+            np.empty((most, 2)), np.empty((most, 2)), np.empty((most, 2)),
+            np.empty(most, dtype=np.int64), np.empty(most, dtype=np.int64), np.empty(most),
+            np.empty(most), np.empty(most), np.empty(most), np.empty(most, dtype=np.int64),
+            np.empty(M), np.empty((M, 2)), np.empty(M), np.empty(M), np.empty((M, 3)),
+            np.empty(3), np.empty(M, dtype=np.bool_), np.empty(M, dtype=np.int64),
+            np.empty((S, 2)), np.empty((S, 2)), np.empty((S, 2)), np.empty((2, 2)),
+            np.empty((2, 2)), np.empty(2), floats, integers, np.empty((2, 4, 2)))
 
 
-@njit(cache=True)
+@kernels.njit_bare
 def step_kernel(q0: np.ndarray, q1: np.ndarray, objects: np.ndarray, world: tuple,
                 out_objects: np.ndarray, info: np.ndarray, value: np.ndarray,
                 work: tuple) -> int:
@@ -1218,7 +1286,7 @@ def step_kernel(q0: np.ndarray, q1: np.ndarray, objects: np.ndarray, world: tupl
     n, first = _substeps(q0, q1, objects, chain, shapes, static_centre, static_dims, obj_kind,
                          obj_dims, obj_size, obj_props, options, sweep, work)
     current, following = work[_CURRENT], work[_FOLLOWING]
-    current[:] = objects
+    _copy_rows(objects, current)
     for i in range(first, n + 1):
         if i < n:
             for j in range(q1.shape[0]):
@@ -1234,7 +1302,7 @@ def step_kernel(q0: np.ndarray, q1: np.ndarray, objects: np.ndarray, world: tupl
             return code
         current, following = following, current
         poses_a, poses_b = poses_b, poses_a
-    out_objects[:] = current
+    _copy_rows(current, out_objects)
     info[3] = n
     return _VALID
 
