@@ -1174,7 +1174,8 @@ def _copy_rows(source: np.ndarray, out: np.ndarray) -> None:
 
 @kernels.njit_bare
 def _substeps(q0: np.ndarray, q1: np.ndarray, objects: np.ndarray, chain: tuple,
-              shapes: np.ndarray, static_centre: np.ndarray, static_dims: np.ndarray,
+              poses_a: np.ndarray, shapes: np.ndarray, static_centre: np.ndarray,
+              static_dims: np.ndarray,
               obj_kind: np.ndarray, obj_dims: np.ndarray, obj_size: np.ndarray,
               obj_props: np.ndarray, options: np.ndarray, sweep: float,
               work: tuple) -> tuple[int, int]:
@@ -1182,7 +1183,7 @@ def _substeps(q0: np.ndarray, q1: np.ndarray, objects: np.ndarray, chain: tuple,
     first substep to run), the pairs it may touch in the workspace's `near` and
     `near_static` (`_reach`, `_clear_far`), and its `poses_a` moved to the start of the
     first substep."""
-    poses_a, q_b, near, near_static = work[_POSES_A], work[_Q_B], work[_NEAR], work[_NEAR_STATIC]
+    q_b, near, near_static = work[_Q_B], work[_NEAR], work[_NEAR_STATIC]
     n = max(1, math.ceil(sweep / options[OPT_MAX_SUBSTEP] - 1e-9))
     margin = sweep + options[OPT_FREE_SPACE]
     least = math.inf
@@ -1220,9 +1221,10 @@ _JOINTS, _TURN, _TOUCHED, _CHANGED = 13, 14, 15, 16
 _P, _N, _V, _BODY, _OTHER, _GAPS, _MUS, _F_N, _F_T, _MODES = range(17, 27)
 _HEIGHTS, _CENTRES, _CS, _WEIGHTS, _TWISTS, _TWIST, _GROUP, _MEMBERS = range(27, 35)
 _P_OBJECT, _N_OBJECT, _V_OBJECT, _PAIR_POINTS, _PAIR_NORMALS, _PAIR_GAPS = 35, 36, 37, 38, 39, 40
-_FLOATS, _INTEGERS, _CORNERS = 41, 42, 43
+_FLOATS, _INTEGERS, _CORNERS, _KNOWN, _KNOWN_Q = 41, 42, 43, 44, 45
 """The buffers of `step_workspace`, by name: the step's (_POSES_A .. _CHANGED), then those of
-the pushes' contact problems (_P .. _CORNERS)."""
+the pushes' contact problems (_P .. _CORNERS), then which of _POSES_A and _POSES_B (0, 1;
+-1: neither) holds the contact shapes' poses at the arm configuration _KNOWN_Q."""
 
 
 @njit(cache=True)
@@ -1231,7 +1233,7 @@ def step_workspace(world: tuple, q: np.ndarray, objects: np.ndarray) -> tuple:
     `World`), for the arm at q and the `objects` (M, 3): allocated once for a loop of
     steps, as allocating them at every step cost a tenth of the step (`rearrangement-bench
     physics`), and so that the step compiles without reference counting
-    (`kernels.njit_bare`). Named by _POSES_A .. _CORNERS. The contact problems' buffers
+    (`kernels.njit_bare`). Named by _POSES_A .. _KNOWN_Q. The contact problems' buffers
     hold the most contacts one problem can have: one per (contact shape, object) pair and
     two per object pair (`kernels.planar_contacts`)."""
     chain, shapes, static_centre = world[0], world[1], world[3]
@@ -1253,7 +1255,8 @@ def step_workspace(world: tuple, q: np.ndarray, objects: np.ndarray) -> tuple:
             np.empty(M), np.empty((M, 2)), np.empty(M), np.empty(M), np.empty((M, 3)),
             np.empty(3), np.empty(M, dtype=np.bool_), np.empty(M, dtype=np.int64),
             np.empty((S, 2)), np.empty((S, 2)), np.empty((S, 2)), np.empty((2, 2)),
-            np.empty((2, 2)), np.empty(2), floats, integers, np.empty((2, 4, 2)))
+            np.empty((2, 2)), np.empty(2), floats, integers, np.empty((2, 4, 2)),
+            np.full(1, -1, dtype=np.int64), np.empty(q.shape[0]))
 
 
 @kernels.njit_bare
@@ -1265,7 +1268,9 @@ def step_kernel(q0: np.ndarray, q1: np.ndarray, objects: np.ndarray, world: tupl
     gets (code, a, b, substeps run) and then one flag per contact shape (it pushed an object;
     for a jam, it squeezes the object) and per object (it moved); returns the outcome code
     (0 = valid). The buffers are `work` (`step_workspace`: a loop of steps allocates them
-    once; none carries anything from one step to the next)."""
+    once). Only the contact shapes' poses at q1 carry over to the next step: one that starts
+    where this one ended (its q0 equal to this q1, entry by entry) takes them instead of
+    computing them again, the same numbers."""
     chain, shapes, limits, static_centre, static_yaw = (world[0], world[1], world[2],
                                                         world[3], world[4])
     static_dims, static_size, obj_kind, obj_dims = world[5], world[6], world[7], world[8]
@@ -1278,13 +1283,14 @@ def step_kernel(q0: np.ndarray, q1: np.ndarray, objects: np.ndarray, world: tupl
         if not limits[0, j] - 1e-9 <= q1[j] <= limits[1, j] + 1e-9:
             info[0] = _JOINT_LIMIT
             return _JOINT_LIMIT
-    poses_a, poses_b, q_b = work[_POSES_A], work[_POSES_B], work[_Q_B]
-    joints, turn = work[_JOINTS], work[_TURN]
-    _poses(q0, chain, poses_a, joints, turn)
+    q_b, joints, turn = work[_Q_B], work[_JOINTS], work[_TURN]
+    in_b = _poses_at_start(q0, chain, work)        # poses_a is work[_POSES_B]
+    poses_a, poses_b = ((work[_POSES_B], work[_POSES_A]) if in_b
+                        else (work[_POSES_A], work[_POSES_B]))
     _poses(q1, chain, poses_b, joints, turn)
     sweep = _sweep(poses_a, poses_b, shapes)
-    n, first = _substeps(q0, q1, objects, chain, shapes, static_centre, static_dims, obj_kind,
-                         obj_dims, obj_size, obj_props, options, sweep, work)
+    n, first = _substeps(q0, q1, objects, chain, poses_a, shapes, static_centre, static_dims,
+                         obj_kind, obj_dims, obj_size, obj_props, options, sweep, work)
     current, following = work[_CURRENT], work[_FOLLOWING]
     _copy_rows(objects, current)
     for i in range(first, n + 1):
@@ -1302,9 +1308,38 @@ def step_kernel(q0: np.ndarray, q1: np.ndarray, objects: np.ndarray, world: tupl
             return code
         current, following = following, current
         poses_a, poses_b = poses_b, poses_a
+        in_b = not in_b
     _copy_rows(current, out_objects)
     info[3] = n
+    work[_KNOWN][0] = 1 if in_b else 0       # poses_a: the contact shapes' poses at q1
+    known_q = work[_KNOWN_Q]
+    for j in range(q1.shape[0]):
+        known_q[j] = q1[j]
     return _VALID
+
+
+@kernels.njit_bare
+def _poses_at_start(q0: np.ndarray, chain: tuple, work: tuple) -> bool:
+    """The contact shapes' poses at a step's q0: those the last step left (`step_kernel`)
+    when it ended at q0, else computed into work[_POSES_A]. True when they are in
+    work[_POSES_B]. Forgets them either way: the step overwrites the buffers."""
+    known = work[_KNOWN]
+    in_b = known[0] == 1
+    if known[0] >= 0 and _same(q0, work[_KNOWN_Q]):
+        known[0] = -1
+        return in_b
+    known[0] = -1
+    _poses(q0, chain, work[_POSES_A], work[_JOINTS], work[_TURN])
+    return False
+
+
+@kernels.njit_bare
+def _same(a: np.ndarray, b: np.ndarray) -> bool:
+    """a == b, entry by entry."""
+    for j in range(a.shape[0]):
+        if a[j] != b[j]:
+            return False
+    return True
 
 
 @njit(cache=True)

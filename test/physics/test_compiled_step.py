@@ -141,9 +141,12 @@ def test_a_step_skips_the_pairs_and_substeps_that_cannot_touch_and_ends_the_same
     Over random pushes among the default scene's objects, every step ends exactly as it does
     when every pair and every substep is asked (a free-space margin of 10 m clears nothing):
     the same outcome, object poses and flags; and the boxes alone called many more pairs
-    near. A loop's steps share one workspace (`step_workspace`): no buffer carries anything
-    from one step to the next, so each ends as a step with fresh buffers does."""
+    near. A loop's steps share one workspace (`step_workspace`): only the poses at a step's
+    end carry over, to a step that starts there (most of these), and each step ends as a step
+    with fresh buffers does."""
     from rearrangement_planner.physics.step import (
+        _KNOWN,
+        _KNOWN_Q,
         OPT_FREE_SPACE,
         _clear_far,
         _poses,
@@ -162,7 +165,7 @@ def test_a_step_skips_the_pairs_and_substeps_that_cannot_touch_and_ends_the_same
     q = default_push_configuration(physics.robot, scene.table.height)
     start = State(q, scene.initial_state().objects)
     rng = np.random.default_rng(5)
-    moved = boxed = exact = steps = 0
+    moved = boxed = exact = steps = carried = 0
     work = step_workspace(w, q, np.array(start.objects))
     for k in range(80):
         nullspace = rng.uniform(-0.3, 0.3, physics.robot.nq)
@@ -185,6 +188,7 @@ def test_a_step_skips_the_pairs_and_substeps_that_cannot_touch_and_ends_the_same
             assert codes[0] == codes[1]
             np.testing.assert_array_equal(out[0], out[1])
             np.testing.assert_array_equal(info[0][4:], info[1][4:])
+            carried += work[_KNOWN][0] >= 0 and np.array_equal(work[_KNOWN_Q], q0)
             shared, shared_info = np.empty_like(objects), np.zeros_like(info[0])
             assert step_kernel(q0, q1, objects, w, shared, shared_info, np.zeros(1),
                                work) == codes[0]
@@ -204,6 +208,7 @@ def test_a_step_skips_the_pairs_and_substeps_that_cannot_touch_and_ends_the_same
             q0, objects, steps = q1, np.array(result.objects[i]), steps + 1
     assert steps > 1000 and moved > 30, (steps, moved)
     assert exact < boxed / 2, (exact, boxed)
+    assert carried > steps / 2, (carried, steps)
 
 
 def test_a_push_to_the_goal_stops_there_in_the_compiled_propagation():
