@@ -17,9 +17,14 @@ The planner plans for the goal radius minus its `goal_margin` (`--goal-margin`, 
 node's parameter), world_sim judges the scene's radius: open-loop execution never reproduces
 the planner's physics exactly, so a plan ending on the region's edge would miss it.
 
-Exit code 0 when the goal object ends inside its goal region, 1 otherwise, 2 for bad
-arguments. ROS_DOMAIN_ID is taken from the environment; discovery defaults to this machine
-(ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST) unless set.
+A fragile plan (robustness below the node's min_robustness) is executed only with
+`--execute-fragile`, as the node's parameter `execute_fragile` says; without it the demo ends
+at the answer. `make demo` passes it: its loop (`--replan 2`) is what mends a fragile plan's
+miss.
+
+Exit code 0 when the goal object ends inside its goal region, 1 otherwise (also for a fragile
+plan not sent), 2 for bad arguments. ROS_DOMAIN_ID is taken from the environment; discovery
+defaults to this machine (ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST) unless set.
 """
 
 from __future__ import annotations
@@ -177,6 +182,11 @@ def _run(session, world, planner, scene, args, planning_radius: float, plot_path
         print("\n  attempt ".join([head, *attempts]), flush=True)
         print(f"error code: {reply.outcome}; recording: {reply.mcap or 'none'}")
         if not reply.result.trajectory.points:
+            return 1
+        if reply.result.error_code.val == ErrorCode.FRAGILE_PLAN:
+            print("node_demo: the plan is fragile and the node did not send it; "
+                  "--execute-fragile sends it (the node's parameter execute_fragile)",
+                  file=sys.stderr)
             return 1
         outcome = outcomes.wait_next(seen, 30.0)
         time.sleep(1.0)         # a re-plan's executions: their outcomes have all arrived
