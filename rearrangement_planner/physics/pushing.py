@@ -367,6 +367,14 @@ def _as_contacts(points: np.ndarray | Sequence[Sequence[float]],
     return P, N / norms[:, None], V, np.ascontiguousarray(mus)
 
 
+LCP_CONTACTS = 64
+"""The most contacts one contact problem of a physics step may have (an object's push, or a
+group of objects in contact): the step's buffers hold that many (`lcp_scratch`, sized by its
+square, whatever the number of objects), and a problem with more is refused as a jam. The
+searches of eight varied scenes are the same with this bound as with none
+(docs/benchmark.md)."""
+
+
 @njit(cache=True)
 def lcp_scratch(contacts: int, bodies: int) -> tuple[np.ndarray, np.ndarray]:
     """Buffers for the LCP of up to `contacts` contacts on up to `bodies` objects (floats,

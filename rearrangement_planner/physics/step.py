@@ -611,6 +611,8 @@ def _push_object(m: int, pose: np.ndarray, count: int, c_shape: np.ndarray,
     for i in range(count):
         if c_obj[i] == m:
             k += 1
+    if k > work[_P].shape[0]:        # more than one contact problem may have: refused
+        return _JAMMING
     P, N, V = work[_P][:k], work[_N][:k], work[_V][:k]
     height = _object_frame_contacts(m, pose, count, c_shape, c_obj, c_point, c_normal,
                                     c_depth, poses_a, poses_b, options[OPT_PENETRATION], P, N,
@@ -753,6 +755,8 @@ def _resolve_object_contacts(objects: np.ndarray, new_objects: np.ndarray,
     K += _object_pair_contacts(members, objects, obj_kind, obj_size, options, None,
                                work[_PAIR_POINTS], work[_PAIR_NORMALS], work[_PAIR_GAPS],
                                work[_CORNERS])
+    if K > work[_P].shape[0]:        # more than one contact problem may have: refused
+        return _jammed(group, members, count, c_obj, c_shape, poses_b.shape[0], info)
     P, N, V, body, other, gaps, mus, heights, centres, cs, weights = _group_buffers(work, K, B)
     _group_contacts(members, objects, count, c_shape, c_obj, c_point, c_normal, c_depth,
                     poses_a, poses_b, obj_kind, obj_size, obj_props, table, options, P, N, V,
@@ -761,22 +765,30 @@ def _resolve_object_contacts(objects: np.ndarray, new_objects: np.ndarray,
     code = pushing.multibody_twists_kernel(centres, cs, weights, P, N, body, other, V, gaps,
                                            mus, max(100, 80 * K), twists, work[_FLOATS],
                                            work[_INTEGERS])
-    if code == pushing.JAMMED:       # name a member the arm touches, and the links on it
-        pushing_shapes = info[4:4 + poses_b.shape[0]]
-        for s in range(pushing_shapes.shape[0]):
-            pushing_shapes[s] = 0
-        info[1] = members[0]
-        for i in range(count):
-            if group[c_obj[i]]:
-                info[1] = c_obj[i]
-                pushing_shapes[c_shape[i]] = 1
-        return _JAMMING
+    if code == pushing.JAMMED:
+        return _jammed(group, members, count, c_obj, c_shape, poses_b.shape[0], info)
     if value.shape[0] > 1:           # the group's motion replaces its members' own pushes
         for b in range(members.shape[0]):
             value[1 + members[b]] = 0.0
     return _move_group(members, twists, centres, heights, objects, new_objects, obj_kind,
                        obj_size, obj_props, options, changed, moved, near, info, value,
                        work[_TWIST])
+
+
+@kernels.njit_bare
+def _jammed(group: np.ndarray, members: np.ndarray, count: int, c_obj: np.ndarray,
+            c_shape: np.ndarray, shapes: int, info: np.ndarray) -> int:
+    """_JAMMING for a group in contact, with a member the arm touches and the links on it in
+    info (as `Physics.reason` reads a jam)."""
+    pushing_shapes = info[4:4 + shapes]
+    for s in range(shapes):
+        pushing_shapes[s] = 0
+    info[1] = members[0]
+    for i in range(count):
+        if group[c_obj[i]]:
+            info[1] = c_obj[i]
+            pushing_shapes[c_shape[i]] = 1
+    return _JAMMING
 
 
 @njit(cache=True, inline="always")
@@ -1234,12 +1246,13 @@ def step_workspace(world: tuple, q: np.ndarray, objects: np.ndarray) -> tuple:
     steps, as allocating them at every step cost a tenth of the step (`rearrangement-bench
     physics`), and so that the step compiles without reference counting
     (`kernels.njit_bare`). Named by _POSES_A .. _KNOWN_Q. The contact problems' buffers
-    hold the most contacts one problem can have: one per (contact shape, object) pair and
-    two per object pair (`kernels.planar_contacts`)."""
+    hold the most contacts one problem can have (one per (contact shape, object) pair and
+    two per object pair, `kernels.planar_contacts`), at most `pushing.LCP_CONTACTS`: a
+    problem with more is refused as a jam."""
     chain, shapes, static_centre = world[0], world[1], world[3]
     S, M = shapes.shape[0], objects.shape[0]
     capacity = S * M
-    most = capacity + M * (M - 1)
+    most = min(capacity + M * (M - 1), pushing.LCP_CONTACTS)
     floats, integers = pushing.lcp_scratch(most, M)
     return (np.empty((S, 4, 4)), np.empty((S, 4, 4)), np.empty(q.shape[0]),
             np.empty((S, M), dtype=np.bool_), np.empty((S, static_centre.shape[0]),

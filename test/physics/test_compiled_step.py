@@ -336,3 +336,23 @@ def test_the_object_pair_broad_phase_never_passes_over_an_overlap():
             assert depth <= 0.0, (kinds, sizes, objects, depth)
         assert not _apart(objects, props, 0, 1, -1e-3)
     assert 500 < skipped < 2900, skipped
+
+
+def test_a_step_s_buffers_stay_bounded_with_many_objects():
+    """A step's contact problems work in buffers of `step_workspace`, sized for the most
+    contacts one problem may have (`pushing.LCP_CONTACTS`) and not for every (shape, object)
+    pair of the scene: with 7 objects and the Panda's 23 shapes that would be 203 contacts and
+    16 MB of LCP scratch per loop of steps, with 60 objects 4,800 contacts and gigabytes."""
+    from rearrangement_planner.physics.pushing import LCP_CONTACTS, lcp_scratch
+    from rearrangement_planner.physics.step import _FLOATS, _P, step_workspace
+
+    scene = load_scene("default")
+    physics = Physics(scene)
+    q = scene.initial_state().q
+    for objects in (1, 7, 60):
+        work = step_workspace(physics.arrays, q, np.zeros((objects, 3)))
+        contacts = min(len(physics.arrays.shapes) * objects + objects * (objects - 1),
+                       LCP_CONTACTS)
+        assert work[_P].shape == (contacts, 2)
+        assert work[_FLOATS].shape == lcp_scratch(contacts, objects)[0].shape
+        assert work[_FLOATS].nbytes < 3e6, (objects, work[_FLOATS].nbytes)
