@@ -44,10 +44,6 @@ class PhysicsOptions(Settings):
     and the robustness rollouts count a topple when a push goes on that far
     (`planning.requests.robustness`). With `tipping` on, such a push is refused whatever this
     says."""
-    contact_growth: float = setting(0.0, low=0.0, high=0.02)
-    """Grow the arm's contact shapes by this many metres against the objects (not the table
-    or obstacles): the real links touch an object a few mm before their fitted shapes do, and
-    an arm that passes that close to an object drags it in execution (experiment)."""
     contact_tolerance: float = internal(0.002)
     """With object_contact: object-object penetration (m) still valid after a step (the
     contact problem is solved for the step's first-order motion; a rotation leaves a little

@@ -332,9 +332,8 @@ def _world_arrays(scene: Scene, robot: RobotModel, options: PhysicsOptions,
     # table and obstacles (a `RobotModel.grown` arm meets objects a few mm off, the static world
     # as it was: the offset stands for where the real links touch objects, not for the arm's
     # clearance, which the plans keep with their own margin).
-    grow = float(options.contact_growth)
-    shapes = np.array([[0.5 * s.dims[1] if s.kind == "capsule" else 0.0, s.dims[0] + grow,
-                        s.bounding_radius + grow, max(s.dims[0] - robot.contact_offset, 1e-4)]
+    shapes = np.array([[0.5 * s.dims[1] if s.kind == "capsule" else 0.0, s.dims[0],
+                        s.bounding_radius, max(s.dims[0] - robot.contact_offset, 1e-4)]
                        for s in robot.contact_shapes], dtype=float)
     table = scene.table
     top = float(table.height)
