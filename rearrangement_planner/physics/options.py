@@ -44,12 +44,6 @@ class PhysicsOptions(Settings):
     and the robustness rollouts count a topple when a push goes on that far
     (`planning.requests.robustness`). With `tipping` on, such a push is refused whatever this
     says."""
-    wrist_tip_at_top: bool = setting(False)
-    """Judge the tipping of a push by the wrist (the links the last two planning joints turn,
-    not the hand fixed beyond them) at the top of the pushing capsule's cross-section at the
-    contact, clipped to the object's height, not at the contact point: the wrist's capsules
-    leave the real links' corners out, and MuJoCo's link6 met a tall cylinder 4 cm above the
-    capsule's contact (experiment)."""
     contact_tolerance: float = internal(0.002)
     """With object_contact: object-object penetration (m) still valid after a step (the
     contact problem is solved for the step's first-order motion; a rotation leaves a little

@@ -139,10 +139,10 @@ _REASONS: tuple[Invalid | None, ...] = (
 # (a test checks it against `PhysicsOptions`).
 (OPT_MAX_SUBSTEP, OPT_PENETRATION, OPT_OVERLAP, OPT_VERTICAL_NORMAL, OPT_TIPPING,
  OPT_FREE_SPACE, OPT_MAX_TURN, OPT_OBJECT_CONTACT, OPT_TIP_JUDGEMENT,
- OPT_CONTACT_TOLERANCE, OPT_WRIST_TIP_AT_TOP) = range(11)
+ OPT_CONTACT_TOLERANCE) = range(10)
 OPTION_FIELDS = ("max_substep", "penetration_tolerance", "overlap_tolerance",
                  "vertical_normal_limit", "tipping", None, "max_turn", "object_contact",
-                 "tip_judgement", "contact_tolerance", "wrist_tip_at_top")
+                 "tip_judgement", "contact_tolerance")
 """The `PhysicsOptions` field packed in each `World.options` column (None: a module constant,
 `FREE_SPACE_MARGIN`)."""
 (OBJ_CENTRE_Z, OBJ_C, OBJ_PUSHER_MU, OBJ_SUPPORT_MU, OBJ_FOOTPRINT, OBJ_STATIC, OBJ_COF_X,
@@ -158,7 +158,7 @@ class World(NamedTuple):
     half height)."""
 
     chain: tuple[np.ndarray, ...]   # kernels.shape_poses arguments: parents .. shape_local
-    shapes: np.ndarray              # (S, 5): half length; radii: objects, bound, static, tip
+    shapes: np.ndarray              # (S, 3): axis half length, radius, bounding radius
     limits: np.ndarray              # (2, nq): lower, upper
     static_centre: np.ndarray       # (1 + K, 3): the table slab, then the obstacle boxes
     static_yaw: np.ndarray          # (1 + K,)
@@ -169,7 +169,7 @@ class World(NamedTuple):
     obj_size: np.ndarray            # (M, 3) full extents (x, y, z), a cylinder's (2r, 2r, h)
     obj_props: np.ndarray           # (M, 9): columns OBJ_CENTRE_Z .. OBJ_MASS
     table: np.ndarray               # (5,): top z, centre x, y, half size x, y
-    options: np.ndarray             # (11,): columns OPT_MAX_SUBSTEP .. OPT_WRIST_TIP_AT_TOP
+    options: np.ndarray             # (10,): columns OPT_MAX_SUBSTEP .. OPT_CONTACT_TOLERANCE
 
 
 class Physics:
@@ -332,11 +332,9 @@ def _world_arrays(scene: Scene, robot: RobotModel, options: PhysicsOptions,
     # table and obstacles (a `RobotModel.grown` arm meets objects a few mm off, the static world
     # as it was: the offset stands for where the real links touch objects, not for the arm's
     # clearance, which the plans keep with their own margin).
-    wrist = _wrist_shapes(robot)
     shapes = np.array([[0.5 * s.dims[1] if s.kind == "capsule" else 0.0, s.dims[0],
-                        s.bounding_radius, max(s.dims[0] - robot.contact_offset, 1e-4),
-                        wrist[i] * s.dims[0]]
-                       for i, s in enumerate(robot.contact_shapes)], dtype=float)
+                        s.bounding_radius, max(s.dims[0] - robot.contact_offset, 1e-4)]
+                       for s in robot.contact_shapes], dtype=float)
     table = scene.table
     top = float(table.height)
     static_centre = [[table.center[0], table.center[1], top - 0.5 * TABLE_THICKNESS]]
@@ -369,20 +367,6 @@ def _world_arrays(scene: Scene, robot: RobotModel, options: PhysicsOptions,
         table=np.array([top, table.center[0], table.center[1], 0.5 * table.size[0],
                         0.5 * table.size[1]], dtype=float),
         options=packed_options(options))
-
-
-def _wrist_shapes(robot: RobotModel) -> np.ndarray:
-    """Per contact shape, whether it is on the wrist (`PhysicsOptions.wrist_tip_at_top`): a
-    link one of the last two planning joints turns itself, not one fixed beyond it (the
-    hand)."""
-    import pinocchio as pin
-
-    model = robot.model
-    last = {model.getJointId(name) for name in robot.joint_names[-2:]}
-    frames = [model.frames[robot.frame_id(s.link)] for s in robot.contact_shapes]
-    return np.array([f.parentJoint in last
-                     and model.frames[f.parentFrame].type == pin.FrameType.JOINT
-                     for f in frames], dtype=float)
 
 
 def packed_options(options: PhysicsOptions) -> np.ndarray:
@@ -568,12 +552,10 @@ def _tips_over(kind: int, size: np.ndarray, support_mu: float, dx: float, dy: fl
 def _object_frame_contacts(m: int, pose: np.ndarray, count: int, c_shape: np.ndarray,
                            c_obj: np.ndarray, c_point: np.ndarray, c_normal: np.ndarray,
                            c_depth: np.ndarray, poses_a: np.ndarray, poses_b: np.ndarray,
-                           tolerance: float, reach: np.ndarray, reach_on: float,
-                           P: np.ndarray, N: np.ndarray, V: np.ndarray) -> float:
+                           tolerance: float, P: np.ndarray, N: np.ndarray,
+                           V: np.ndarray) -> float:
     """Object m's contacts in its frame (module docstring, step 4): points P, planar unit
-    normals N and pusher displacements V; returns the highest contact's z, or where `reach_on`
-    (`PhysicsOptions.wrist_tip_at_top`) and a shape has a tip `reach` > 0 (the wrist's radii,
-    `_wrist_shapes`), the top of its cross-section at the contact if that is higher."""
+    normals N and pusher displacements V; returns the highest contact's z."""
     cos, sin = math.cos(pose[2]), math.sin(pose[2])
     height = -math.inf
     row = 0
@@ -611,9 +593,6 @@ def _object_frame_contacts(m: int, pose: np.ndarray, count: int, c_shape: np.nda
         N[row, 0], N[row, 1] = cos * nx + sin * ny, -sin * nx + cos * ny
         V[row, 0], V[row, 1] = cos * dx + sin * dy, -sin * dx + cos * dy
         height = max(height, p[2])
-        if reach_on > 0.0 and reach[s] > 0.0:
-            # The capsule's axis point at the contact: its deepest point less a radius (= reach).
-            height = max(height, p[2] + c_normal[i, 2] * (c_depth[i] - reach[s]) + reach[s])
         row += 1
     return height
 
@@ -636,10 +615,8 @@ def _push_object(m: int, pose: np.ndarray, count: int, c_shape: np.ndarray,
         return _JAMMING
     P, N, V = work[_P][:k], work[_N][:k], work[_V][:k]
     height = _object_frame_contacts(m, pose, count, c_shape, c_obj, c_point, c_normal,
-                                    c_depth, poses_a, poses_b, options[OPT_PENETRATION],
-                                    work[_TIP_REACH], options[OPT_WRIST_TIP_AT_TOP], P, N,
+                                    c_depth, poses_a, poses_b, options[OPT_PENETRATION], P, N,
                                     V)
-    height = min(height, table[0] + obj_size[m, 2])
     twist, f_n, f_t = work[_TWIST], work[_F_N][:k], work[_F_T][:k]
     modes, mus = work[_MODES][:k], work[_MUS][:k]
     for i in range(k):
@@ -957,10 +934,9 @@ def _group_contacts(members: np.ndarray, objects: np.ndarray, count: int,
             continue
         Pm, Nm, Vm = work[_P_OBJECT][:k], work[_N_OBJECT][:k], work[_V_OBJECT][:k]
         top = _object_frame_contacts(m, objects[m], count, c_shape, c_obj, c_point, c_normal,
-                                     c_depth, poses_a, poses_b, options[OPT_PENETRATION],
-                                     work[_TIP_REACH], options[OPT_WRIST_TIP_AT_TOP],
-                                     Pm, Nm, Vm)
-        heights[b] = min(top - table[0], obj_size[m, 2])
+                                     c_depth, poses_a, poses_b, options[OPT_PENETRATION], Pm,
+                                     Nm, Vm)
+        heights[b] = top - table[0]
         for r in range(k):           # object frame -> world
             P[row, 0] = objects[m, 0] + cos * Pm[r, 0] - sin * Pm[r, 1]
             P[row, 1] = objects[m, 1] + sin * Pm[r, 0] + cos * Pm[r, 1]
@@ -1257,7 +1233,7 @@ _JOINTS, _TURN, _TOUCHED, _CHANGED = 13, 14, 15, 16
 _P, _N, _V, _BODY, _OTHER, _GAPS, _MUS, _F_N, _F_T, _MODES = range(17, 27)
 _HEIGHTS, _CENTRES, _CS, _WEIGHTS, _TWISTS, _TWIST, _GROUP, _MEMBERS = range(27, 35)
 _P_OBJECT, _N_OBJECT, _V_OBJECT, _PAIR_POINTS, _PAIR_NORMALS, _PAIR_GAPS = 35, 36, 37, 38, 39, 40
-_FLOATS, _INTEGERS, _CORNERS, _KNOWN, _KNOWN_Q, _TIP_REACH = 41, 42, 43, 44, 45, 46
+_FLOATS, _INTEGERS, _CORNERS, _KNOWN, _KNOWN_Q = 41, 42, 43, 44, 45
 """The buffers of `step_workspace`, by name: the step's (_POSES_A .. _CHANGED), then those of
 the pushes' contact problems (_P .. _CORNERS), then which of _POSES_A and _POSES_B (0, 1;
 -1: neither) holds the contact shapes' poses at the arm configuration _KNOWN_Q."""
@@ -1293,8 +1269,7 @@ def step_workspace(world: tuple, q: np.ndarray, objects: np.ndarray) -> tuple:
             np.empty(3), np.empty(M, dtype=np.bool_), np.empty(M, dtype=np.int64),
             np.empty((S, 2)), np.empty((S, 2)), np.empty((S, 2)), np.empty((2, 2)),
             np.empty((2, 2)), np.empty(2), floats, integers, np.empty((2, 4, 2)),
-            np.full(1, -1, dtype=np.int64), np.empty(q.shape[0]),
-            np.ascontiguousarray(shapes[:, 4]))
+            np.full(1, -1, dtype=np.int64), np.empty(q.shape[0]))
 
 
 @kernels.njit_bare

@@ -475,8 +475,7 @@ def test_the_packed_options_follow_the_named_columns(panda):
                "vertical_normal_limit": step.OPT_VERTICAL_NORMAL, "tipping": step.OPT_TIPPING,
                "max_turn": step.OPT_MAX_TURN, "object_contact": step.OPT_OBJECT_CONTACT,
                "tip_judgement": step.OPT_TIP_JUDGEMENT,
-               "contact_tolerance": step.OPT_CONTACT_TOLERANCE,
-               "wrist_tip_at_top": step.OPT_WRIST_TIP_AT_TOP}
+               "contact_tolerance": step.OPT_CONTACT_TOLERANCE}
     assert len(packed) == len(step.OPTION_FIELDS) == len(columns) + 1
     for name, column in columns.items():
         assert step.OPTION_FIELDS[column] == name
