@@ -551,9 +551,15 @@ class CollisionWorld:
         """Whether `object_overlaps` finds a pair: the same test in one compiled call (the
         samplers ask it of every arrangement they draw)."""
         poses = np.array(self._object_poses(object_poses), dtype=float)   # writable: one signature
+        kinds, sizes, first, second, limit2 = self.overlap_arrays()
+        return bool(kernels.any_prism_overlap(kinds, sizes, poses, first, second, limit2,
+                                              float(tol)))
+
+    def overlap_arrays(self) -> tuple[np.ndarray, ...]:
+        """`kernels.any_prism_overlap`'s arguments but the poses and the tolerance: the
+        objects' kinds and sizes, the pairs to test and their squared bounds."""
         first, second = self._obj_pairs
-        return bool(kernels.any_prism_overlap(self._obj_kind, self._obj_size_array, poses,
-                                              first, second, self._obj_pair_limit2, float(tol)))
+        return self._obj_kind, self._obj_size_array, first, second, self._obj_pair_limit2
 
     def object_obstacle_overlaps(self, object_poses: np.ndarray,
                                  tol: float = 0.0) -> list[tuple[int, str]]:

@@ -68,6 +68,20 @@ def test_no_plan_time_past_the_budget(seed):
     assert result.plan_time <= 1.25, (result.outcome, result.plan_time)
 
 
+def test_the_deadline_cuts_a_long_action_short(panda):
+    """The compiled iteration reads the clock between batches of steps, not only between
+    iterations: three actions of 60,000 steps that hold the arm still (valid all along, about
+    two seconds of physics) end within the 0.2 s budget's margin."""
+    warm_up()
+    scene = load_scene("seven_objects", robot=panda)
+    options = PCRRTOptions(time_limit=0.2, dt=0.001, min_duration=60.0, max_duration=60.0,
+                           max_speed=0.001, max_yaw_rate=0.0, nullspace_speed=0.0,
+                           push_bias=0.0, goal_bias=0.0)
+    result = PCRRT(scene, options).plan(seed=1)
+    assert result.outcome is Outcome.TIMEOUT
+    assert result.plan_time < 0.7, result.plan_time
+
+
 def test_timeout_is_a_failure_without_a_path(panda):
     scene = load_scene("seven_objects", robot=panda)
     result = PCRRT(scene, PCRRTOptions(time_limit=0.3)).plan(seed=1)

@@ -6,8 +6,15 @@ import math
 import threading
 import time
 
+import numpy as np
+
 from rearrangement_planner.planning.machinery.interface import SUPERSEDED, Outcome, StopReason
-from rearrangement_planner.planning.machinery.termination import NEVER, Termination
+from rearrangement_planner.planning.machinery.termination import (
+    CLOCK,
+    NEVER,
+    Termination,
+    monotonic,
+)
 
 
 def test_the_cancel_comes_first_then_the_clock_then_the_iterations_then_the_gate():
@@ -55,3 +62,13 @@ def test_an_extension_runs_at_most_its_seconds_past_the_parent():
 def test_never_ends_nothing():
     assert NEVER.check(10**9) is None and NEVER.interrupted() is None
     assert math.isinf(NEVER.remaining())
+
+
+def test_compiled_code_reads_the_deadlines_clock():
+    """`monotonic` (what a compiled PC-RRT iteration compares with the deadline) is
+    `time.monotonic()`."""
+    buffer = np.zeros(2, dtype=np.int64)
+    before = time.monotonic()
+    now = monotonic(CLOCK, buffer)
+    after = time.monotonic()
+    assert before - 1e-6 <= now <= after + 1e-6

@@ -13,8 +13,8 @@ h(q) "samples the nullspace", drawn once per action so that the arm's self-motio
 Everything a replay needs is the sequence of arm configurations: the physics is a pure
 function, so stepping it along the stored configurations reproduces the object poses exactly.
 
-Compiled: `_propagate_kernel` runs Project (`manifold.project_kernel`), the physics
-step (`step.step_kernel`) and the goal test for a batch of up to _CHECK_EVERY steps in one
+Compiled: `propagate_kernel` runs Project (`manifold.project_kernel`), the physics
+step (`step.step_kernel`) and the goal test for a batch of up to CHECK_EVERY steps in one
 call, with the tool velocity either held (an action) or fed back (the closed-loop push of
 `push_policy`, `PushTarget`); the clock and the cancel flag are read between batches.
 `replay` re-simulates a whole arm path in one call (`_replay_kernel`). Batching further (the
@@ -41,7 +41,9 @@ from rearrangement_planner.planning.machinery.interface import StopReason
 from rearrangement_planner.planning.machinery.manifold import project_arrays, project_kernel
 from rearrangement_planner.planning.machinery.termination import NEVER, Termination
 
-_GOAL, _ARRIVED, _CHECK_EVERY = 1, 2, 64
+GOAL, ARRIVED, CHECK_EVERY = 1, 2, 64
+"""`propagate_kernel`'s ends (returned negated: the goal test held, the pushed object reached
+its target) and the most steps it takes between two looks at the clock."""
 _NO_GOAL = np.array([-1.0, 0.0, 0.0, 0.0])
 """`Stops.packed` of no goal test."""
 PUSH_BAND = 0.02
@@ -54,7 +56,7 @@ class Stops:
     object `goal_index`'s centre is within `goal_radius` of `goal_xy` (goal_index -1: never),
     TIMEOUT or CANCEL when the search's `termination` says so; and in the form the compiled
     propagation (`constrained_prop`) takes: the goal test runs inside it, the termination is
-    asked between its batches of at most _CHECK_EVERY steps."""
+    asked between its batches of at most CHECK_EVERY steps."""
 
     goal_index: int
     goal_xy: tuple[float, float]
@@ -80,7 +82,7 @@ class Stops:
 
     @cached_property
     def packed(self) -> np.ndarray:
-        """The goal test for `_propagate_kernel`: (goal_index, x, y, radius)."""
+        """The goal test for `propagate_kernel`: (goal_index, x, y, radius)."""
         return np.array([self.goal_index, *self.goal_xy, self.goal_radius], dtype=float)
 
 
@@ -139,11 +141,11 @@ class Propagation:
 def constrained_prop(physics: Physics, state: State, action: Action, dt: float,
                      stop: Stops | None = None) -> Propagation:
     """Algorithm 2 of King et al.: step the action through Project and the physics, compiled
-    (`_propagate_kernel`: Project, the physics step and the goal test for a batch of steps in
+    (`propagate_kernel`: Project, the physics step and the goal test for a batch of steps in
     one call).
 
     `stop` may end the action early (`Stops`); that state is kept. TIMEOUT and CANCEL are
-    checked between batches of _CHECK_EVERY steps; a batch that ends past the deadline ends
+    checked between batches of CHECK_EVERY steps; a batch that ends past the deadline ends
     the action with TIMEOUT, whatever it reached (a plan is never found after its budget)."""
     return propagate(physics, state, int(round(action.duration / dt)), dt, action.nullspace,
                      stop, velocity=action.velocity)
@@ -175,16 +177,16 @@ def propagate(physics: Physics, state: State, steps: int, dt: float, nullspace: 
     goal = stop.packed if stop is not None else _NO_GOAL
     project = project_arrays(physics.robot, physics.scene.table.height)
     held = np.zeros(3) if velocity is None else np.asarray(velocity, dtype=float)
-    policy = _policy_array(physics, push)
+    policy = policy_array(physics, push)
     nullspace = np.asarray(nullspace, dtype=float)
     done, subject = 0, -1
     stopped: Invalid | StopReason | None = None
     while done < steps and stopped is None:
-        batch = min(_CHECK_EVERY, steps - done)
+        batch = min(CHECK_EVERY, steps - done)
         # Writable copies (one compiled signature, whether from the state or the last batch).
         q0 = np.array(state.q if done == 0 else arm[done - 1])
         objects0 = np.array(state.objects if done == 0 else objects[done - 1])
-        count, code, named = _propagate_kernel(q0, objects0, held, policy, nullspace, batch, dt,
+        count, code, named = propagate_kernel(q0, objects0, held, policy, nullspace, batch, dt,
                                                goal, project, physics.arrays, arm[done:],
                                                objects[done:], flags)
         done += count
@@ -192,9 +194,9 @@ def propagate(physics: Physics, state: State, steps: int, dt: float, nullspace: 
             stopped = physics.reason(code)
             if stopped in (Invalid.TIPPING, Invalid.TURNING):
                 subject = named
-        elif code == -_GOAL:
+        elif code == -GOAL:
             stopped = StopReason.GOAL
-        elif code == -_ARRIVED:
+        elif code == -ARRIVED:
             break
         if stop is not None:
             stopped = stop.interrupted() or stopped
@@ -209,11 +211,11 @@ FACING_YAW_RATE = 1.0
 
 
 _HELD: weakref.WeakKeyDictionary[RobotModel, np.ndarray] = weakref.WeakKeyDictionary()
-"""`_policy_array` of a held velocity, by robot (every action of Algorithm 2 asks)."""
+"""`policy_array` of a held velocity, by robot (every action of Algorithm 2 asks)."""
 
 
-def _policy_array(physics: Physics, push: PushTarget | None) -> np.ndarray:
-    """The push for `_propagate_kernel`: (object, target x, y, speed, cylinder (0/1), size x,
+def policy_array(physics: Physics, push: PushTarget | None) -> np.ndarray:
+    """The push for `propagate_kernel`: (object, target x, y, speed, cylinder (0/1), size x,
     size y, footprint radius, push band, the rows of R0, the posture's tool rotation, the
     facing yaw rate (0: the hand keeps its yaw)); object -1: no push (the velocity is
     held)."""
@@ -236,7 +238,7 @@ def _policy_array(physics: Physics, push: PushTarget | None) -> np.ndarray:
 def _push_velocity(tool_x: float, tool_y: float, tool_yaw: float, cx: float, cy: float,
                    yaw: float, policy: np.ndarray, dt: float, out: np.ndarray) -> bool:
     """The closed-loop push law (`push_policy` drives it), the object's shape from `policy`
-    (`_policy_array`): writes the tool velocity into out[:3]; False once the object is
+    (`policy_array`): writes the tool velocity into out[:3]; False once the object is
     within 1 cm of the target. A facing push (policy[18] > 0) also turns the hand, at most
     policy[18] rad/s, until its flat face lies across the push line (tool yaw = the push's
     heading, or that plus pi: the hand is symmetric), so that it meets a face along a line
@@ -293,14 +295,14 @@ def _tool_planar(q: np.ndarray, project: tuple, policy: np.ndarray) -> tuple[flo
 
 
 @njit(cache=True)
-def _propagate_kernel(q: np.ndarray, objects: np.ndarray, held: np.ndarray,
+def propagate_kernel(q: np.ndarray, objects: np.ndarray, held: np.ndarray,
                       policy: np.ndarray, nullspace: np.ndarray, steps: int, dt: float,
                       goal: np.ndarray, project: tuple, world: tuple, arm: np.ndarray,
                       out: np.ndarray, flags: np.ndarray) -> tuple[int, int, int]:
     """Up to `steps` steps of Project and the physics step from (q, objects), the tool velocity
     `held` or, for policy[0] >= 0, the push policy's; the valid ones into arm[i], out[i], the
     pushing shapes and moved objects OR-ed into `flags`. Returns (valid steps, 0 | the invalid
-    step's code | -_GOAL when the goal test held after the last valid step | -_ARRIVED when
+    step's code | -GOAL when the goal test held after the last valid step | -ARRIVED when
     the pushed object reached its target, the first index the invalid step names (the object
     of a tipping or turning push) or -1)."""
     info = np.zeros(4 + flags.shape[0], dtype=np.int64)
@@ -313,7 +315,7 @@ def _propagate_kernel(q: np.ndarray, objects: np.ndarray, held: np.ndarray,
             x, y, tool_yaw = _tool_planar(q, project, policy)
             if not _push_velocity(x, y, tool_yaw, objects[pushed, 0], objects[pushed, 1],
                                   objects[pushed, 2], policy, dt, velocity):
-                return i, -_ARRIVED, -1
+                return i, -ARRIVED, -1
         q_new = project_kernel(q, velocity, dt, nullspace, project[0], project[1], project[2],
                                project[3], project[4], project[5], project[6], 0.5, 1.0, 1.0)
         info[:] = 0
@@ -325,7 +327,7 @@ def _propagate_kernel(q: np.ndarray, objects: np.ndarray, held: np.ndarray,
             flags[k] |= info[4 + k]
         q, objects = arm[i], out[i]
         if g >= 0 and math.hypot(objects[g, 0] - goal[1], objects[g, 1] - goal[2]) <= goal[3]:
-            return i + 1, -_GOAL, -1
+            return i + 1, -GOAL, -1
     return steps, 0, -1
 
 
@@ -354,7 +356,7 @@ def replay(physics: Physics, start: State, arm_path: np.ndarray | Sequence[np.nd
 def _replay_kernel(arm: np.ndarray, objects: np.ndarray, goal: np.ndarray, world: tuple,
                    info: np.ndarray, value: np.ndarray) -> tuple[int, int]:
     """Physics steps from arm[i - 1] to arm[i], objects[i - 1] -> objects[i], from i = 1 on.
-    Returns (states filled, 0 | the invalid step's code | -_GOAL when the goal test of `goal`
+    Returns (states filled, 0 | the invalid step's code | -GOAL when the goal test of `goal`
     (object, x, y, radius; object -1: none) held at the last state filled)."""
     g = int(goal[0])
     work = step_workspace(world, arm[0], objects[0])
@@ -365,5 +367,5 @@ def _replay_kernel(arm: np.ndarray, objects: np.ndarray, goal: np.ndarray, world
             return i, code
         if g >= 0 and math.hypot(objects[i, g, 0] - goal[1],
                                  objects[i, g, 1] - goal[2]) <= goal[3]:
-            return i + 1, -_GOAL
+            return i + 1, -GOAL
     return arm.shape[0], 0

@@ -85,10 +85,15 @@ class Search:
 
     def propagated(self, result: Propagation) -> None:
         """Count a propagation's steps and, when the model cut it short, why."""
-        self.steps += result.count
-        if isinstance(result.stopped, Invalid):
-            whose = " of the goal object" if result.subject == self.goal_index >= 0 else ""
-            self.refused[result.stopped.value + whose] += 1
+        self.counted(result.count, result.stopped, result.subject)
+
+    def counted(self, steps: int, stopped: object, subject: int = -1) -> None:
+        """`propagated` of a propagation known by its steps, why it stopped and the object
+        that rule named (-1: none)."""
+        self.steps += steps
+        if isinstance(stopped, Invalid):
+            whose = " of the goal object" if subject == self.goal_index >= 0 else ""
+            self.refused[stopped.value + whose] += 1
 
     def why_unsolved(self) -> str:
         """What a search that ends without a plan saw, for its message: how near the goal

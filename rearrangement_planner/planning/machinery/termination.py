@@ -14,12 +14,16 @@ sub-budget keeps its parent's cancel, so one cancel stops them all.
 
 from __future__ import annotations
 
+import ctypes
 import dataclasses
 import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Protocol
+from typing import Any, Protocol
+
+import numpy as np
+from numba import njit
 
 from rearrangement_planner.planning.machinery.outcome import SUPERSEDED, Outcome, StopReason
 
@@ -107,3 +111,21 @@ class Termination:
 
 NEVER = Termination()
 """A termination that never ends anything (warm-up, replays)."""
+
+
+_MONOTONIC = time.CLOCK_MONOTONIC
+CLOCK = ctypes.CDLL(None).clock_gettime
+"""libc's clock_gettime, for compiled code that must read the deadline's clock itself (a
+compiled PC-RRT iteration, `pcrrt_kernel`): passed as an argument, Numba calls it through
+its pointer and the caller stays cacheable (a global ctypes function would not be)."""
+CLOCK.argtypes = [ctypes.c_int, ctypes.c_void_p]
+CLOCK.restype = ctypes.c_int
+
+
+@njit(cache=True)
+def monotonic(clock: Any, buffer: np.ndarray) -> float:
+    """`time.monotonic()` in compiled code: `clock` is CLOCK, `buffer` two int64 (a timespec).
+    On Linux both read CLOCK_MONOTONIC, so the result compares with `Termination.deadline`."""
+    clock(_MONOTONIC, buffer.ctypes.data)
+    return buffer[0] + buffer[1] * 1e-9
+

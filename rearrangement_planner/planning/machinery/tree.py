@@ -69,7 +69,7 @@ class Tree:
         the plane). One compiled pass: a tree of 20,000 nodes is scanned in well under a
         millisecond (NumPy's temporaries took half of a long plan's time)."""
         # Fresh writable copies: one compiled signature whoever calls.
-        return int(_nearest(self.arm, self.objects, self.n, np.array(arm, dtype=float),
+        return int(nearest_kernel(self.arm, self.objects, self.n, np.array(arm, dtype=float),
                             np.array(objects, dtype=float), float(arm_weight),
                             np.array(weights, dtype=float)))
 
@@ -95,14 +95,14 @@ def weighted_distance(arm: np.ndarray, objects: np.ndarray, sample_arm: np.ndarr
     """Dist of `Tree.nearest` between one state and a sample, compiled (NumPy's temporaries
     cost more than the sum)."""
     # Fresh writable copies: one compiled signature whoever calls.
-    return float(_metric(np.array(arm, dtype=float), np.array(objects, dtype=float),
+    return float(metric(np.array(arm, dtype=float), np.array(objects, dtype=float),
                          np.array(sample_arm, dtype=float),
                          np.array(sample_objects, dtype=float), float(arm_weight),
                          np.array(weights, dtype=float)))
 
 
 @njit(cache=True, inline="always")
-def _metric(arm: np.ndarray, objects: np.ndarray, sample_arm: np.ndarray,
+def metric(arm: np.ndarray, objects: np.ndarray, sample_arm: np.ndarray,
             sample_objects: np.ndarray, arm_weight: float, weights: np.ndarray) -> float:
     """Dist (King et al. 2015, §III-D): arm_weight |arm - arm'| + sum_j weights[j] |o^j - o'^j|
     (object positions in the plane)."""
@@ -122,11 +122,11 @@ def _doubled(a: np.ndarray) -> np.ndarray:
 
 
 @njit(cache=True)
-def _nearest(arms: np.ndarray, objects: np.ndarray, n: int, arm: np.ndarray,
+def nearest_kernel(arms: np.ndarray, objects: np.ndarray, n: int, arm: np.ndarray,
              sample: np.ndarray, arm_weight: float, weights: np.ndarray) -> int:
     best, best_node = math.inf, 0
     for i in range(n):
-        total = _metric(arms[i], objects[i], arm, sample, arm_weight, weights)
+        total = metric(arms[i], objects[i], arm, sample, arm_weight, weights)
         if total < best:
             best, best_node = total, i
     return best_node

@@ -33,7 +33,7 @@ from rearrangement_planner.model.scene import Scene
 from rearrangement_planner.model.settings import SettingError, setting
 from rearrangement_planner.model.state import State
 from rearrangement_planner.physics.collision import CollisionWorld
-from rearrangement_planner.physics.step import Physics
+from rearrangement_planner.physics.step import Invalid, Physics
 from rearrangement_planner.planning.machinery.approach import approach_path
 from rearrangement_planner.planning.machinery.interface import (
     Outcome,
@@ -43,16 +43,26 @@ from rearrangement_planner.planning.machinery.interface import (
     PushingPlannerOptions,
     StopReason,
 )
+from rearrangement_planner.planning.machinery.manifold import project_arrays
 from rearrangement_planner.planning.machinery.propagation import (
-    Action,
+    GOAL,
     Propagation,
+    PushTarget,
     Stops,
-    constrained_prop,
+    policy_array,
 )
 from rearrangement_planner.planning.machinery.push_policy import PushPolicy
 from rearrangement_planner.planning.machinery.search import Search
-from rearrangement_planner.planning.machinery.termination import Termination
-from rearrangement_planner.planning.machinery.tree import Tree, weighted_distance
+from rearrangement_planner.planning.machinery.termination import CLOCK, Termination
+from rearrangement_planner.planning.machinery.tree import Tree
+from rearrangement_planner.planning.planners.pcrrt_kernel import (
+    TIMED_OUT,
+    IterationArrays,
+    iteration,
+)
+
+_NAMING = (Invalid.TIPPING, Invalid.TURNING)
+"""The rules whose refusal names the object that would tip or turn too fast."""
 
 
 @dataclass(frozen=True)
@@ -161,34 +171,72 @@ class PCRRT:
 
     def _iteration(self, run: _Run) -> PlanResult | None:
         """One iteration of Algorithm 1: sample, nearest, k propagations, add the best (then
-        the greedy goal pushes from it). Returns the plan when the goal is reached."""
-        opts, rng, tree = self.options, run.rng, run.tree
+        the greedy goal pushes from it). Returns the plan when the goal is reached. All but
+        the adding run in one compiled call (`pcrrt_kernel.iteration`)."""
+        tree, a = run.tree, run.arrays
         run.iterations += 1
-        sample_arm, sample_objects = self._sample(rng)
-        near = self._nearest(tree, sample_arm, sample_objects)
-        x_near = tree.state(near)
-        chosen, chosen_cost, chosen_arm = None, math.inf, None
-        policy = opts.push_bias > 0 and rng.random() < opts.push_bias
-        for k in range(opts.k_actions):
-            if policy and k == 0:
-                result = run.policy.sample_push(x_near, sample_objects, rng, run.stop)
-            else:
-                result = constrained_prop(self.physics, x_near, self._sample_action(rng),
-                                          opts.dt, run.stop)
-            run.propagated(result)
-            if not result.count:
-                continue
-            end = result.end
-            if result.stopped is StopReason.GOAL:
-                arm, cost = None, -math.inf
-            else:
-                arm = self._arm_feature(end.q)
-                cost = self._distance(arm, end.objects, sample_arm, sample_objects)
-            if cost < chosen_cost:
-                chosen, chosen_cost, chosen_arm = result, cost, arm
-            if result.stopped in (StopReason.CANCEL, StopReason.TIMEOUT):
+        near, chosen, timed_out = iteration(
+            run.rng, CLOCK, run.termination.deadline, tree.q, tree.arm, tree.objects, tree.n,
+            a.ints, a.reals, a.goal_xy, a.table, a.limits, a.weights, a.others, a.action,
+            a.pushes, a.held, a.overlap, a.goal, a.project, a.world, a.arm, a.objects, a.flags,
+            a.results, a.features, a.sample_arm, a.sample_objects, a.clock)
+        for steps, code, named in a.results.tolist():
+            if steps < 0:
                 break
-        return None if chosen is None else self._extend(run, near, chosen, chosen_arm)
+            stopped = self._stopped(code)
+            run.counted(steps, stopped, named if stopped in _NAMING else -1)
+        if timed_out or chosen < 0 or run.stop.interrupted() is not None:
+            return None                 # a search past its deadline or cancelled ends next
+        steps, code, named = (int(v) for v in a.results[chosen])
+        stopped = self._stopped(code)
+        arm, objects = a.arm[chosen, :steps].copy(), a.objects[chosen, :steps].copy()
+        arm.setflags(write=False)
+        objects.setflags(write=False)
+        result = Propagation(arm, objects, steps * self.options.dt, stopped,
+                             self.physics.pushing_links(a.flags[chosen]),
+                             named if stopped in _NAMING else -1)
+        feature = None if stopped is StopReason.GOAL else a.features[chosen].copy()
+        return self._extend(run, near, result, feature)
+
+    def _stopped(self, code: int) -> Invalid | StopReason | None:
+        """Why a propagation of `pcrrt_kernel.iteration` stopped, from its code."""
+        if code > 0:
+            return self.physics.reason(code)
+        if code == -GOAL:
+            return StopReason.GOAL
+        return StopReason.TIMEOUT if code == TIMED_OUT else None
+
+    def iteration_arrays(self, stop: Stops) -> IterationArrays:
+        """What `pcrrt_kernel.iteration` reads of this planner, and its buffers."""
+        scene, opts, physics, robot = self.scene, self.options, self.physics, self.robot
+        g, m, k = scene.goal_index, len(scene.objects), opts.k_actions
+        pushable = np.flatnonzero(self._weights > 0)
+        uniform = opts.sampler == "uniform"
+        steps = max(opts.push_steps, round(opts.max_duration / opts.dt) + 1)
+        feature = robot.nq if uniform else 2
+        table = np.array([scene.table.lower[:2], scene.table.upper[:2]], dtype=float)
+        pushes = np.array([policy_array(physics, PushTarget(i, (0.0, 0.0), opts.max_speed,
+                                                            opts.face_push))
+                           for i in range(m)])
+        return IterationArrays(
+            ints=np.array([m, g, k, int(uniform), opts.push_steps, pushable.size],
+                          dtype=np.int64),
+            reals=np.array([opts.goal_bias, opts.goal_radius(scene), opts.arm_weight,
+                            opts.push_bias, opts.push_goal_share, opts.dt,
+                            opts.nullspace_speed]),
+            goal_xy=np.array(self._goal_xy, dtype=float), table=table,
+            limits=np.array([robot.lower, robot.upper], dtype=float),
+            weights=np.array(self._weights, dtype=float),
+            others=np.array(pushable[pushable != g], dtype=np.int64),
+            action=np.array([self._action_low, self._action_span]),
+            pushes=pushes, held=np.array(policy_array(physics, None)),
+            overlap=physics.world.overlap_arrays(), goal=np.array(stop.packed),
+            project=project_arrays(robot, scene.table.height), world=physics.arrays,
+            arm=np.zeros((k, steps, robot.nq)), objects=np.zeros((k, steps, m, 3)),
+            flags=np.zeros((k, physics.flag_count), dtype=np.int64),
+            results=np.zeros((k, 3), dtype=np.int64), features=np.zeros((k, feature)),
+            sample_arm=np.zeros(feature), sample_objects=np.zeros((m, 3)),
+            clock=np.zeros(2, dtype=np.int64))
 
     def _extend(self, run: _Run, parent: int, chosen: Propagation,
                 arm: np.ndarray | None = None) -> PlanResult | None:
@@ -236,41 +284,6 @@ class PCRRT:
             return np.asarray(q, dtype=float)
         return self.robot.frame_position(q, self._tool_frame)[:2]
 
-    def _sample(self, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
-        """SampleConfiguration (§III-B): object poses (`sample_arrangement`), then the arm."""
-        scene, opts = self.scene, self.options
-        lo, hi = scene.table.lower, scene.table.upper
-        objects = sample_arrangement(scene, rng, opts.goal_bias, opts.goal_radius(scene),
-                                     self._goal_xy, self.physics.world)
-        if opts.sampler == "uniform":
-            arm = rng.uniform(self.robot.lower, self.robot.upper)
-        else:
-            arm = np.array([rng.uniform(lo[0], hi[0]), rng.uniform(lo[1], hi[1])])
-        return arm, objects
-
-    def _distance(self, arm: np.ndarray, objects: np.ndarray, sample_arm: np.ndarray,
-                  sample_objects: np.ndarray) -> float:
-        """Dist(x, x') of §III-D on positions: w_q |arm - arm'| + sum_i w_i |o_i - o'_i|."""
-        return weighted_distance(arm, objects, sample_arm, sample_objects,
-                                 self.options.arm_weight, self._weights)
-
-    def _nearest(self, tree: Tree, sample_arm: np.ndarray, sample_objects: np.ndarray) -> int:
-        """Nearest (§III-D): the node closest to the sample by the weighted metric."""
-        return tree.nearest(sample_arm, sample_objects, self.options.arm_weight, self._weights)
-
-    def _sample_action(self, rng: np.random.Generator) -> Action:
-        """SampleAction: uniform in the bounds (§V: 'Actions are uniformly sampled from a
-        bounded range'); the duration is a whole number of steps."""
-        opts = self.options
-        # Four uniform draws in one call, as rng.uniform draws them (low + span u; the same
-        # numbers as four scalar calls, a quarter of their time).
-        drawn = self._action_low + self._action_span * rng.random(4)
-        velocity = drawn[:3]
-        duration = max(1, round(float(drawn[3]) / opts.dt)) * opts.dt
-        nullspace = rng.uniform(-opts.nullspace_speed, opts.nullspace_speed, self.robot.nq)
-        return Action(velocity, duration, nullspace)
-
-
 class _Run(Search):
     """One `PCRRT.plan` call: the shared bookkeeping (`Search`), the push policy, the stop
     check of every propagation and the approach onto the manifold."""
@@ -282,6 +295,7 @@ class _Run(Search):
         self.stop = planner.stop_check(self.termination)
         self.policy = PushPolicy(planner.physics, planner.options,
                                  np.flatnonzero(planner._weights > 0))
+        self.arrays = planner.iteration_arrays(self.stop)
         self.approach: list[State] = []
 
     def begin(self, start: State) -> PlanResult | None:
