@@ -236,6 +236,12 @@ class Physics:
         return self._flags
 
     @staticmethod
+    def reasons() -> tuple[Invalid | None, ...]:
+        """`reason` of every outcome code of `step_kernel`, by code (None for 0, a valid
+        step)."""
+        return _REASONS
+
+    @staticmethod
     def reason(code: int) -> Invalid:
         """The `Invalid` of a non-zero outcome code of `step_kernel`."""
         reason = _REASONS[code]

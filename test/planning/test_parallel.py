@@ -122,12 +122,12 @@ def test_a_failing_tree_stops_the_race(panda, easy, monkeypatch):
     clutter = load_scene("clutter", robot=panda)
 
     def broken(self, *args, **kwargs):
-        raise RuntimeError("broken iteration")
+        raise RuntimeError("broken iterations")
 
     with monkeypatch.context() as patch:
-        patch.setattr(planner_module.PCRRT, "_iteration", broken)
+        patch.setattr(planner_module.PCRRT, "_iterations", broken)
         t0 = time.monotonic()
-        with pytest.raises(RuntimeError, match="broken iteration"):
+        with pytest.raises(RuntimeError, match="broken iterations"):
             plan_race(PC_RRT, clutter, PCRRTOptions(time_limit=60.0, goal_bias=0.0), 2, seed=3)
     after = plan_race(PC_RRT, easy, PCRRTOptions(time_limit=60.0), 2, seed=RACE_SEED)
     assert after.solved and "tree 1 of 2" in after.message

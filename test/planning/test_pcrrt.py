@@ -68,6 +68,21 @@ def test_no_plan_time_past_the_budget(seed):
     assert result.plan_time <= 1.25, (result.outcome, result.plan_time)
 
 
+def test_a_tree_that_outgrows_its_arrays_in_compiled_code_plans_the_same(easy, easy_plan,
+                                                                          monkeypatch):
+    """The compiled iterations add nodes to the tree's arrays themselves and hand back to
+    Python when they are full; from arrays of two nodes (grown some ten times) the plan is
+    the one of the default arrays."""
+    from functools import partial
+
+    from rearrangement_planner.planning.planners import pcrrt
+
+    monkeypatch.setattr(pcrrt, "Tree", partial(pcrrt.Tree, capacity=2))
+    again = PCRRT(easy, PCRRTOptions(time_limit=60.0)).plan(seed=0)
+    assert again.tree_size == easy_plan.tree_size > 8
+    assert np.array_equal(again.arm_path, easy_plan.arm_path)
+
+
 def test_the_deadline_cuts_a_long_action_short(panda):
     """The compiled iteration reads the clock between batches of steps, not only between
     iterations: three actions of 60,000 steps that hold the arm still (valid all along, about

@@ -85,15 +85,20 @@ class Search:
 
     def propagated(self, result: Propagation) -> None:
         """Count a propagation's steps and, when the model cut it short, why."""
-        self.counted(result.count, result.stopped, result.subject)
+        self.steps += result.count
+        if isinstance(result.stopped, Invalid):
+            whose = " of the goal object" if result.subject == self.goal_index >= 0 else ""
+            self.refused[result.stopped.value + whose] += 1
 
-    def counted(self, steps: int, stopped: object, subject: int = -1) -> None:
-        """`propagated` of a propagation known by its steps, why it stopped and the object
-        that rule named (-1: none)."""
+    def count(self, steps: int, refused: np.ndarray) -> None:
+        """`propagated` of many propagations at once: their steps, and refused[code, whose]
+        the ones `Physics.reason(code)` cut short (whose 1: the rule named the goal object),
+        which it zeroes."""
         self.steps += steps
-        if isinstance(stopped, Invalid):
-            whose = " of the goal object" if subject == self.goal_index >= 0 else ""
-            self.refused[stopped.value + whose] += 1
+        for code, whose in zip(*refused.nonzero(), strict=True):
+            suffix = " of the goal object" if whose else ""
+            self.refused[Physics.reason(int(code)).value + suffix] += int(refused[code, whose])
+        refused[:] = 0
 
     def why_unsolved(self) -> str:
         """What a search that ends without a plan saw, for its message: how near the goal

@@ -38,9 +38,6 @@ class Tree:
             segment: tuple[State, ...] | Propagation) -> int:
         """Add a node reached from `parent` along `segment` (its states, or the propagation
         that made it); returns its index."""
-        if self.n == len(self.arm):
-            self.q, self.arm, self.objects, self.parent, self._spans = (
-                _doubled(a) for a in (self.q, self.arm, self.objects, self.parent, self._spans))
         if isinstance(segment, Propagation):
             seg_q, seg_objects = segment.arm, segment.objects
         else:
@@ -48,9 +45,7 @@ class Tree:
             seg_objects = np.array([s.objects for s in segment]).reshape(
                 len(segment), *self.objects.shape[1:])
         count = len(seg_q)
-        while self._steps + count > len(self._step_q):
-            self._step_q, self._step_objects = _doubled(self._step_q), _doubled(
-                self._step_objects)
+        self.make_room(count)
         self._step_q[self._steps:self._steps + count] = seg_q
         self._step_objects[self._steps:self._steps + count] = seg_objects
         self._spans[self.n] = self._steps, self._steps + count
@@ -61,6 +56,32 @@ class Tree:
         self.parent[self.n] = parent
         self.n += 1
         return self.n - 1
+
+    @property
+    def arrays(self) -> tuple[np.ndarray, ...]:
+        """The node and step arrays, for compiled code that adds nodes itself
+        (`pcrrt_kernel.iterations`): q, arm, objects, parent, spans, step q, step objects.
+        It reads and sets `n` and `steps`; `make_room` makes room for more first."""
+        return (self.q, self.arm, self.objects, self.parent, self._spans, self._step_q,
+                self._step_objects)
+
+    @property
+    def steps(self) -> int:
+        """Edge steps held (of all nodes)."""
+        return self._steps
+
+    @steps.setter
+    def steps(self, value: int) -> None:
+        self._steps = value
+
+    def make_room(self, steps: int) -> None:
+        """Double the arrays that cannot take one more node of `steps` steps."""
+        if self.n == len(self.arm):
+            self.q, self.arm, self.objects, self.parent, self._spans = (
+                _doubled(a) for a in (self.q, self.arm, self.objects, self.parent, self._spans))
+        while self._steps + steps > len(self._step_q):
+            self._step_q, self._step_objects = _doubled(self._step_q), _doubled(
+                self._step_objects)
 
     def nearest(self, arm: np.ndarray, objects: np.ndarray, arm_weight: float,
                 weights: np.ndarray) -> int:

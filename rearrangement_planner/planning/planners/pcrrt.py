@@ -25,6 +25,7 @@ Reproducible: all randomness comes from one numpy Generator seeded by the reques
 from __future__ import annotations
 
 import math
+import time
 from dataclasses import dataclass
 
 import numpy as np
@@ -56,13 +57,20 @@ from rearrangement_planner.planning.machinery.search import Search
 from rearrangement_planner.planning.machinery.termination import CLOCK, Termination
 from rearrangement_planner.planning.machinery.tree import Tree
 from rearrangement_planner.planning.planners.pcrrt_kernel import (
+    HAND_OVER,
+    NO_ROOM,
     TIMED_OUT,
     IterationArrays,
-    iteration,
+    iterations,
 )
 
 _NAMING = (Invalid.TIPPING, Invalid.TURNING)
 """The rules whose refusal names the object that would tip or turn too fast."""
+SLICE = 0.01
+"""s: how long one compiled call of iterations runs before the search asks its cancel, its
+race's gate and its progress report (the deadline is read inside)."""
+MAX_BATCH = 1_000_000
+"""Iterations one compiled call may run (SLICE ends it first)."""
 
 
 @dataclass(frozen=True)
@@ -154,8 +162,9 @@ class PCRRT:
 
     def plan(self, start: State | None = None, seed: int = 0, stop: Termination | None = None,
              progress: ProgressCallback | None = None) -> PlanResult:
-        """Algorithm 1 (the `Planner` protocol): `stop` is asked before every iteration and
-        between batches of propagation steps."""
+        """Algorithm 1 (the `Planner` protocol): `stop` is asked between compiled calls of
+        iterations (every SLICE seconds at most) and, its deadline, between batches of
+        propagation steps."""
         run = _Run(self, seed, stop, progress)
         start = start or self.scene.initial_state()
         early = run.begin(start)
@@ -165,28 +174,34 @@ class PCRRT:
             ended = run.check()
             if ended is not None:
                 return ended
-            found = self._iteration(run)
+            found = self._iterations(run)
             if found is not None:
                 return found
 
-    def _iteration(self, run: _Run) -> PlanResult | None:
-        """One iteration of Algorithm 1: sample, nearest, k propagations, add the best (then
-        the greedy goal pushes from it). Returns the plan when the goal is reached. All but
-        the adding run in one compiled call (`pcrrt_kernel.iteration`)."""
+    def _iterations(self, run: _Run) -> PlanResult | None:
+        """Iterations of Algorithm 1 (sample, nearest, k propagations, add the best), in one
+        compiled call (`pcrrt_kernel.iterations`) for up to SLICE seconds, the termination's
+        iteration bound or until one needs Python: a propagation that reached the goal or a
+        new best goal distance, added here with the greedy goal pushes from it
+        (`_extend`). Returns the plan when the goal is reached."""
         tree, a = run.tree, run.arrays
-        run.iterations += 1
-        near, chosen, timed_out = iteration(
-            run.rng, CLOCK, run.termination.deadline, tree.q, tree.arm, tree.objects, tree.n,
-            a.ints, a.reals, a.goal_xy, a.table, a.limits, a.weights, a.others, a.action,
-            a.pushes, a.held, a.overlap, a.goal, a.project, a.world, a.arm, a.objects, a.flags,
-            a.results, a.features, a.sample_arm, a.sample_objects, a.clock)
-        for steps, code, named in a.results.tolist():
-            if steps < 0:
-                break
-            stopped = self._stopped(code)
-            run.counted(steps, stopped, named if stopped in _NAMING else -1)
-        if timed_out or chosen < 0 or run.stop.interrupted() is not None:
+        bound = run.termination.max_iterations
+        most = MAX_BATCH if bound is None else max(1, min(MAX_BATCH, bound - run.iterations))
+        a.counters[0], a.counters[1], a.best[0] = tree.n, tree.steps, run.best
+        iterations(run.rng, CLOCK, run.termination.deadline, time.monotonic() + SLICE, most,
+                   tree.arrays, a.counters, a.best, a.refused, a.naming, a.ints, a.reals,
+                   a.goal_xy, a.table, a.limits, a.weights, a.others, a.action, a.pushes,
+                   a.held, a.overlap, a.goal, a.project, a.world, a.arm, a.objects, a.flags,
+                   a.results, a.features, a.sample_arm, a.sample_objects, a.clock)
+        tree.n, tree.steps, run.best = int(a.counters[0]), int(a.counters[1]), float(a.best[0])
+        run.iterations += int(a.counters[2])
+        run.count(int(a.counters[3]), a.refused)
+        why = a.counters[4]
+        if why == NO_ROOM:
+            tree.make_room(a.arm.shape[1])
+        if why != HAND_OVER or run.stop.interrupted() is not None:
             return None                 # a search past its deadline or cancelled ends next
+        near, chosen = int(a.counters[5]), int(a.counters[6])
         steps, code, named = (int(v) for v in a.results[chosen])
         stopped = self._stopped(code)
         arm, objects = a.arm[chosen, :steps].copy(), a.objects[chosen, :steps].copy()
@@ -214,13 +229,14 @@ class PCRRT:
         uniform = opts.sampler == "uniform"
         steps = max(opts.push_steps, round(opts.max_duration / opts.dt) + 1)
         feature = robot.nq if uniform else 2
+        reasons = physics.reasons()
         table = np.array([scene.table.lower[:2], scene.table.upper[:2]], dtype=float)
         pushes = np.array([policy_array(physics, PushTarget(i, (0.0, 0.0), opts.max_speed,
                                                             opts.face_push))
                            for i in range(m)])
         return IterationArrays(
-            ints=np.array([m, g, k, int(uniform), opts.push_steps, pushable.size],
-                          dtype=np.int64),
+            ints=np.array([m, g, k, int(uniform), opts.push_steps, pushable.size,
+                           int(opts.greedy_goal)], dtype=np.int64),
             reals=np.array([opts.goal_bias, opts.goal_radius(scene), opts.arm_weight,
                             opts.push_bias, opts.push_goal_share, opts.dt,
                             opts.nullspace_speed]),
@@ -236,7 +252,9 @@ class PCRRT:
             flags=np.zeros((k, physics.flag_count), dtype=np.int64),
             results=np.zeros((k, 3), dtype=np.int64), features=np.zeros((k, feature)),
             sample_arm=np.zeros(feature), sample_objects=np.zeros((m, 3)),
-            clock=np.zeros(2, dtype=np.int64))
+            clock=np.zeros(2, dtype=np.int64), counters=np.zeros(7, dtype=np.int64),
+            best=np.zeros(1), refused=np.zeros((len(reasons), 2), dtype=np.int64),
+            naming=np.array([r in _NAMING for r in reasons], dtype=np.int64))
 
     def _extend(self, run: _Run, parent: int, chosen: Propagation,
                 arm: np.ndarray | None = None) -> PlanResult | None:

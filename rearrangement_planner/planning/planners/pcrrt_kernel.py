@@ -1,17 +1,20 @@
-"""One PC-RRT iteration compiled: Algorithm 1 of King et al. 2015 from the sample to the choice
-of the best of the k propagations, in one call (`iteration`).
+"""PC-RRT's iterations compiled: Algorithm 1 of King et al. 2015, from the sample to adding
+the chosen edge to the tree, for many iterations in one call (`iterations`, each one
+`iteration`).
 
 Why: a search spent 42 % of its time in Python around the compiled physics step (sampling,
 Nearest, the action, the propagation's wrapper, the metric; docs/benchmark.md "Where a PC-RRT
-iteration goes"). Here they run in one compiled call per iteration; `PCRRT` keeps in Python
-what happens once per iteration or less: adding the chosen edge to the tree, the greedy goal
-pushes from a new best node, counting why the model refused a propagation.
+iteration goes"), and a compiled call that takes the search's Generator costs about 16 µs, so
+one call runs iterations for a slice of time. `PCRRT` keeps in Python what happens rarely: an
+edge that reached the goal or a new best goal distance (it adds it and pushes greedily on,
+`PCRRT._extend`), growing the tree's arrays, and, between calls, the cancel, the race's gate
+and the progress report.
 
 The same plans: the call draws from the search's own NumPy Generator (Numba shares its state),
 in the order and with the arithmetic of the Python it replaces, so a search makes the same
 iterations and returns the same plan (the golden plans check it). The deadline is read
 between batches of `propagation.CHECK_EVERY` steps, as in `propagation.propagate`
-(`termination.monotonic`); the cancel flag, a Python object, between iterations.
+(`termination.monotonic`).
 """
 
 from __future__ import annotations
@@ -35,6 +38,10 @@ from rearrangement_planner.planning.machinery.tree import metric, nearest_kernel
 
 TIMED_OUT = -3
 """The code of a propagation cut by the deadline (`iteration`'s results)."""
+GO_ON, PAST_DEADLINE, HAND_OVER, NO_ROOM = 0, 1, 2, 3
+"""Why `iterations` returned: its slice of time or its iterations ran out; the deadline
+passed; an iteration chose a propagation that reached the goal or a new best goal distance
+(`PCRRT._extend` adds it and pushes greedily on); the tree's arrays are full."""
 
 
 @dataclass(frozen=True)
@@ -44,7 +51,8 @@ class IterationArrays:
     named object) in `results` (steps -1: not propagated) and its end's metric feature in
     `features`, and the sample (`sample_arm`, `sample_objects`)."""
 
-    ints: np.ndarray        # objects, goal index, k, uniform sampler (0/1), push steps, pushable
+    ints: np.ndarray        # objects, goal index, k, uniform sampler (0/1), push steps, pushable,
+    #                         greedy goal push (0/1)
     reals: np.ndarray       # goal bias, goal sampling radius, arm weight, push bias,
     #                         push goal share, dt, nullspace speed
     goal_xy: np.ndarray     # (2,)
@@ -67,6 +75,71 @@ class IterationArrays:
     sample_arm: np.ndarray  # (feature,)
     sample_objects: np.ndarray  # (objects, 3)
     clock: np.ndarray       # (2,) int64, `termination.monotonic`'s buffer
+    counters: np.ndarray    # (7,) int64, `iterations`'
+    best: np.ndarray        # (1,)
+    refused: np.ndarray     # (codes, 2) int64
+    naming: np.ndarray      # (codes,) int64
+
+
+@njit(cache=True)
+def iterations(rng: np.random.Generator, clock: Any, deadline: float, until: float,
+               most: int, tree: tuple, counters: np.ndarray, best: np.ndarray,
+               refused: np.ndarray, naming: np.ndarray, ints: np.ndarray, reals: np.ndarray,
+               goal_xy: np.ndarray, table: np.ndarray, limits: np.ndarray,
+               weights: np.ndarray, others: np.ndarray, action: np.ndarray,
+               pushes: np.ndarray, held: np.ndarray, overlap: tuple, goal: np.ndarray,
+               project: tuple, world: tuple, arm: np.ndarray, objects: np.ndarray,
+               flags: np.ndarray, results: np.ndarray, features: np.ndarray,
+               sample_arm: np.ndarray, sample_objects: np.ndarray,
+               clock_buffer: np.ndarray) -> None:
+    """Up to `most` iterations (`iteration`), each chosen edge added to the tree (`Tree`'s
+    arrays: q, arm, objects, parent, spans, step q, step objects), until the clock passes
+    `until` (the caller then asks the cancel, the race's gate and the progress report) or an
+    iteration needs Python. counters: [nodes, steps held, iterations, propagation steps,
+    why it returned (GO_ON ...), the nearest node and chosen propagation of HAND_OVER], the
+    first two read and written, the others written; best: [the best goal distance];
+    refused[code, named the goal object] counts the propagations the model cut short,
+    naming[code] whether that rule names an object."""
+    tree_q, tree_arm, tree_objects, parent, spans, step_q, step_objects = tree
+    g, greedy, room = ints[1], ints[6], arm.shape[1]
+    counters[2:] = 0
+    for _ in range(most):
+        n, used = counters[0], counters[1]
+        if n == tree_q.shape[0] or used + room > step_q.shape[0]:
+            counters[4] = NO_ROOM
+            return
+        counters[2] += 1
+        near, chosen, timed_out = iteration(
+            rng, clock, deadline, tree_q, tree_arm, tree_objects, n, ints, reals, goal_xy,
+            table, limits, weights, others, action, pushes, held, overlap, goal, project,
+            world, arm, objects, flags, results, features, sample_arm, sample_objects,
+            clock_buffer)
+        for k in range(results.shape[0]):
+            done, code = results[k, 0], results[k, 1]
+            if done < 0:
+                break
+            counters[3] += done
+            if code > 0:
+                refused[code, 1 if naming[code] and results[k, 2] == g else 0] += 1
+        if timed_out:
+            counters[4] = PAST_DEADLINE
+            return
+        if chosen >= 0:
+            done = results[chosen, 0]
+            end = objects[chosen, done - 1]
+            distance = math.hypot(end[g, 0] - goal_xy[0], end[g, 1] - goal_xy[1])
+            if results[chosen, 1] == -GOAL or (greedy and distance < best[0] - 1e-3):
+                counters[4], counters[5], counters[6] = HAND_OVER, near, chosen
+                return
+            tree_q[n], tree_arm[n], tree_objects[n] = arm[chosen, done - 1], features[chosen], end
+            parent[n], spans[n, 0], spans[n, 1] = near, used, used + done
+            step_q[used:used + done] = arm[chosen, :done]
+            step_objects[used:used + done] = objects[chosen, :done]
+            counters[0], counters[1] = n + 1, used + done
+            best[0] = min(best[0], distance)
+        if monotonic(clock, clock_buffer) > until:
+            break
+    counters[4] = GO_ON
 
 
 @njit(cache=True)
