@@ -1,13 +1,13 @@
 #!/bin/bash
-# The same 35 searches (1,500 iterations or the plan, varied scenes, seed 0) timed at two
+# The same 35 searches (1,500 iterations or the plan, varied scenes, seed 0) timed at several
 # commits, alternated three times (docs/benchmark.md, "One compiled call per PC-RRT
-# iteration"). Usage: same_work_ab.sh CLONE_BEFORE CLONE_AFTER PYTHON (a venv with the
-# product's requirements; AMENT_PREFIX_PATH set to it).
-before=$1 after=$2 python=$3
-scenes=$(ls "$after"/config/benchmark/varied/ | grep -o "v[0-9]_s[0-9]" | paste -sd,)
+# iteration"). Usage: same_work_ab.sh VENV CLONE... (VENV: a virtual environment with the
+# product's requirements; each CLONE a clone of one commit).
+venv=$1
+shift
+scenes=$(ls "$1"/config/benchmark/varied/ | grep -o "v[0-9]_s[0-9]" | paste -sd,)
 for i in 1 2 3; do
-  for arm in before after; do
-    dir=${!arm}
-    echo "$arm $(cd "$dir" && PYTHONPATH=$dir "$python" docs/benchmark/time/same_work.py "$scenes" 1500 2>&1 | tail -1)"
+  for dir in "$@"; do
+    echo "$(git -C "$dir" rev-parse --short HEAD) $(cd "$dir" && PYTHONPATH=$dir AMENT_PREFIX_PATH=$venv "$venv"/bin/python docs/benchmark/time/same_work.py "$scenes" 1500 2>&1 | tail -1)"
   done
 done
