@@ -59,7 +59,6 @@ from rearrangement_planner.planning.machinery.tree import Tree
 from rearrangement_planner.planning.planners.pcrrt_kernel import (
     HAND_OVER,
     NO_ROOM,
-    TIMED_OUT,
     IterationArrays,
     iterations,
 )
@@ -214,12 +213,11 @@ class PCRRT:
         return self._extend(run, near, result, feature)
 
     def _stopped(self, code: int) -> Invalid | StopReason | None:
-        """Why a propagation of `pcrrt_kernel.iteration` stopped, from its code."""
+        """Why the handed-over propagation of `pcrrt_kernel.iterations` stopped, from its code
+        (never TIMED_OUT: a call past its deadline hands nothing over)."""
         if code > 0:
             return self.physics.reason(code)
-        if code == -GOAL:
-            return StopReason.GOAL
-        return StopReason.TIMEOUT if code == TIMED_OUT else None
+        return StopReason.GOAL if code == -GOAL else None
 
     def iteration_arrays(self, stop: Stops) -> IterationArrays:
         """What `pcrrt_kernel.iteration` reads of this planner, and its buffers."""

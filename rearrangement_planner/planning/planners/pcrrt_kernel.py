@@ -61,8 +61,8 @@ class IterationArrays:
     weights: np.ndarray     # (objects,) the metric's object weights
     others: np.ndarray      # the objects besides the goal object a push may aim at
     action: np.ndarray      # (2, 4): the action's lower bound and span
-    pushes: np.ndarray      # (objects, 19): `propagation._policy_array` of a push of each
-    held: np.ndarray        # (19,): `propagation._policy_array` of a held velocity
+    pushes: np.ndarray      # (objects, 19): `propagation.policy_array` of a push of each
+    held: np.ndarray        # (19,): `propagation.policy_array` of a held velocity
     overlap: tuple          # `CollisionWorld.overlap_arrays`
     goal: np.ndarray        # `Stops.packed`
     project: tuple          # `manifold.project_arrays`
