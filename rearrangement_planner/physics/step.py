@@ -126,6 +126,22 @@ def tips_over(obj: MovableObject, twist: np.ndarray, height: float) -> bool:
     return obj.support_friction * height > lever
 
 
+def footprint_reach(obj: MovableObject) -> float:
+    """How far the footprint reaches from the centre at most (m): a cylinder's radius, a box's
+    half diagonal."""
+    if obj.shape == "cylinder":
+        return 0.5 * float(obj.size[0])
+    return 0.5 * math.hypot(float(obj.size[0]), float(obj.size[1]))
+
+
+def tips_whichever_way(obj: MovableObject, height: float) -> bool:
+    """Whether `obj` tips under a push at `height` (m above the table) whichever way the push
+    slides it: `tips_over` in its steadiest direction, where the footprint reaches furthest
+    from the centre (`footprint_reach`). Such an object can only move by a push lower down, as
+    from another object (`object_contact`)."""
+    return obj.support_friction * height > footprint_reach(obj)
+
+
 # Outcome codes of the compiled step (`_REASONS[code]`; 0 is a valid step).
 (_VALID, _JOINT_LIMIT, _ARM_TABLE, _ARM_OBSTACLE, _OBJECT_OVERLAP, _OBJECT_OBSTACLE, _OFF_TABLE,
  _FROM_ABOVE, _JAMMING, _RESIDUAL, _TIPPING, _STATIC_OBJECT, _TURNING) = range(13)

@@ -260,14 +260,15 @@ def test_a_margin_as_large_as_the_region_is_goal_invalid(easy):
     assert result.outcome is Outcome.GOAL_INVALID and "goal_margin" in result.message
 
 
-def _post_scene(panda):
+def _post_scene(panda, support_friction=0.8):
     """easy_push with its goal object replaced by a 4 cm x 4 cm x 20 cm post on a grippy table:
-    it tips under any push at the hand's height."""
+    at the hand's height (6 cm) it tips under any push; with `support_friction` 0.47 under a
+    push square to a face (mu h 2.8 cm > 2 cm) but not along its diagonal (2.83 cm)."""
     from rearrangement_planner.physics.validation import parse_scene
 
     easy = load_scene("easy_push", robot=panda)
     post = {"name": "post", "shape": "box", "size": [0.04, 0.04, 0.2], "mass": 0.3,
-            "support_friction": 0.8, "pusher_friction": 0.3,
+            "support_friction": support_friction, "pusher_friction": 0.3,
             "pose": easy.objects[easy.goal_index].pose.tolist()}
     return parse_scene({"table": {"center": list(easy.table.center),
                                   "size": list(easy.table.size), "height": 0.0},
@@ -296,13 +297,30 @@ def test_the_tipping_setting_keeps_plans_from_toppling_the_goal_object(panda):
         assert output.solved is solved, (tipping, output.result.message)
 
 
+def test_a_goal_object_every_push_would_tip_is_refused_at_once(panda):
+    """A goal object that tips under the arm's push whichever way it slides is GOAL_INVALID
+    before any search (`search.unpushable`), the message naming it and the numbers; one that
+    a push along its diagonal slides upright is searched for."""
+    from rearrangement_planner.physics.options import PhysicsOptions
+    from rearrangement_planner.planning.machinery.search import unpushable
+
+    result = PCRRT(_post_scene(panda), POST_OPTIONS).plan(seed=1)
+    assert result.outcome is Outcome.GOAL_INVALID and result.iterations == 0
+    assert "'post' would tip over under any push" in result.message, result.message
+    assert "0.8 x push height 0.060 m" in result.message and "(0.028 m)" in result.message
+    assert unpushable(Physics(_post_scene(panda, 0.47))) is None
+    assert unpushable(Physics(_post_scene(panda), PhysicsOptions(tipping=False))) is None
+
+
 def test_an_unsolved_search_says_what_it_saw(panda):
     """A search that runs out of budget says how near the goal object came and why the model
-    cut its propagations short: here, the post never moves, and pushes of it would tip it."""
-    result = PCRRT(_post_scene(panda), POST_OPTIONS).plan(seed=1)
+    cut its propagations short: here, the post never moves: pushes square to a face would tip
+    it, and pushes along its diagonal turn it faster than the turn limit."""
+    result = PCRRT(_post_scene(panda, 0.47), POST_OPTIONS).plan(seed=1)
     assert result.outcome is Outcome.PLANNING_FAILED
     assert "the goal object never came nearer its goal point than its start" in result.message
     assert "object_would_tip of the goal object" in result.message, result.message
+    assert "object_turns of the goal object" in result.message
 
 
 def test_the_pushing_model_settings_reach_the_planners_physics(easy):

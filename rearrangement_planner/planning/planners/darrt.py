@@ -88,7 +88,7 @@ class DARRT:
         """The `Planner` protocol (as `PCRRT.plan`); a transit's RRT-Connect asks `stop` too."""
         search = Search(self.options, seed, stop, progress)
         start = start or self.scene.initial_state()
-        ended = search.check_start(self.physics, start)
+        ended = search.check_start(self.physics, start, pushes=False)   # DARRT carries it
         if ended is not None:
             return ended
         if not self._free(start.q, start.objects):
