@@ -183,7 +183,9 @@ def test_the_normal_equations_give_the_svd_solution_where_they_are_used(panda, q
             answered += 1
             assert np.linalg.svd(jac, compute_uv=False)[-1] >= mf.SINGULAR_THRESHOLD
             assert np.allclose(qdot, svd, rtol=0, atol=1e-10)
-        assert np.array_equal(mf._solve(jac, xdot, h), qdot if fast else svd)
+        if not fast and not mf._solve_gram(jac, xdot, h, qdot):
+            qdot = svd                          # below the Gram matrix's floor
+        assert np.array_equal(mf._solve(jac, xdot, h), qdot)
     assert 100 < answered < 400                 # 6 x 5 Jacobians never take the fast path
     jac = rng.normal(size=(6, 7))
     jac[5] = jac[4] * (1.0 + 1e-6)              # nearly rank 5: damped, by the SVD
@@ -191,6 +193,35 @@ def test_the_normal_equations_give_the_svd_solution_where_they_are_used(panda, q
     # The Panda's own task Jacobian at the pushing posture takes the fast path.
     jac, xdot = mf.build_task(panda, q_push, np.array([0.05, 0.0, 0.1]), DT, TABLE)
     assert mf._solve_normal(jac, xdot, np.zeros(7), np.empty(7))
+
+
+def test_the_gram_matrix_gives_the_svd_solution_without_lapack():
+    """Where the normal equations do not answer (a damped, near-singular J, or fewer free
+    joints than rows), the eigenvectors of the smaller Gram matrix give the SVD's solution to
+    rounding (2e-15 / s_min², at most 2e-7 rad/s), damping and nullspace included; J's with a
+    singular value below 1e-4 (near an exact singularity, a lost rank) are left to the SVD."""
+    rng = np.random.default_rng(8)
+    for k in range(600):
+        rows, cols = 6, (7, 6, 5, 3)[k % 4]
+        u, s, vt = np.linalg.svd(rng.normal(size=(rows, cols)), full_matrices=False)
+        s[-1] = 10.0 ** rng.uniform(-3.9, 0.0)          # from damped to well conditioned
+        jac = (u * s) @ vt
+        xdot, h = rng.normal(size=rows), rng.normal(size=cols)
+        qdot, svd = np.empty(cols), mf._solve_svd(jac, xdot, h)
+        assert mf._solve_gram(jac, xdot, h, qdot)
+        assert np.allclose(qdot, svd, rtol=0.0, atol=1e-6), (k, s[-1])
+    jac = rng.normal(size=(6, 7))
+    jac[5] = jac[4]                                      # rank 5: the SVD's
+    assert not mf._solve_gram(jac, np.ones(6), np.zeros(7), np.empty(7))
+    assert np.array_equal(mf._solve(jac, np.ones(6), np.zeros(7)),
+                          mf._solve_svd(jac, np.ones(6), np.zeros(7)))
+    a = rng.normal(size=(6, 6))
+    a = a + a.T
+    values, vectors = a.copy(), np.empty((6, 6))
+    mf.jacobi_eigen(values, vectors)
+    assert np.allclose(np.sort(np.diag(values)), np.linalg.eigvalsh(a), atol=1e-12)
+    assert np.allclose(vectors @ np.diag(np.diag(values)) @ vectors.T, a, atol=1e-12)
+    assert np.allclose(vectors.T @ vectors, np.eye(6), atol=1e-12)
 
 
 def test_project_step_returns_to_the_manifold(panda, q_push):
