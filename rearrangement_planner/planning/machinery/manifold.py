@@ -295,18 +295,8 @@ def _solve_gram(jac: np.ndarray, xdot: np.ndarray, h: np.ndarray, qdot: np.ndarr
     Returns False, qdot unset, when the smallest eigenvalue is below GRAM_FLOOR."""
     m, n = jac.shape
     wide = m <= n
-    k = m if wide else n
-    gram = np.empty((k, k))
-    for i in range(k):
-        for j in range(i + 1):
-            acc = 0.0
-            if wide:
-                for c in range(n):
-                    acc += jac[i, c] * jac[j, c]
-            else:
-                for r in range(m):
-                    acc += jac[r, i] * jac[r, j]
-            gram[i, j] = gram[j, i] = acc
+    gram = _gram(jac, wide)
+    k = gram.shape[0]
     vectors = np.empty((k, k))
     jacobi_eigen(gram, vectors)
     smallest = math.inf
@@ -352,6 +342,25 @@ def _solve_gram(jac: np.ndarray, xdot: np.ndarray, h: np.ndarray, qdot: np.ndarr
 
 
 @njit(cache=True)
+def _gram(jac: np.ndarray, wide: bool) -> np.ndarray:
+    """J Jᵀ (`wide`) or JᵀJ."""
+    m, n = jac.shape
+    k = m if wide else n
+    gram = np.empty((k, k))
+    for i in range(k):
+        for j in range(i + 1):
+            acc = 0.0
+            if wide:
+                for c in range(n):
+                    acc += jac[i, c] * jac[j, c]
+            else:
+                for r in range(m):
+                    acc += jac[r, i] * jac[r, j]
+            gram[i, j] = gram[j, i] = acc
+    return gram
+
+
+@njit(cache=True)
 def jacobi_eigen(a: np.ndarray, vectors: np.ndarray) -> None:
     """The eigen-decomposition of the small symmetric matrix `a` in place by cyclic Jacobi
     rotations (Golub & Van Loan, Matrix Computations, §8.5): on return a's diagonal holds the
@@ -379,15 +388,16 @@ def jacobi_eigen(a: np.ndarray, vectors: np.ndarray) -> None:
                     t = -t
                 c = 1.0 / math.sqrt(t * t + 1.0)
                 s = t * c
-                for r in range(k):            # a <- a G (columns p, q)
-                    arp, arq = a[r, p], a[r, q]
-                    a[r, p] = c * arp - s * arq
-                    a[r, q] = s * arp + c * arq
-                for r in range(k):            # a <- Gᵀ a (rows p, q)
-                    apr, aqr = a[p, r], a[q, r]
-                    a[p, r] = c * apr - s * aqr
-                    a[q, r] = s * apr + c * aqr
-                a[p, q] = a[q, p] = 0.0       # what the rotation is for (exactly)
+                # a <- Gᵀ a G, G the rotation by (c, s) in the (p, q) plane chosen to zero
+                # a[p, q]; the rest of rows and columns p and q turn with it.
+                a[p, p] -= t * apq
+                a[q, q] += t * apq
+                a[p, q] = a[q, p] = 0.0
+                for r in range(k):
+                    if r != p and r != q:
+                        arp, arq = a[r, p], a[r, q]
+                        a[r, p] = a[p, r] = c * arp - s * arq
+                        a[r, q] = a[q, r] = s * arp + c * arq
                 for r in range(k):
                     vrp, vrq = vectors[r, p], vectors[r, q]
                     vectors[r, p] = c * vrp - s * vrq
