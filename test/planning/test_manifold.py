@@ -168,6 +168,10 @@ def test_solve_task_nullspace_projection_is_exact():
             assert np.allclose(jac @ mf.solve_task(jac, xdot, h), xdot, atol=1e-8)
 
 
+def _scratch(jac):
+    return np.empty(mf.solver_scratch_size(*jac.shape))
+
+
 def test_the_normal_equations_give_the_svd_solution_where_they_are_used(panda, q_push):
     """Project solves by a Cholesky factor of J Jᵀ where J is well conditioned (a fifth of the
     SVD's cost) and by the SVD elsewhere: where the fast path answers, the two agree to
@@ -178,21 +182,21 @@ def test_the_normal_equations_give_the_svd_solution_where_they_are_used(panda, q
         jac = rng.normal(size=(6, (7, 6, 5)[k % 3])) * (1.0, 0.3, 0.05)[k % 4 % 3]
         xdot, h = rng.normal(size=6), rng.normal(size=jac.shape[1])
         qdot, svd = np.empty(jac.shape[1]), mf._solve_svd(jac, xdot, h)
-        fast = mf._solve_normal(jac, xdot, h, qdot)
+        fast = mf._solve_normal(jac, xdot, h, qdot, _scratch(jac))
         if fast:
             answered += 1
             assert np.linalg.svd(jac, compute_uv=False)[-1] >= mf.SINGULAR_THRESHOLD
             assert np.allclose(qdot, svd, rtol=0, atol=1e-10)
-        if not fast and not mf._solve_gram(jac, xdot, h, qdot):
+        if not fast and not mf._solve_gram(jac, xdot, h, qdot, _scratch(jac)):
             qdot = svd                          # below the Gram matrix's floor
         assert np.array_equal(mf._solve(jac, xdot, h), qdot)
     assert 100 < answered < 400                 # 6 x 5 Jacobians never take the fast path
     jac = rng.normal(size=(6, 7))
     jac[5] = jac[4] * (1.0 + 1e-6)              # nearly rank 5: damped, by the SVD
-    assert not mf._solve_normal(jac, np.ones(6), np.zeros(7), np.empty(7))
+    assert not mf._solve_normal(jac, np.ones(6), np.zeros(7), np.empty(7), _scratch(jac))
     # The Panda's own task Jacobian at the pushing posture takes the fast path.
     jac, xdot = mf.build_task(panda, q_push, np.array([0.05, 0.0, 0.1]), DT, TABLE)
-    assert mf._solve_normal(jac, xdot, np.zeros(7), np.empty(7))
+    assert mf._solve_normal(jac, xdot, np.zeros(7), np.empty(7), _scratch(jac))
 
 
 def test_the_gram_matrix_gives_the_svd_solution_without_lapack():
@@ -208,11 +212,11 @@ def test_the_gram_matrix_gives_the_svd_solution_without_lapack():
         jac = (u * s) @ vt
         xdot, h = rng.normal(size=rows), rng.normal(size=cols)
         qdot, svd = np.empty(cols), mf._solve_svd(jac, xdot, h)
-        assert mf._solve_gram(jac, xdot, h, qdot)
+        assert mf._solve_gram(jac, xdot, h, qdot, _scratch(jac))
         assert np.allclose(qdot, svd, rtol=0.0, atol=1e-6), (k, s[-1])
     jac = rng.normal(size=(6, 7))
     jac[5] = jac[4]                                      # rank 5: the SVD's
-    assert not mf._solve_gram(jac, np.ones(6), np.zeros(7), np.empty(7))
+    assert not mf._solve_gram(jac, np.ones(6), np.zeros(7), np.empty(7), _scratch(jac))
     assert np.array_equal(mf._solve(jac, np.ones(6), np.zeros(7)),
                           mf._solve_svd(jac, np.ones(6), np.zeros(7)))
     a = rng.normal(size=(6, 6))

@@ -265,15 +265,37 @@ def solve_task(jac: np.ndarray, xdot: np.ndarray, h: np.ndarray) -> np.ndarray:
 
 @njit(cache=True)
 def _solve(jac: np.ndarray, xdot: np.ndarray, h: np.ndarray) -> np.ndarray:
-    """`solve_task` compiled: the normal equations where J is well conditioned (no damping,
-    full row rank), else the eigenvectors of its smaller Gram matrix (`_solve_gram`), else,
-    near an exact singularity, LAPACK's SVD (`_solve_svd`)."""
+    """`solve_task` compiled (`_solve_into` with arrays of its own)."""
     qdot = np.empty(jac.shape[1])
-    if _solve_normal(jac, xdot, h, qdot):
-        return qdot
-    if _solve_gram(jac, xdot, h, qdot):
-        return qdot
-    return _solve_svd(jac, xdot, h)
+    _solve_into(jac, xdot, h, qdot, np.empty(solver_scratch_size(*jac.shape)))
+    return qdot
+
+
+@njit(cache=True)
+def solver_scratch_size(m: int, n: int) -> int:
+    """The scratch floats `_solve_into` needs for an m x n J."""
+    k = max(m, n)
+    return 3 * k * k + 3 * k
+
+
+@njit(cache=True)
+def _carve(scratch: np.ndarray, start: int, rows: int, cols: int) -> np.ndarray:
+    """A rows x cols array over scratch[start:] (no allocation)."""
+    return scratch[start:start + rows * cols].reshape((rows, cols))
+
+
+@njit(cache=True)
+def _solve_into(jac: np.ndarray, xdot: np.ndarray, h: np.ndarray, qdot: np.ndarray,
+                scratch: np.ndarray) -> None:
+    """qdot = `solve_task`, in `scratch` (`solver_scratch_size` floats): the normal equations
+    where J is well conditioned (no damping, full row rank), else the eigenvectors of its
+    smaller Gram matrix (`_solve_gram`), else, near an exact singularity, LAPACK's SVD
+    (`_solve_svd`, which allocates)."""
+    if _solve_normal(jac, xdot, h, qdot, scratch):
+        return
+    if _solve_gram(jac, xdot, h, qdot, scratch):
+        return
+    qdot[:] = _solve_svd(jac, xdot, h)
 
 
 GRAM_FLOOR = 1e-8
@@ -284,7 +306,8 @@ from s_min 0.01 up; test_manifold)."""
 
 
 @njit(cache=True)
-def _solve_gram(jac: np.ndarray, xdot: np.ndarray, h: np.ndarray, qdot: np.ndarray) -> bool:
+def _solve_gram(jac: np.ndarray, xdot: np.ndarray, h: np.ndarray, qdot: np.ndarray,
+                scratch: np.ndarray) -> bool:
     """`_solve_svd`'s solution from the eigenvectors of the smaller Gram matrix, J Jᵀ (m ≤ n)
     or JᵀJ (m > n: joints locked), by cyclic Jacobi rotations (`jacobi_eigen`): its
     eigenvalues are the squared singular values s_i², and for each s_i above RANK_TOLERANCE the
@@ -292,12 +315,14 @@ def _solve_gram(jac: np.ndarray, xdot: np.ndarray, h: np.ndarray, qdot: np.ndarr
     J⁺ xdot = Σ v_i v_iᵀ Jᵀ xdot / (s_i² + λ²) and (I - J⁺J) h = h - Σ v_i v_iᵀ h, with the
     same adaptive damping λ² as the SVD. A few microseconds and no LAPACK call, where the SVD
     took four fifths of a Project step and a tenth of a search (perf, docs/benchmark.md).
-    Returns False, qdot unset, when the smallest eigenvalue is below GRAM_FLOOR."""
+    Returns False, qdot unset, when the smallest eigenvalue is below GRAM_FLOOR. Its arrays
+    are carved from `scratch` (`solver_scratch_size`)."""
     m, n = jac.shape
     wide = m <= n
-    gram = _gram(jac, wide)
-    k = gram.shape[0]
-    vectors = np.empty((k, k))
+    k = m if wide else n
+    gram, vectors = _carve(scratch, 0, k, k), _carve(scratch, k * k, k, k)
+    jt_xdot, v = scratch[2 * k * k:2 * k * k + n], scratch[2 * k * k + n:2 * k * k + 2 * n]
+    _gram(jac, wide, gram)
     jacobi_eigen(gram, vectors)
     smallest = math.inf
     for i in range(k):
@@ -308,7 +333,6 @@ def _solve_gram(jac: np.ndarray, xdot: np.ndarray, h: np.ndarray, qdot: np.ndarr
     damping2 = 0.0
     if s_min < SINGULAR_THRESHOLD:
         damping2 = (1.0 - (s_min / SINGULAR_THRESHOLD) ** 2) * MAX_DAMPING**2
-    jt_xdot = np.empty(n)
     for c in range(n):
         acc = 0.0
         for r in range(m):
@@ -316,7 +340,6 @@ def _solve_gram(jac: np.ndarray, xdot: np.ndarray, h: np.ndarray, qdot: np.ndarr
         jt_xdot[c] = acc
     for c in range(n):
         qdot[c] = h[c]
-    v = np.empty(n)
     for i in range(k):
         s2 = gram[i, i]
         if math.sqrt(s2) <= RANK_TOLERANCE:
@@ -342,11 +365,10 @@ def _solve_gram(jac: np.ndarray, xdot: np.ndarray, h: np.ndarray, qdot: np.ndarr
 
 
 @njit(cache=True)
-def _gram(jac: np.ndarray, wide: bool) -> np.ndarray:
-    """J Jᵀ (`wide`) or JᵀJ."""
+def _gram(jac: np.ndarray, wide: bool, gram: np.ndarray) -> None:
+    """gram = J Jᵀ (`wide`) or JᵀJ."""
     m, n = jac.shape
     k = m if wide else n
-    gram = np.empty((k, k))
     for i in range(k):
         for j in range(i + 1):
             acc = 0.0
@@ -357,7 +379,6 @@ def _gram(jac: np.ndarray, wide: bool) -> np.ndarray:
                 for r in range(m):
                     acc += jac[r, i] * jac[r, j]
             gram[i, j] = gram[j, i] = acc
-    return gram
 
 
 @njit(cache=True)
@@ -405,23 +426,28 @@ def jacobi_eigen(a: np.ndarray, vectors: np.ndarray) -> None:
 
 
 @njit(cache=True)
-def _solve_normal(jac: np.ndarray, xdot: np.ndarray, h: np.ndarray, qdot: np.ndarray) -> bool:
+def _solve_normal(jac: np.ndarray, xdot: np.ndarray, h: np.ndarray, qdot: np.ndarray,
+                  scratch: np.ndarray) -> bool:
     """qdot = J⁺ xdot + (I - J⁺J) h with J⁺ = Jᵀ (J Jᵀ)⁻¹, by a Cholesky factor of J Jᵀ; the
     same solution as `_solve_svd` (to rounding) where its smallest singular value is at least
     SINGULAR_THRESHOLD: then no damping applies, J has full row rank, and J⁺J = V_r V_rᵀ.
     Returns False, qdot unset, when that is not certain: a pivot of the factor not positive,
-    or the bound 1 / ||(J Jᵀ)⁻¹||_F ≤ σ_min² below SINGULAR_THRESHOLD²."""
+    or the bound 1 / ||(J Jᵀ)⁻¹||_F ≤ σ_min² below SINGULAR_THRESHOLD². Its arrays are carved
+    from `scratch` (`solver_scratch_size`)."""
     m, n = jac.shape
     if n < m:
         return False
-    a = np.empty((m, m))
+    a, low, inv = _carve(scratch, 0, m, m), _carve(scratch, m * m, m, m), _carve(
+        scratch, 2 * m * m, m, m)
+    e, rhs, y = (scratch[3 * m * m:3 * m * m + m], scratch[3 * m * m + m:3 * m * m + 2 * m],
+                 scratch[3 * m * m + 2 * m:3 * m * m + 3 * m])
     for i in range(m):
         for j in range(i + 1):
             acc = 0.0
             for c in range(n):
                 acc += jac[i, c] * jac[j, c]
             a[i, j] = acc
-    low = np.zeros((m, m))                    # Cholesky: a = low lowᵀ
+    # Cholesky: a = low lowᵀ (its upper triangle is never read)
     for j in range(m):
         d = a[j, j]
         for c in range(j):
@@ -434,8 +460,7 @@ def _solve_normal(jac: np.ndarray, xdot: np.ndarray, h: np.ndarray, qdot: np.nda
             for c in range(j):
                 acc -= low[i, c] * low[j, c]
             low[i, j] = acc / low[j, j]
-    inv = np.empty((m, m))                    # (J Jᵀ)⁻¹, column by column
-    e = np.empty(m)
+    # (J Jᵀ)⁻¹, column by column
     for col in range(m):
         e[:] = 0.0
         e[col] = 1.0
@@ -447,13 +472,11 @@ def _solve_normal(jac: np.ndarray, xdot: np.ndarray, h: np.ndarray, qdot: np.nda
     if frobenius2 * SINGULAR_THRESHOLD**4 > 1.0:
         return False
     # y = (J Jᵀ)⁻¹ (xdot - J h); qdot = h + Jᵀ y = J⁺ xdot + (I - J⁺J) h
-    rhs = np.empty(m)
     for i in range(m):
         acc = xdot[i]
         for c in range(n):
             acc -= jac[i, c] * h[c]
         rhs[i] = acc
-    y = np.empty(m)
     for i in range(m):
         acc = 0.0
         for j in range(m):
@@ -590,58 +613,118 @@ def project_kernel(q: np.ndarray, action: np.ndarray, dt: float, extra: np.ndarr
                    height: float, limits: np.ndarray, velocity_limits: np.ndarray,
                    nullspace_gain: float, correction_gain: float,
                    velocity_scale: float) -> np.ndarray:
-    """`project_step` compiled; `extra` is added to the limit-avoidance term of h."""
-    lower, upper = limits[0], limits[1]
-    q = np.minimum(np.maximum(q, lower), upper)
-    nq = q.shape[0]
-    pose, jac, xdot = np.empty((4, 4)), np.empty((6, nq)), np.empty(6)
-    _task(q, action, dt, chain, tool_joint, tool_local, up, height, correction_gain, pose, jac,
-          xdot)
-    h = _limit_gradient(q, lower, upper, nullspace_gain) + extra
-    qdot = _solve_within_limits(jac, xdot, h, (lower - q) / dt, (upper - q) / dt)
-    ratio = np.max(np.abs(qdot) / velocity_limits) / velocity_scale
-    if ratio > 1.0:
-        qdot /= ratio
-    return np.minimum(np.maximum(q + dt * qdot, lower), upper)
+    """`project_step` compiled; `extra` is added to the limit-avoidance term of h
+    (`project_into` with arrays of its own)."""
+    out = np.empty(q.shape[0])
+    project_into(q, action, dt, extra, chain, tool_joint, tool_local, up, height, limits,
+                 velocity_limits, nullspace_gain, correction_gain, velocity_scale, out,
+                 project_workspace(q.shape[0]))
+    return out
 
 
 @njit(cache=True)
-def _solve_within_limits(
-    jac: np.ndarray, xdot: np.ndarray, h: np.ndarray, lo: np.ndarray, hi: np.ndarray,
-) -> np.ndarray:
-    """`solve_task` with qdot kept in [lo, hi]: joints that leave it are locked at the bound and
-    the task is re-solved with the remaining joints (at most nq rounds)."""
-    qdot = _solve(jac, xdot, h)
-    n = qdot.size
-    violating = (qdot > hi) | (qdot < lo)
-    if not violating.any():
-        return qdot
-    locked = np.zeros(n, dtype=np.bool_)
+def project_workspace(nq: int) -> tuple:
+    """The arrays `project_into` works in, for an arm of nq joints: made once per propagation,
+    so that a Project step allocates nothing."""
+    return (np.empty(nq), np.empty((4, 4)), np.empty((6, nq)), np.empty(6),
+            np.empty((4, nq)), np.empty(solver_scratch_size(6, nq)), np.empty(8 * nq + 6),
+            np.empty(nq, dtype=np.int64), np.empty((2, nq), dtype=np.bool_))
+
+
+@njit(cache=True)
+def project_into(q: np.ndarray, action: np.ndarray, dt: float, extra: np.ndarray,
+                 chain: tuple, tool_joint: int, tool_local: np.ndarray, up: np.ndarray,
+                 height: float, limits: np.ndarray, velocity_limits: np.ndarray,
+                 nullspace_gain: float, correction_gain: float, velocity_scale: float,
+                 out: np.ndarray, work: tuple) -> None:
+    """out = `project_step`, in `work` (`project_workspace`): q held in its limits, the task
+    (`_task`), h the limit-avoidance term plus `extra`, qdot solved with each joint's velocity
+    kept within what its limits allow in dt (`_solve_within_limits`), scaled down to
+    `velocity_scale` of the velocity limits, and the step clipped to the limits."""
+    qc, pose, jac, xdot, joint_rows = work[0], work[1], work[2], work[3], work[4]
+    h, lo, hi, qdot = joint_rows[0], joint_rows[1], joint_rows[2], joint_rows[3]
+    lower, upper = limits[0], limits[1]
+    nq = q.shape[0]
+    for j in range(nq):
+        qc[j] = min(max(q[j], lower[j]), upper[j])
+    _task(qc, action, dt, chain, tool_joint, tool_local, up, height, correction_gain, pose,
+          jac, xdot)
+    for j in range(nq):
+        w = (qc[j] - 0.5 * (upper[j] + lower[j])) / (0.5 * (upper[j] - lower[j]))
+        h[j] = -nullspace_gain * w**5 + extra[j]          # `_limit_gradient`, plus extra
+        lo[j], hi[j] = (lower[j] - qc[j]) / dt, (upper[j] - qc[j]) / dt
+    _solve_within_limits(jac, xdot, h, lo, hi, qdot, work)
+    ratio = 0.0
+    for j in range(nq):
+        ratio = max(ratio, abs(qdot[j]) / velocity_limits[j])
+    ratio /= velocity_scale
+    for j in range(nq):
+        step = qdot[j] / ratio if ratio > 1.0 else qdot[j]
+        out[j] = min(max(qc[j] + dt * step, lower[j]), upper[j])
+
+
+@njit(cache=True)
+def _solve_within_limits(jac: np.ndarray, xdot: np.ndarray, h: np.ndarray, lo: np.ndarray,
+                         hi: np.ndarray, qdot: np.ndarray, work: tuple) -> None:
+    """qdot = `solve_task` kept in [lo, hi]: joints that leave it are locked at the bound and
+    the task is re-solved with the remaining joints (at most nq rounds). In `work`
+    (`project_workspace`): its rows for the reduced task (rest, the free columns of J, h and
+    qdot of the free joints) after the solver's scratch."""
+    scratch, sub_rows, free, flags = work[5], work[6], work[7], work[8]
+    violating, locked = flags[0], flags[1]
+    _solve_into(jac, xdot, h, qdot, scratch)
+    m, n = jac.shape
+    any_violating = False
+    for j in range(n):
+        violating[j] = qdot[j] > hi[j] or qdot[j] < lo[j]
+        any_violating = any_violating or violating[j]
+    if not any_violating:
+        return
+    locked[:] = False
+    rest = sub_rows[:m]
     for _ in range(n):
         for j in range(n):
             if violating[j]:
                 qdot[j] = min(max(qdot[j], lo[j]), hi[j])
                 locked[j] = True
-        free = np.flatnonzero(~locked)
-        if free.size == 0:
+        nf = _free_joints(locked, free)
+        if nf == 0:
             break
-        rest = xdot.copy()
+        rest[:] = xdot
         for j in range(n):
             if locked[j]:
-                rest -= jac[:, j] * qdot[j]
-        sub = np.empty((jac.shape[0], free.size))
-        for c in range(free.size):
-            sub[:, c] = jac[:, free[c]]
-        qdot[free] = _solve(sub, rest, h[free])
+                for r in range(m):
+                    rest[r] -= jac[r, j] * qdot[j]
+        end = m + m * nf
+        sub = sub_rows[m:end].reshape((m, nf))
+        h_free, q_free = sub_rows[end:end + nf], sub_rows[end + nf:end + 2 * nf]
+        for c in range(nf):
+            h_free[c] = h[free[c]]
+            for r in range(m):
+                sub[r, c] = jac[r, free[c]]
+        _solve_into(sub, rest, h_free, q_free, scratch)
         violating[:] = False
         any_violating = False
-        for c in range(free.size):
+        for c in range(nf):
             j = free[c]
+            qdot[j] = q_free[c]
             if qdot[j] > hi[j] or qdot[j] < lo[j]:
                 violating[j] = any_violating = True
         if not any_violating:
             break
-    return np.minimum(np.maximum(qdot, lo), hi)
+    for j in range(n):
+        qdot[j] = min(max(qdot[j], lo[j]), hi[j])
+
+
+@njit(cache=True)
+def _free_joints(locked: np.ndarray, free: np.ndarray) -> int:
+    """The joints not `locked` into free[:count]; returns count."""
+    count = 0
+    for j in range(locked.shape[0]):
+        if not locked[j]:
+            free[count] = j
+            count += 1
+    return count
 
 
 # -- IK onto the manifold --------------------------------------------------------------------

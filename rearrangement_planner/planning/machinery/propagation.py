@@ -13,7 +13,7 @@ h(q) "samples the nullspace", drawn once per action so that the arm's self-motio
 Everything a replay needs is the sequence of arm configurations: the physics is a pure
 function, so stepping it along the stored configurations reproduces the object poses exactly.
 
-Compiled: `propagate_kernel` runs Project (`manifold.project_kernel`), the physics
+Compiled: `propagate_kernel` runs Project (`manifold.project_into`), the physics
 step (`step.step_kernel`) and the goal test for a batch of up to CHECK_EVERY steps in one
 call, with the tool velocity either held (an action) or fed back (the closed-loop push of
 `push_policy`, `PushTarget`); the clock and the cancel flag are read between batches.
@@ -38,7 +38,11 @@ from rearrangement_planner.model.state import State
 from rearrangement_planner.physics.kernels import tool_kinematics
 from rearrangement_planner.physics.step import Invalid, Physics, step_kernel, step_workspace
 from rearrangement_planner.planning.machinery.interface import StopReason
-from rearrangement_planner.planning.machinery.manifold import project_arrays, project_kernel
+from rearrangement_planner.planning.machinery.manifold import (
+    project_arrays,
+    project_into,
+    project_workspace,
+)
 from rearrangement_planner.planning.machinery.termination import NEVER, Termination
 
 GOAL, ARRIVED, CHECK_EVERY = 1, 2, 64
@@ -281,10 +285,10 @@ def _push_velocity(tool_x: float, tool_y: float, tool_yaw: float, cx: float, cy:
 
 
 @njit(cache=True)
-def _tool_planar(q: np.ndarray, project: tuple, policy: np.ndarray) -> tuple[float, float,
-                                                                            float]:
-    """`manifold.tool_planar_pose` compiled: the tool's (x, y) and the yaw of R R0^T."""
-    pose, jac = np.empty((4, 4)), np.empty((6, q.shape[0]))
+def _tool_planar(q: np.ndarray, project: tuple, policy: np.ndarray, pose: np.ndarray,
+                 jac: np.ndarray) -> tuple[float, float, float]:
+    """`manifold.tool_planar_pose` compiled: the tool's (x, y) and the yaw of R R0^T (`pose`
+    and `jac` are scratch)."""
     chain = project[0]
     tool_kinematics(q, chain[0], chain[1], chain[2], chain[3], project[1], project[2], pose,
                     jac)
@@ -310,14 +314,16 @@ def propagate_kernel(q: np.ndarray, objects: np.ndarray, held: np.ndarray,
     work = step_workspace(world, q, objects)
     g, pushed = int(goal[0]), int(policy[0])
     velocity = held.copy()
+    projecting = project_workspace(q.shape[0])
+    q_new = np.empty(q.shape[0])
     for i in range(steps):
         if pushed >= 0:
-            x, y, tool_yaw = _tool_planar(q, project, policy)
+            x, y, tool_yaw = _tool_planar(q, project, policy, projecting[1], projecting[2])
             if not _push_velocity(x, y, tool_yaw, objects[pushed, 0], objects[pushed, 1],
                                   objects[pushed, 2], policy, dt, velocity):
                 return i, -ARRIVED, -1
-        q_new = project_kernel(q, velocity, dt, nullspace, project[0], project[1], project[2],
-                               project[3], project[4], project[5], project[6], 0.5, 1.0, 1.0)
+        project_into(q, velocity, dt, nullspace, project[0], project[1], project[2], project[3],
+                     project[4], project[5], project[6], 0.5, 1.0, 1.0, q_new, projecting)
         info[:] = 0
         code = step_kernel(q, q_new, objects, world, out[i], info, value, work)
         if code != 0:
