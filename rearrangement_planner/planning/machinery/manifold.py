@@ -447,19 +447,8 @@ def _solve_normal(jac: np.ndarray, xdot: np.ndarray, h: np.ndarray, qdot: np.nda
             for c in range(n):
                 acc += jac[i, c] * jac[j, c]
             a[i, j] = acc
-    # Cholesky: a = low lowᵀ (its upper triangle is never read)
-    for j in range(m):
-        d = a[j, j]
-        for c in range(j):
-            d -= low[j, c] * low[j, c]
-        if d <= 0.0:
-            return False
-        low[j, j] = math.sqrt(d)
-        for i in range(j + 1, m):
-            acc = a[i, j]
-            for c in range(j):
-                acc -= low[i, c] * low[j, c]
-            low[i, j] = acc / low[j, j]
+    if not _cholesky(a, low):
+        return False
     # (J Jᵀ)⁻¹, column by column
     for col in range(m):
         e[:] = 0.0
@@ -487,6 +476,26 @@ def _solve_normal(jac: np.ndarray, xdot: np.ndarray, h: np.ndarray, qdot: np.nda
         for i in range(m):
             acc += jac[i, c] * y[i]
         qdot[c] = acc
+    return True
+
+
+@njit(cache=True)
+def _cholesky(a: np.ndarray, low: np.ndarray) -> bool:
+    """a = low lowᵀ from a's lower triangle, low lower triangular (its upper triangle neither
+    written nor read); False when a pivot is not positive."""
+    m = a.shape[0]
+    for j in range(m):
+        d = a[j, j]
+        for c in range(j):
+            d -= low[j, c] * low[j, c]
+        if d <= 0.0:
+            return False
+        low[j, j] = math.sqrt(d)
+        for i in range(j + 1, m):
+            acc = a[i, j]
+            for c in range(j):
+                acc -= low[i, c] * low[j, c]
+            low[i, j] = acc / low[j, j]
     return True
 
 
