@@ -329,10 +329,7 @@ def _solve_gram(jac: np.ndarray, xdot: np.ndarray, h: np.ndarray, qdot: np.ndarr
         smallest = min(smallest, gram[i, i])
     if smallest < GRAM_FLOOR:
         return False
-    s_min = math.sqrt(smallest)
-    damping2 = 0.0
-    if s_min < SINGULAR_THRESHOLD:
-        damping2 = (1.0 - (s_min / SINGULAR_THRESHOLD) ** 2) * MAX_DAMPING**2
+    damping2 = _damping2(math.sqrt(smallest))
     for c in range(n):
         acc = 0.0
         for r in range(m):
@@ -362,6 +359,15 @@ def _solve_gram(jac: np.ndarray, xdot: np.ndarray, h: np.ndarray, qdot: np.ndarr
         for c in range(n):
             qdot[c] += v[c] * coeff
     return True
+
+
+@njit(cache=True)
+def _damping2(s_min: float) -> float:
+    """λ², the adaptive damping of the pseudoinverse for the smallest singular value s_min
+    (`solve_task`)."""
+    if s_min < SINGULAR_THRESHOLD:
+        return (1.0 - (s_min / SINGULAR_THRESHOLD) ** 2) * MAX_DAMPING**2
+    return 0.0
 
 
 @njit(cache=True)
@@ -519,9 +525,7 @@ def _cholesky_solve(low: np.ndarray, b: np.ndarray, out: np.ndarray) -> None:
 def _solve_svd(jac: np.ndarray, xdot: np.ndarray, h: np.ndarray) -> np.ndarray:
     u, s, vt = np.linalg.svd(jac)
     k = s.size
-    damping2 = 0.0
-    if s[-1] < SINGULAR_THRESHOLD:
-        damping2 = (1.0 - (s[-1] / SINGULAR_THRESHOLD) ** 2) * MAX_DAMPING**2
+    damping2 = _damping2(s[-1])
     inv = np.zeros(k)
     rank = 0
     for i in range(k):
