@@ -9,7 +9,7 @@ import pytest
 from rearrangement_planner.model.resources import scenes_dir
 from rearrangement_planner.physics.step import Invalid, Physics
 from rearrangement_planner.physics.validation import load_scene
-from rearrangement_planner.planning import PCRRT, Outcome, PCRRTOptions, StopReason
+from rearrangement_planner.planning import DARRT, PCRRT, Outcome, PCRRTOptions, StopReason
 from rearrangement_planner.planning.machinery.propagation import replay
 from rearrangement_planner.planning.machinery.termination import NEVER
 from rearrangement_planner.planning.requests.warmup import warm_up
@@ -310,6 +310,9 @@ def test_a_goal_object_every_push_would_tip_is_refused_at_once(panda):
     assert "0.8 x push height 0.060 m" in result.message and "(0.028 m)" in result.message
     assert unpushable(Physics(_post_scene(panda, 0.47))) is None
     assert unpushable(Physics(_post_scene(panda), PhysicsOptions(tipping=False))) is None
+    # DARRT carries its objects rigidly: a post that any push would tip is still its to plan.
+    carried = DARRT(_post_scene(panda), PCRRTOptions(time_limit=5.0, max_iterations=1))
+    assert carried.plan(seed=1).outcome is not Outcome.GOAL_INVALID
 
 
 def test_an_unsolved_search_says_what_it_saw(panda):

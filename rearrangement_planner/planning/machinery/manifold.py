@@ -238,9 +238,16 @@ def joint_limit_gradient(robot: RobotModel, q: np.ndarray, gain: float) -> np.nd
 @njit(cache=True)
 def _limit_gradient(q: np.ndarray, lower: np.ndarray, upper: np.ndarray,
                     gain: float) -> np.ndarray:
-    mid = 0.5 * (upper + lower)
-    half_range = 0.5 * (upper - lower)
-    w = (q - mid) / half_range
+    h = np.empty(q.shape[0])
+    for j in range(q.shape[0]):
+        h[j] = _limit_pull(q[j], lower[j], upper[j], gain)
+    return h
+
+
+@njit(cache=True)
+def _limit_pull(q: float, lower: float, upper: float, gain: float) -> float:
+    """One joint's term of `joint_limit_gradient`: -gain · w⁵."""
+    w = (q - 0.5 * (upper + lower)) / (0.5 * (upper - lower))
     return -gain * w**5
 
 
@@ -663,8 +670,7 @@ def project_into(q: np.ndarray, action: np.ndarray, dt: float, extra: np.ndarray
     _task(qc, action, dt, chain, tool_joint, tool_local, up, height, correction_gain, pose,
           jac, xdot)
     for j in range(nq):
-        w = (qc[j] - 0.5 * (upper[j] + lower[j])) / (0.5 * (upper[j] - lower[j]))
-        h[j] = -nullspace_gain * w**5 + extra[j]          # `_limit_gradient`, plus extra
+        h[j] = _limit_pull(qc[j], lower[j], upper[j], nullspace_gain) + extra[j]
         lo[j], hi[j] = (lower[j] - qc[j]) / dt, (upper[j] - qc[j]) / dt
     _solve_within_limits(jac, xdot, h, lo, hi, qdot, work)
     ratio = 0.0
