@@ -3,7 +3,7 @@ the Project step): the signed distance, the contact point and the contact normal
 capsule (the arm's contact shapes; a sphere is a capsule of length 0) and an upright prism of
 the scene (an object's box or cylinder, an obstacle box, the table slab), the penetration of
 two prisms, and the forward kinematics of the contact shapes and the tool, with the tool's
-Jacobian (`CompiledChain`, `tool_kinematics`), in Numba.
+Jacobian (`CompiledChain`, `tool_kinematics`, `tool_from_joints`), in Numba.
 
 A capsule is a segment swept by a ball. The signed distance to a convex set is a convex
 function of the point, so along the capsule's axis p(t) = a + t (b - a), t in [0, 1],
@@ -422,12 +422,41 @@ def tool_kinematics(q: np.ndarray, parents: np.ndarray, placements: np.ndarray,
                     axes: np.ndarray, q_index: np.ndarray, tool_joint: int,
                     tool_local: np.ndarray, pose: np.ndarray, jac: np.ndarray) -> None:
     """The tool frame's pose (4, 4) and its Jacobian (6, nq) [linear; angular] at its origin
-    in base-frame axes (Pinocchio's LOCAL_WORLD_ALIGNED): a revolute joint j of unit world
-    axis w through o_j moves the tool origin p at w x (p - o_j) and turns it at w."""
-    world = np.empty((parents.shape[0], 4, 4))
-    joint_poses(q, parents, placements, axes, q_index, world)
-    _product(world, tool_joint, tool_local.reshape((1, 4, 4)), 0, pose.reshape((1, 4, 4)), 0)
-    jac[:] = 0.0
+    in base-frame axes (Pinocchio's LOCAL_WORLD_ALIGNED) at q (`tool_from_joints`)."""
+    tool_kinematics_into(q, parents, placements, axes, q_index, tool_joint, tool_local, pose,
+                         jac, np.empty((parents.shape[0], 4, 4)), np.empty((2, 4, 4)))
+
+
+@njit_bare
+def tool_kinematics_into(q: np.ndarray, parents: np.ndarray, placements: np.ndarray,
+                         axes: np.ndarray, q_index: np.ndarray, tool_joint: int,
+                         tool_local: np.ndarray, pose: np.ndarray, jac: np.ndarray,
+                         world: np.ndarray, turn: np.ndarray) -> None:
+    """`tool_kinematics` with the scratch of `joint_poses_into` given: the joints' poses (J, 4,
+    4), which hold those at q afterwards, and (2, 4, 4)."""
+    joint_poses_into(q, parents, placements, axes, q_index, world, turn)
+    tool_from_joints(world, parents, axes, q_index, tool_joint, tool_local, pose, jac)
+
+
+@njit_bare
+def tool_from_joints(world: np.ndarray, parents: np.ndarray, axes: np.ndarray,
+                     q_index: np.ndarray, tool_joint: int, tool_local: np.ndarray,
+                     pose: np.ndarray, jac: np.ndarray) -> None:
+    """`tool_kinematics` from the joints' poses `world` (J, 4, 4) at q (`joint_poses`), without
+    computing them again: a revolute joint j of unit world axis w through o_j moves the tool
+    origin p at w x (p - o_j) and turns it at w. The same numbers as from q."""
+    for i in range(3):
+        a0, a1, a2, a3 = (world[tool_joint, i, 0], world[tool_joint, i, 1],
+                          world[tool_joint, i, 2], world[tool_joint, i, 3])
+        for j in range(3):
+            pose[i, j] = a0 * tool_local[0, j] + a1 * tool_local[1, j] + a2 * tool_local[2, j]
+        pose[i, 3] = (a0 * tool_local[0, 3] + a1 * tool_local[1, 3] + a2 * tool_local[2, 3]
+                      + a3)
+    pose[3, 0] = pose[3, 1] = pose[3, 2] = 0.0
+    pose[3, 3] = 1.0
+    for r in range(jac.shape[0]):
+        for c in range(jac.shape[1]):
+            jac[r, c] = 0.0
     j = tool_joint
     while j > 0:
         k = q_index[j]

@@ -1259,6 +1259,10 @@ _FLOATS, _INTEGERS, _CORNERS, _KNOWN, _KNOWN_Q = 41, 42, 43, 44, 45
 """The buffers of `step_workspace`, by name: the step's (_POSES_A .. _CHANGED), then those of
 the pushes' contact problems (_P .. _CORNERS), then which of _POSES_A and _POSES_B (0, 1;
 -1: neither) holds the contact shapes' poses at the arm configuration _KNOWN_Q."""
+WORK_JOINTS = _JOINTS
+"""The buffer of `step_workspace` that holds the arm's joints' poses (J, 4, 4) at q1 after a
+valid `step_kernel` (its last forward kinematics is at q1): the next Project step takes the
+tool's pose and Jacobian from them (`kernels.tool_from_joints`)."""
 
 
 @njit(cache=True)

@@ -143,8 +143,16 @@ def test_a_step_skips_the_pairs_and_substeps_that_cannot_touch_and_ends_the_same
     the same outcome, object poses and flags; and the boxes alone called many more pairs
     near. A loop's steps share one workspace (`step_workspace`): only the poses at a step's
     end carry over, to a step that starts there (most of these), and each step ends as a step
-    with fresh buffers does."""
+    with fresh buffers does; and a valid step leaves the joints' poses at its end behind
+    (`WORK_JOINTS`), from which the tool's pose and Jacobian are exactly those at q1 (the next
+    Project step reads them), whether the step ran one substep or several."""
+    from rearrangement_planner.physics.kernels import (
+        compiled_chain,
+        tool_from_joints,
+        tool_kinematics,
+    )
     from rearrangement_planner.physics.step import (
+        WORK_JOINTS,
         _KNOWN,
         _KNOWN_Q,
         OPT_FREE_SPACE,
@@ -165,8 +173,11 @@ def test_a_step_skips_the_pairs_and_substeps_that_cannot_touch_and_ends_the_same
     q = default_push_configuration(physics.robot, scene.table.height)
     start = State(q, scene.initial_state().objects)
     rng = np.random.default_rng(5)
-    moved = boxed = exact = steps = carried = 0
+    moved = boxed = exact = steps = carried = substepped = 0
     work = step_workspace(w, q, np.array(start.objects))
+    chain = compiled_chain(physics.robot)
+    tool = [np.empty((4, 4)), np.empty((6, physics.robot.nq))]
+    shared_tool = [np.empty((4, 4)), np.empty((6, physics.robot.nq))]
     for k in range(80):
         nullspace = rng.uniform(-0.3, 0.3, physics.robot.nq)
         if k % 2:       # a random action (Algorithm 2)
@@ -194,6 +205,13 @@ def test_a_step_skips_the_pairs_and_substeps_that_cannot_touch_and_ends_the_same
                                work) == codes[0]
             np.testing.assert_array_equal(shared, out[0])
             np.testing.assert_array_equal(shared_info, info[0])
+            if codes[0] == 0:
+                tool_kinematics(q1, *chain.arrays[:4], chain.tool_joint, chain.tool_local, *tool)
+                tool_from_joints(work[WORK_JOINTS], chain.parents, chain.axes, chain.q_index,
+                                 chain.tool_joint, chain.tool_local, *shared_tool)
+                np.testing.assert_array_equal(shared_tool[0], tool[0])
+                np.testing.assert_array_equal(shared_tool[1], tool[1])
+                substepped += int(shared_info[3]) > 1
             moved += bool(info[0][4 + len(w.shapes):].any())
             poses = np.empty((len(w.shapes), 4, 4))
             _poses(q0, w.chain, poses, np.empty((len(w.chain[0]), 4, 4)), np.empty((2, 4, 4)))
@@ -209,6 +227,7 @@ def test_a_step_skips_the_pairs_and_substeps_that_cannot_touch_and_ends_the_same
     assert steps > 1000 and moved > 30, (steps, moved)
     assert exact < boxed / 2, (exact, boxed)
     assert carried > steps / 2, (carried, steps)
+    assert substepped > 100, substepped
 
 
 def test_a_push_to_the_goal_stops_there_in_the_compiled_propagation():

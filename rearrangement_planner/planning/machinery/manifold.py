@@ -212,6 +212,13 @@ def _task(q: np.ndarray, action: np.ndarray, dt: float, chain: tuple, tool_joint
     """`build_task` compiled: the tool pose, its Jacobian and the task velocity."""
     kernels.tool_kinematics(q, chain[0], chain[1], chain[2], chain[3], tool_joint, tool_local,
                             pose, jac)
+    _task_velocity(pose, action, dt, up, height, correction_gain, xdot)
+
+
+@njit(cache=True)
+def _task_velocity(pose: np.ndarray, action: np.ndarray, dt: float, up: np.ndarray,
+                   height: float, correction_gain: float, xdot: np.ndarray) -> None:
+    """The task velocity xdot (`build_task`) of the tool at `pose`."""
     dz, tilt_x, tilt_y = _manifold_errors(pose, up, height)
     k = -correction_gain / dt
     v_z = min(max(k * dz, -MAX_CORRECTION_SPEED), MAX_CORRECTION_SPEED)
@@ -638,17 +645,19 @@ def project_kernel(q: np.ndarray, action: np.ndarray, dt: float, extra: np.ndarr
     out = np.empty(q.shape[0])
     project_into(q, action, dt, extra, chain, tool_joint, tool_local, up, height, limits,
                  velocity_limits, nullspace_gain, correction_gain, velocity_scale, out,
-                 project_workspace(q.shape[0]))
+                 project_workspace(q.shape[0], chain[0].shape[0]), False)
     return out
 
 
 @njit(cache=True)
-def project_workspace(nq: int) -> tuple:
-    """The arrays `project_into` works in, for an arm of nq joints: made once per propagation,
-    so that a Project step allocates nothing."""
+def project_workspace(nq: int, joints: int) -> tuple:
+    """The arrays `project_into` works in, for an arm of nq joints on a chain of `joints`
+    (`CompiledChain`): made once per propagation, so that a Project step allocates nothing.
+    work[1] and work[2] are the tool's pose and Jacobian at the step's q."""
     return (np.empty(nq), np.empty((4, 4)), np.empty((6, nq)), np.empty(6),
             np.empty((4, nq)), np.empty(solver_scratch_size(6, nq)), np.empty(8 * nq + 6),
-            np.empty(nq, dtype=np.int64), np.empty((2, nq), dtype=np.bool_))
+            np.empty(nq, dtype=np.int64), np.empty((2, nq), dtype=np.bool_),
+            np.empty((joints, 4, 4)), np.empty((2, 4, 4)))
 
 
 @njit(cache=True)
@@ -656,19 +665,24 @@ def project_into(q: np.ndarray, action: np.ndarray, dt: float, extra: np.ndarray
                  chain: tuple, tool_joint: int, tool_local: np.ndarray, up: np.ndarray,
                  height: float, limits: np.ndarray, velocity_limits: np.ndarray,
                  nullspace_gain: float, correction_gain: float, velocity_scale: float,
-                 out: np.ndarray, work: tuple) -> None:
+                 out: np.ndarray, work: tuple, known: bool) -> None:
     """out = `project_step`, in `work` (`project_workspace`): q held in its limits, the task
-    (`_task`), h the limit-avoidance term plus `extra`, qdot solved with each joint's velocity
-    kept within what its limits allow in dt (`_solve_within_limits`), scaled down to
-    `velocity_scale` of the velocity limits, and the step clipped to the limits."""
+    (`build_task`), h the limit-avoidance term plus `extra`, qdot solved with each joint's
+    velocity kept within what its limits allow in dt (`_solve_within_limits`), scaled down to
+    `velocity_scale` of the velocity limits, and the step clipped to the limits. `known`:
+    work[1] and work[2] already hold the tool's pose and Jacobian at q, which is within its
+    limits (`propagation.propagate_kernel` has them from the last physics step's kinematics,
+    `kernels.tool_from_joints`)."""
     qc, pose, jac, xdot, joint_rows = work[0], work[1], work[2], work[3], work[4]
     h, lo, hi, qdot = joint_rows[0], joint_rows[1], joint_rows[2], joint_rows[3]
     lower, upper = limits[0], limits[1]
     nq = q.shape[0]
     for j in range(nq):
         qc[j] = min(max(q[j], lower[j]), upper[j])
-    _task(qc, action, dt, chain, tool_joint, tool_local, up, height, correction_gain, pose,
-          jac, xdot)
+    if not known:
+        kernels.tool_kinematics_into(qc, chain[0], chain[1], chain[2], chain[3], tool_joint,
+                                     tool_local, pose, jac, work[9], work[10])
+    _task_velocity(pose, action, dt, up, height, correction_gain, xdot)
     for j in range(nq):
         h[j] = _limit_pull(qc[j], lower[j], upper[j], nullspace_gain) + extra[j]
         lo[j], hi[j] = (lower[j] - qc[j]) / dt, (upper[j] - qc[j]) / dt

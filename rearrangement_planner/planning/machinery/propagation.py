@@ -35,8 +35,14 @@ from numba import njit
 
 from rearrangement_planner.model.robot import RobotModel
 from rearrangement_planner.model.state import State
-from rearrangement_planner.physics.kernels import tool_kinematics
-from rearrangement_planner.physics.step import Invalid, Physics, step_kernel, step_workspace
+from rearrangement_planner.physics.kernels import tool_from_joints, tool_kinematics_into
+from rearrangement_planner.physics.step import (
+    WORK_JOINTS,
+    Invalid,
+    Physics,
+    step_kernel,
+    step_workspace,
+)
 from rearrangement_planner.planning.machinery.interface import StopReason
 from rearrangement_planner.planning.machinery.manifold import (
     project_arrays,
@@ -285,13 +291,9 @@ def _push_velocity(tool_x: float, tool_y: float, tool_yaw: float, cx: float, cy:
 
 
 @njit(cache=True)
-def _tool_planar(q: np.ndarray, project: tuple, policy: np.ndarray, pose: np.ndarray,
-                 jac: np.ndarray) -> tuple[float, float, float]:
-    """`manifold.tool_planar_pose` compiled: the tool's (x, y) and the yaw of R R0^T (`pose`
-    and `jac` are scratch)."""
-    chain = project[0]
-    tool_kinematics(q, chain[0], chain[1], chain[2], chain[3], project[1], project[2], pose,
-                    jac)
+def _tool_planar(pose: np.ndarray, policy: np.ndarray) -> tuple[float, float, float]:
+    """`manifold.tool_planar_pose` compiled, of the tool at `pose`: its (x, y) and the yaw of
+    R R0^T."""
     r0 = policy[9:18]                                       # R0, row-major
     m00 = pose[0, 0] * r0[0] + pose[0, 1] * r0[1] + pose[0, 2] * r0[2]
     m10 = pose[1, 0] * r0[0] + pose[1, 1] * r0[1] + pose[1, 2] * r0[2]
@@ -308,22 +310,36 @@ def propagate_kernel(q: np.ndarray, objects: np.ndarray, held: np.ndarray,
     pushing shapes and moved objects OR-ed into `flags`. Returns (valid steps, 0 | the invalid
     step's code | -GOAL when the goal test held after the last valid step | -ARRIVED when
     the pushed object reached its target, the first index the invalid step names (the object
-    of a tipping or turning push) or -1)."""
+    of a tipping or turning push) or -1).
+
+    One forward kinematics per step: the tool's pose and Jacobian that the push policy and
+    Project read at a step's q are those of the joints' poses the last physics step computed
+    at its q1, the same q (`step.WORK_JOINTS`, `kernels.tool_from_joints`); only the first
+    step computes them, at q."""
     info = np.zeros(4 + flags.shape[0], dtype=np.int64)
     value = np.zeros(1)
     work = step_workspace(world, q, objects)
     g, pushed = int(goal[0]), int(policy[0])
     velocity = held.copy()
-    projecting = project_workspace(q.shape[0])
+    chain, limits = project[0], project[5]
+    projecting = project_workspace(q.shape[0], chain[0].shape[0])
+    pose, jac = projecting[1], projecting[2]
     q_new = np.empty(q.shape[0])
     for i in range(steps):
+        known = i > 0 or _within(q, limits)     # Project holds q in its limits: read it there
+        if i > 0:
+            tool_from_joints(work[WORK_JOINTS], chain[0], chain[2], chain[3], project[1],
+                             project[2], pose, jac)
+        elif known or pushed >= 0:
+            tool_kinematics_into(q, chain[0], chain[1], chain[2], chain[3], project[1],
+                                 project[2], pose, jac, projecting[9], projecting[10])
         if pushed >= 0:
-            x, y, tool_yaw = _tool_planar(q, project, policy, projecting[1], projecting[2])
+            x, y, tool_yaw = _tool_planar(pose, policy)
             if not _push_velocity(x, y, tool_yaw, objects[pushed, 0], objects[pushed, 1],
                                   objects[pushed, 2], policy, dt, velocity):
                 return i, -ARRIVED, -1
-        project_into(q, velocity, dt, nullspace, project[0], project[1], project[2], project[3],
-                     project[4], project[5], project[6], 0.5, 1.0, 1.0, q_new, projecting)
+        project_into(q, velocity, dt, nullspace, chain, project[1], project[2], project[3],
+                     project[4], limits, project[6], 0.5, 1.0, 1.0, q_new, projecting, known)
         info[:] = 0
         code = step_kernel(q, q_new, objects, world, out[i], info, value, work)
         if code != 0:
@@ -335,6 +351,15 @@ def propagate_kernel(q: np.ndarray, objects: np.ndarray, held: np.ndarray,
         if g >= 0 and math.hypot(objects[g, 0] - goal[1], objects[g, 1] - goal[2]) <= goal[3]:
             return i + 1, -GOAL, -1
     return steps, 0, -1
+
+
+@njit(cache=True)
+def _within(q: np.ndarray, limits: np.ndarray) -> bool:
+    """q inside its joint limits (lower, upper), bounds included."""
+    for j in range(q.shape[0]):
+        if not limits[0, j] <= q[j] <= limits[1, j]:
+            return False
+    return True
 
 
 def replay(physics: Physics, start: State, arm_path: np.ndarray | Sequence[np.ndarray],
