@@ -152,10 +152,10 @@ def test_a_step_skips_the_pairs_and_substeps_that_cannot_touch_and_ends_the_same
         tool_kinematics,
     )
     from rearrangement_planner.physics.step import (
-        WORK_JOINTS,
         _KNOWN,
         _KNOWN_Q,
         OPT_FREE_SPACE,
+        WORK_JOINTS,
         _clear_far,
         _poses,
         _reach,
