@@ -1207,6 +1207,15 @@ def _copy_rows(source: np.ndarray, out: np.ndarray) -> None:
 
 
 @kernels.njit_bare
+def _copy_poses(source: np.ndarray, out: np.ndarray) -> None:
+    """out[:] = source for (N, 4, 4) pose stacks, written out (`_copy_rows`)."""
+    for m in range(source.shape[0]):
+        for i in range(4):
+            for j in range(4):
+                out[m, i, j] = source[m, i, j]
+
+
+@kernels.njit_bare
 def _substeps(q0: np.ndarray, q1: np.ndarray, objects: np.ndarray, chain: tuple,
               poses_a: np.ndarray, shapes: np.ndarray, static_centre: np.ndarray,
               static_dims: np.ndarray,
@@ -1255,10 +1264,11 @@ _JOINTS, _TURN, _TOUCHED, _CHANGED = 13, 14, 15, 16
 _P, _N, _V, _BODY, _OTHER, _GAPS, _MUS, _F_N, _F_T, _MODES = range(17, 27)
 _HEIGHTS, _CENTRES, _CS, _WEIGHTS, _TWISTS, _TWIST, _GROUP, _MEMBERS = range(27, 35)
 _P_OBJECT, _N_OBJECT, _V_OBJECT, _PAIR_POINTS, _PAIR_NORMALS, _PAIR_GAPS = 35, 36, 37, 38, 39, 40
-_FLOATS, _INTEGERS, _CORNERS, _KNOWN, _KNOWN_Q = 41, 42, 43, 44, 45
+_FLOATS, _INTEGERS, _CORNERS, _KNOWN, _KNOWN_Q, _END_POSES, _END_JOINTS = range(41, 48)
 """The buffers of `step_workspace`, by name: the step's (_POSES_A .. _CHANGED), then those of
 the pushes' contact problems (_P .. _CORNERS), then which of _POSES_A and _POSES_B (0, 1;
--1: neither) holds the contact shapes' poses at the arm configuration _KNOWN_Q."""
+-1: neither) holds the contact shapes' poses at the arm configuration _KNOWN_Q, then the
+contact shapes' and the joints' poses at q1 kept while substeps compute others."""
 WORK_JOINTS = _JOINTS
 """The buffer of `step_workspace` that holds the arm's joints' poses (J, 4, 4) at q1 after a
 valid `step_kernel` (its last forward kinematics is at q1): the next Project step takes the
@@ -1295,7 +1305,8 @@ def step_workspace(world: tuple, q: np.ndarray, objects: np.ndarray) -> tuple:
             np.empty(3), np.empty(M, dtype=np.bool_), np.empty(M, dtype=np.int64),
             np.empty((S, 2)), np.empty((S, 2)), np.empty((S, 2)), np.empty((2, 2)),
             np.empty((2, 2)), np.empty(2), floats, integers, np.empty((2, 4, 2)),
-            np.full(1, -1, dtype=np.int64), np.empty(q.shape[0]))
+            np.full(1, -1, dtype=np.int64), np.empty(q.shape[0]), np.empty((S, 4, 4)),
+            np.empty((chain[0].shape[0], 4, 4)))
 
 
 @kernels.njit_bare
@@ -1328,6 +1339,9 @@ def step_kernel(q0: np.ndarray, q1: np.ndarray, objects: np.ndarray, world: tupl
                         else (work[_POSES_A], work[_POSES_B]))
     _poses(q1, chain, poses_b, joints, turn)
     sweep = _sweep(poses_a, poses_b, shapes)
+    if sweep / options[OPT_MAX_SUBSTEP] - 1e-9 > 1.0:  # may take substeps: keep the end's poses
+        _copy_poses(poses_b, work[_END_POSES])
+        _copy_poses(joints, work[_END_JOINTS])
     n, first = _substeps(q0, q1, objects, chain, poses_a, shapes, static_centre, static_dims,
                          obj_kind, obj_dims, obj_size, obj_props, options, sweep, work)
     current, following = work[_CURRENT], work[_FOLLOWING]
@@ -1337,8 +1351,9 @@ def step_kernel(q0: np.ndarray, q1: np.ndarray, objects: np.ndarray, world: tupl
             for j in range(q1.shape[0]):
                 q_b[j] = q0[j] + (q1[j] - q0[j]) * (i / n)
             _poses(q_b, chain, poses_b, joints, turn)
-        elif n > 1:
-            _poses(q1, chain, poses_b, joints, turn)
+        elif n > 1:                                     # the end's poses, kept above
+            _copy_poses(work[_END_POSES], poses_b)
+            _copy_poses(work[_END_JOINTS], joints)
         code = _substep(poses_a, poses_b, current, following, shapes, static_centre,
                         static_yaw, static_dims, static_size, obj_kind, obj_dims, obj_size,
                         obj_props, table, options, info, value, pushing_shapes, moved, work)
