@@ -459,8 +459,8 @@ def _solve_normal(jac: np.ndarray, xdot: np.ndarray, h: np.ndarray, qdot: np.nda
         return False
     a, low, inv = _carve(scratch, 0, m, m), _carve(scratch, m * m, m, m), _carve(
         scratch, 2 * m * m, m, m)
-    e, rhs, y = (scratch[3 * m * m:3 * m * m + m], scratch[3 * m * m + m:3 * m * m + 2 * m],
-                 scratch[3 * m * m + 2 * m:3 * m * m + 3 * m])
+    base = 3 * m * m
+    rhs, y = scratch[base + m:base + 2 * m], scratch[base + 2 * m:base + 3 * m]
     for i in range(m):
         for j in range(i + 1):
             acc = 0.0
@@ -469,11 +469,8 @@ def _solve_normal(jac: np.ndarray, xdot: np.ndarray, h: np.ndarray, qdot: np.nda
             a[i, j] = acc
     if not _cholesky(a, low):
         return False
-    # (J Jᵀ)⁻¹, column by column
-    for col in range(m):
-        e[:] = 0.0
-        e[col] = 1.0
-        _cholesky_solve(low, e, inv[:, col])
+    for col in range(m):                                  # (J Jᵀ)⁻¹, column by column
+        _inverse_column(low, col, inv)
     frobenius2 = 0.0
     for i in range(m):
         for j in range(m):
@@ -520,19 +517,23 @@ def _cholesky(a: np.ndarray, low: np.ndarray) -> bool:
 
 
 @njit(cache=True)
-def _cholesky_solve(low: np.ndarray, b: np.ndarray, out: np.ndarray) -> None:
-    """out = (low lowᵀ)⁻¹ b, low lower triangular."""
-    m = b.shape[0]
-    for i in range(m):                        # low z = b
-        acc = b[i]
-        for c in range(i):
-            acc -= low[i, c] * out[c]
-        out[i] = acc / low[i, i]
+def _inverse_column(low: np.ndarray, col: int, inv: np.ndarray) -> None:
+    """inv[:, col] = (low lowᵀ)⁻¹ e_col, low lower triangular, in place. Forward substitution
+    with the unit vector e_col leaves zeros above row col, so it starts there: the terms it
+    skips are products with those zeros, and the numbers are those of the full substitution."""
+    m = low.shape[0]
+    for i in range(col):
+        inv[i, col] = 0.0
+    for i in range(col, m):                   # low z = e_col
+        acc = 1.0 if i == col else 0.0
+        for c in range(col, i):
+            acc -= low[i, c] * inv[c, col]
+        inv[i, col] = acc / low[i, i]
     for i in range(m - 1, -1, -1):            # lowᵀ x = z
-        acc = out[i]
+        acc = inv[i, col]
         for c in range(i + 1, m):
-            acc -= low[c, i] * out[c]
-        out[i] = acc / low[i, i]
+            acc -= low[c, i] * inv[c, col]
+        inv[i, col] = acc / low[i, i]
 
 
 @njit(cache=True)
