@@ -25,18 +25,37 @@ def _brute_force(tree: Tree, arm, objects, arm_weight, weights) -> int:
     return best_node
 
 
+def arrangements_hold(tree: Tree) -> int:
+    """Assert that every node's arrangement holds its objects' poses and is its parent's when
+    the two nodes' objects are equal; returns the number of arrangements."""
+    count = int(tree.arrangements[0])
+    for i in range(tree.n):
+        a = int(tree.arrangement[i])
+        assert 0 <= a < count
+        np.testing.assert_array_equal(tree.objects[tree.first_node[a]], tree.objects[i])
+        parent = int(tree.parent[i])
+        if parent >= 0 and np.array_equal(tree.objects[parent], tree.objects[i]):
+            assert tree.arrangement[parent] == a
+    return count
+
+
 def test_nearest_is_the_node_of_least_weighted_distance_ties_to_the_first():
     """The compiled scan against the metric written out (King et al. 2015, §III-D), over
-    random trees with a repeated node for a tie (the first wins)."""
+    random trees with a repeated node for a tie (the first wins). Most nodes keep their
+    parent's objects, as an edge that moves none does: Nearest sums the objects' term once per
+    arrangement and still finds the node the metric does."""
     rng = np.random.default_rng(0)
     for trial in range(20):
         m = 1 + trial % 4
         root = State(rng.uniform(-1, 1, 7), rng.uniform(0, 1, (m, 3)))
         tree = Tree(root, rng.uniform(0, 1, 2), capacity=8)
         for _ in range(300):
-            objects = rng.uniform(0, 1, (m, 3))
-            tree.add(State(rng.uniform(-1, 1, 7), objects), rng.uniform(0, 1, 2), 0, ())
+            parent = int(rng.integers(0, tree.n))
+            objects = (tree.objects[parent].copy() if rng.random() < 0.7
+                       else rng.uniform(0, 1, (m, 3)))
+            tree.add(State(rng.uniform(-1, 1, 7), objects), rng.uniform(0, 1, 2), parent, ())
         tree.add(tree.state(17), tree.arm[17].copy(), 0, ())          # a tie with node 17
+        assert arrangements_hold(tree) < tree.n / 2
         weights = rng.uniform(0.5, 5.0, m)
         for _ in range(20):
             arm, objects = rng.uniform(0, 1, 2), rng.uniform(0, 1, (m, 3))
@@ -62,3 +81,25 @@ def test_the_metric_alone_is_the_one_nearest_uses():
         written = _written_out(tree.arm[i], tree.objects[i], arm, objects, 0.3, weights)
         assert math.isclose(distances[i], written, rel_tol=1e-12)
     assert int(np.argmin(distances)) == tree.nearest(arm, objects, 0.3, weights)
+
+
+def test_a_search_s_nodes_share_the_arrangements_their_objects_do(monkeypatch):
+    """PC-RRT's compiled iterations give each node it adds its arrangement, in arrays that
+    start at two nodes and grow (`Tree.make_room`): every node's arrangement holds its
+    objects, and the edges that move no object leave far fewer arrangements than nodes."""
+    from rearrangement_planner.physics.validation import load_scene
+    from rearrangement_planner.planning import PCRRT, PCRRTOptions
+    from rearrangement_planner.planning.planners import pcrrt
+
+    trees: list[Tree] = []
+
+    def recorded(root: State, root_arm: np.ndarray) -> Tree:
+        trees.append(Tree(root, root_arm, capacity=2))
+        return trees[-1]
+
+    monkeypatch.setattr(pcrrt, "Tree", recorded)
+    scene = load_scene("default")
+    PCRRT(scene, PCRRTOptions(time_limit=60.0, max_iterations=400)).plan(seed=0)
+    tree = trees[-1]
+    assert tree.n > 100 and len(scene.objects) > 1
+    assert arrangements_hold(tree) < tree.n / 2

@@ -28,6 +28,13 @@ class Tree:
         self.arm = np.empty((capacity, root_arm.size))
         self.objects = np.empty((capacity, *root.objects.shape))
         self.parent = np.empty(capacity, dtype=np.int64)
+        # Node i's arrangement (`arrangement[i]`): the objects' poses it shares with every node
+        # reached from it without moving an object; `first_node[a]` holds arrangement a,
+        # `arrangements[0]` counts them, `distance` is Nearest's scratch (one per arrangement).
+        self.arrangement = np.empty(capacity, dtype=np.int64)
+        self.first_node = np.empty(capacity, dtype=np.int64)
+        self.arrangements = np.zeros(1, dtype=np.int64)
+        self.distance = np.empty(capacity)
         self._spans = np.empty((capacity, 2), dtype=np.int64)     # node i's steps: [start, end)
         self._step_q = np.empty((8 * capacity, root.q.size))
         self._step_objects = np.empty((8 * capacity, *root.objects.shape))
@@ -54,16 +61,25 @@ class Tree:
         self.arm[self.n] = arm
         self.objects[self.n] = state.objects
         self.parent[self.n] = parent
+        set_arrangement(self.objects, self.arrangement, self.first_node, self.arrangements,
+                        self.n, parent)
         self.n += 1
         return self.n - 1
 
     @property
-    def arrays(self) -> tuple[np.ndarray, ...]:
+    def arrays(self) -> tuple:
         """The node and step arrays, for compiled code that adds nodes itself
-        (`pcrrt_kernel.iterations`): q, arm, objects, parent, spans, step q, step objects.
-        It reads and sets `n` and `steps`; `make_room` makes room for more first."""
+        (`pcrrt_kernel.iterations`): q, arm, objects, parent, spans, step q, step objects,
+        and Nearest's (`nearest_arrays`). It reads and sets `n` and `steps` (and the
+        arrangements, `set_arrangement`); `make_room` makes room for more first."""
         return (self.q, self.arm, self.objects, self.parent, self._spans, self._step_q,
-                self._step_objects)
+                self._step_objects, self.nearest_arrays)
+
+    @property
+    def nearest_arrays(self) -> tuple[np.ndarray, ...]:
+        """What `nearest_kernel` reads besides the nodes' arm features and objects: each node's
+        arrangement, each arrangement's first node, their count (1,), and its scratch."""
+        return self.arrangement, self.first_node, self.arrangements, self.distance
 
     @property
     def steps(self) -> int:
@@ -77,8 +93,10 @@ class Tree:
     def make_room(self, steps: int) -> None:
         """Double the arrays that cannot take one more node of `steps` steps."""
         if self.n == len(self.arm):
-            self.q, self.arm, self.objects, self.parent, self._spans = (
-                _doubled(a) for a in (self.q, self.arm, self.objects, self.parent, self._spans))
+            (self.q, self.arm, self.objects, self.parent, self._spans, self.arrangement,
+             self.first_node, self.distance) = (
+                _doubled(a) for a in (self.q, self.arm, self.objects, self.parent, self._spans,
+                                      self.arrangement, self.first_node, self.distance))
         while self._steps + steps > len(self._step_q):
             self._step_q, self._step_objects = _doubled(self._step_q), _doubled(
                 self._step_objects)
@@ -87,12 +105,12 @@ class Tree:
                 weights: np.ndarray) -> int:
         """Nearest (King et al. 2015, §III-D): the node closest to (arm, objects) by
         Dist = arm_weight |arm_i - arm| + sum_j weights[j] |o_i^j - o^j| (object positions in
-        the plane). One compiled pass: a tree of 20,000 nodes is scanned in well under a
-        millisecond (NumPy's temporaries took half of a long plan's time)."""
+        the plane). One compiled pass (`nearest_kernel`; NumPy's temporaries took half of a
+        long plan's time)."""
         # Fresh writable copies: one compiled signature whoever calls.
-        return int(nearest_kernel(self.arm, self.objects, self.n, np.array(arm, dtype=float),
-                            np.array(objects, dtype=float), float(arm_weight),
-                            np.array(weights, dtype=float)))
+        return int(nearest_kernel(self.arm, self.objects, self.n, self.nearest_arrays,
+                                  np.array(arm, dtype=float), np.array(objects, dtype=float),
+                                  float(arm_weight), np.array(weights, dtype=float)))
 
     def state(self, node: int) -> State:
         return State(self.q[node], self.objects[node])
@@ -124,18 +142,32 @@ def weighted_distance(arm: np.ndarray, objects: np.ndarray, sample_arm: np.ndarr
 
 @njit(cache=True, inline="always")
 def metric(arm: np.ndarray, objects: np.ndarray, sample_arm: np.ndarray,
-            sample_objects: np.ndarray, arm_weight: float, weights: np.ndarray) -> float:
+           sample_objects: np.ndarray, arm_weight: float, weights: np.ndarray) -> float:
     """Dist (King et al. 2015, §III-D): arm_weight |arm - arm'| + sum_j weights[j] |o^j - o'^j|
     (object positions in the plane)."""
+    return (arm_weight * _arm_distance(arm, sample_arm)
+            + _objects_distance(objects, sample_objects, weights))
+
+
+@njit(cache=True, inline="always")
+def _arm_distance(arm: np.ndarray, sample_arm: np.ndarray) -> float:
+    """|arm - arm'| of `metric`."""
     d_arm = 0.0
     for k in range(arm.shape[0]):
         d = arm[k] - sample_arm[k]
         d_arm += d * d
+    return math.sqrt(d_arm)
+
+
+@njit(cache=True, inline="always")
+def _objects_distance(objects: np.ndarray, sample_objects: np.ndarray,
+                      weights: np.ndarray) -> float:
+    """sum_j weights[j] |o^j - o'^j| of `metric`."""
     d_obj = 0.0
     for j in range(weights.shape[0]):
         dx, dy = objects[j, 0] - sample_objects[j, 0], objects[j, 1] - sample_objects[j, 1]
         d_obj += weights[j] * math.sqrt(dx * dx + dy * dy)
-    return arm_weight * math.sqrt(d_arm) + d_obj
+    return d_obj
 
 
 def _doubled(a: np.ndarray) -> np.ndarray:
@@ -143,11 +175,40 @@ def _doubled(a: np.ndarray) -> np.ndarray:
 
 
 @njit(cache=True)
-def nearest_kernel(arms: np.ndarray, objects: np.ndarray, n: int, arm: np.ndarray,
-             sample: np.ndarray, arm_weight: float, weights: np.ndarray) -> int:
+def nearest_kernel(arms: np.ndarray, objects: np.ndarray, n: int, arrays: tuple,
+                   arm: np.ndarray, sample: np.ndarray, arm_weight: float,
+                   weights: np.ndarray) -> int:
+    """The node of the first n nearest (arm, sample) by `metric` (the first of equals).
+
+    Most edges move no object (the arm travels, or its push misses), so most nodes share their
+    objects' poses with others: a search's nodes hold about a tenth as many arrangements
+    (`Tree.nearest_arrays`, `set_arrangement`). The objects' term is summed once per
+    arrangement, then each node adds its arm's: the same sums as `metric` node by node, with
+    a square root per object only once per arrangement."""
+    arrangement, first_node, arrangements, distance = arrays
+    for a in range(arrangements[0]):
+        distance[a] = _objects_distance(objects[first_node[a]], sample, weights)
     best, best_node = math.inf, 0
     for i in range(n):
-        total = metric(arms[i], objects[i], arm, sample, arm_weight, weights)
+        total = arm_weight * _arm_distance(arms[i], arm) + distance[arrangement[i]]
         if total < best:
             best, best_node = total, i
     return best_node
+
+
+@njit(cache=True)
+def set_arrangement(objects: np.ndarray, arrangement: np.ndarray, first_node: np.ndarray,
+                    arrangements: np.ndarray, node: int, parent: int) -> None:
+    """Give the new node its arrangement (`Tree.nearest_arrays`): its parent's, where its
+    objects' poses equal the parent's entry by entry, else a new one that it holds first."""
+    if parent >= 0:
+        same = True
+        for j in range(objects.shape[1]):
+            for c in range(objects.shape[2]):
+                same = same and objects[node, j, c] == objects[parent, j, c]
+        if same:
+            arrangement[node] = arrangement[parent]
+            return
+    a = arrangements[0]
+    arrangement[node], first_node[a] = a, node
+    arrangements[0] = a + 1

@@ -34,7 +34,11 @@ from rearrangement_planner.planning.machinery.propagation import (
     propagate_kernel,
 )
 from rearrangement_planner.planning.machinery.termination import monotonic
-from rearrangement_planner.planning.machinery.tree import metric, nearest_kernel
+from rearrangement_planner.planning.machinery.tree import (
+    metric,
+    nearest_kernel,
+    set_arrangement,
+)
 
 TIMED_OUT = -3
 """The code of a propagation cut by the deadline (`iteration`'s results)."""
@@ -93,14 +97,14 @@ def iterations(rng: np.random.Generator, clock: Any, deadline: float, until: flo
                sample_arm: np.ndarray, sample_objects: np.ndarray,
                clock_buffer: np.ndarray) -> None:
     """Up to `most` iterations (`iteration`), each chosen edge added to the tree (`Tree`'s
-    arrays: q, arm, objects, parent, spans, step q, step objects), until the clock passes
+    arrays: q, arm, objects, parent, spans, step q, step objects, Nearest's), until the clock passes
     `until` (the caller then asks the cancel, the race's gate and the progress report) or an
     iteration needs Python. counters: [nodes, steps held, iterations, propagation steps,
     why it returned (GO_ON ...), the nearest node and chosen propagation of HAND_OVER], the
     first two read and written, the others written; best: [the best goal distance];
     refused[code, named the goal object] counts the propagations the model cut short,
     naming[code] whether that rule names an object."""
-    tree_q, tree_arm, tree_objects, parent, spans, step_q, step_objects = tree
+    tree_q, tree_arm, tree_objects, parent, spans, step_q, step_objects, nearest = tree
     g, greedy, room = ints[1], ints[6], arm.shape[1]
     counters[2:] = 0
     for _ in range(most):
@@ -110,8 +114,8 @@ def iterations(rng: np.random.Generator, clock: Any, deadline: float, until: flo
             return
         counters[2] += 1
         near, chosen, timed_out = iteration(
-            rng, clock, deadline, tree_q, tree_arm, tree_objects, n, ints, reals, goal_xy,
-            table, limits, weights, others, action, pushes, held, overlap, goal, project,
+            rng, clock, deadline, tree_q, tree_arm, tree_objects, n, nearest, ints, reals,
+            goal_xy, table, limits, weights, others, action, pushes, held, overlap, goal, project,
             world, arm, objects, flags, results, features, sample_arm, sample_objects,
             clock_buffer)
         for k in range(results.shape[0]):
@@ -133,6 +137,7 @@ def iterations(rng: np.random.Generator, clock: Any, deadline: float, until: flo
                 return
             tree_q[n], tree_arm[n], tree_objects[n] = arm[chosen, done - 1], features[chosen], end
             parent[n], spans[n, 0], spans[n, 1] = near, used, used + done
+            set_arrangement(tree_objects, nearest[0], nearest[1], nearest[2], n, near)
             step_q[used:used + done] = arm[chosen, :done]
             step_objects[used:used + done] = objects[chosen, :done]
             counters[0], counters[1] = n + 1, used + done
@@ -145,7 +150,8 @@ def iterations(rng: np.random.Generator, clock: Any, deadline: float, until: flo
 @njit(cache=True)
 def iteration(rng: np.random.Generator, clock: Any, deadline: float,
               tree_q: np.ndarray, tree_arm: np.ndarray, tree_objects: np.ndarray, n: int,
-              ints: np.ndarray, reals: np.ndarray, goal_xy: np.ndarray, table: np.ndarray,
+              nearest: tuple, ints: np.ndarray, reals: np.ndarray, goal_xy: np.ndarray,
+              table: np.ndarray,
               limits: np.ndarray, weights: np.ndarray, others: np.ndarray, action: np.ndarray,
               pushes: np.ndarray, held: np.ndarray, overlap: tuple, goal: np.ndarray,
               project: tuple, world: tuple, arm: np.ndarray, objects: np.ndarray,
@@ -158,8 +164,8 @@ def iteration(rng: np.random.Generator, clock: Any, deadline: float,
     node, the chosen propagation or -1, whether the deadline passed)."""
     k_actions, uniform, arm_weight = ints[2], ints[3], reals[2]
     _sample(rng, ints, reals, goal_xy, table, limits, overlap, sample_arm, sample_objects)
-    near = nearest_kernel(tree_arm, tree_objects, n, sample_arm, sample_objects, arm_weight,
-                          weights)
+    near = nearest_kernel(tree_arm, tree_objects, n, nearest, sample_arm, sample_objects,
+                          arm_weight, weights)
     policy = reals[3] > 0 and rng.random() < reals[3]
     results[:, 0] = -1
     chosen, chosen_cost = -1, math.inf
