@@ -182,9 +182,10 @@ def nearest_kernel(arms: np.ndarray, objects: np.ndarray, n: int, arrays: tuple,
 
     Most edges move no object (the arm travels, or its push misses), so most nodes share their
     objects' poses with others: the nodes of 10,000 iterations on four varied scenes held a
-    twentieth to a fifth as many arrangements (`Tree.nearest_arrays`, `set_arrangement`). The objects' term is summed once per
-    arrangement, then each node adds its arm's: the same sums as `metric` node by node, with
-    a square root per object only once per arrangement."""
+    twentieth to a fifth as many arrangements (`Tree.nearest_arrays`, `set_arrangement`).
+    The objects' term is summed once per arrangement, then each node adds its arm's: the same
+    sums as `metric` node by node, with a square root per object only once per
+    arrangement."""
     arrangement, first_node, arrangements, distance = arrays
     for a in range(arrangements[0]):
         distance[a] = _objects_distance(objects[first_node[a]], sample, weights)
