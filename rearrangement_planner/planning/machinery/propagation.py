@@ -191,8 +191,6 @@ def propagate(physics: Physics, state: State, steps: int, dt: float, nullspace: 
     nullspace = np.asarray(nullspace, dtype=float)
     done, subject = 0, -1
     stopped: Invalid | StopReason | None = None
-    scratch = propagation_workspace(np.array(state.q), np.array(state.objects), project,
-                                    physics.arrays, flags)
     while done < steps and stopped is None:
         batch = min(CHECK_EVERY, steps - done)
         # Writable copies (one compiled signature, whether from the state or the last batch).
@@ -200,7 +198,7 @@ def propagate(physics: Physics, state: State, steps: int, dt: float, nullspace: 
         objects0 = np.array(state.objects if done == 0 else objects[done - 1])
         count, code, named = propagate_kernel(q0, objects0, held, policy, nullspace, batch, dt,
                                                goal, project, physics.arrays, arm[done:],
-                                               objects[done:], flags, scratch)
+                                               objects[done:], flags)
         done += count
         if code > 0:
             stopped = physics.reason(code)
@@ -303,41 +301,30 @@ def _tool_planar(pose: np.ndarray, policy: np.ndarray) -> tuple[float, float, fl
 
 
 @njit(cache=True)
-def propagation_workspace(q: np.ndarray, objects: np.ndarray, project: tuple, world: tuple,
-                          flags: np.ndarray) -> tuple:
-    """The buffers of `propagate_kernel` for an arm like q among objects like `objects`: the
-    physics step's (`step.step_workspace`), Project's (`manifold.project_workspace`), a step's
-    info and value, the next configuration and the tool velocity. Made once for many
-    propagations (a search makes them once), as making them took a hundred small allocations
-    per propagation."""
-    return (step_workspace(world, q, objects),
-            project_workspace(q.shape[0], project[0][0].shape[0]),
-            np.zeros(4 + flags.shape[0], dtype=np.int64), np.zeros(1), np.empty(q.shape[0]),
-            np.empty(3))
-
-
-@njit(cache=True)
 def propagate_kernel(q: np.ndarray, objects: np.ndarray, held: np.ndarray,
                       policy: np.ndarray, nullspace: np.ndarray, steps: int, dt: float,
                       goal: np.ndarray, project: tuple, world: tuple, arm: np.ndarray,
-                      out: np.ndarray, flags: np.ndarray, scratch: tuple) -> tuple[int, int, int]:
+                      out: np.ndarray, flags: np.ndarray) -> tuple[int, int, int]:
     """Up to `steps` steps of Project and the physics step from (q, objects), the tool velocity
     `held` or, for policy[0] >= 0, the push policy's; the valid ones into arm[i], out[i], the
-    pushing shapes and moved objects OR-ed into `flags`, in the buffers `scratch`
-    (`propagation_workspace`). Returns (valid steps, 0 | the invalid step's code | -GOAL when
-    the goal test held after the last valid step | -ARRIVED when the pushed object reached
-    its target, the first index the invalid step names (the object of a tipping or turning
-    push) or -1).
+    pushing shapes and moved objects OR-ed into `flags`. Returns (valid steps, 0 | the invalid
+    step's code | -GOAL when the goal test held after the last valid step | -ARRIVED when
+    the pushed object reached its target, the first index the invalid step names (the object
+    of a tipping or turning push) or -1).
 
     One forward kinematics per step: the tool's pose and Jacobian that the push policy and
     Project read at a step's q are those of the joints' poses the last physics step computed
     at its q1, the same q (`step.WORK_JOINTS`, `kernels.tool_from_joints`); only the first
     step computes them, at q."""
-    work, projecting, info, value, q_new, velocity = scratch
+    info = np.zeros(4 + flags.shape[0], dtype=np.int64)
+    value = np.zeros(1)
+    work = step_workspace(world, q, objects)
     g, pushed = int(goal[0]), int(policy[0])
-    velocity[:] = held
+    velocity = held.copy()
     chain, limits = project[0], project[5]
+    projecting = project_workspace(q.shape[0], chain[0].shape[0])
     pose, jac = projecting[1], projecting[2]
+    q_new = np.empty(q.shape[0])
     for i in range(steps):
         known = i > 0 or _within(q, limits)     # Project holds q in its limits: read it there
         if i > 0:

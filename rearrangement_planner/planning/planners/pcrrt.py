@@ -51,7 +51,6 @@ from rearrangement_planner.planning.machinery.propagation import (
     PushTarget,
     Stops,
     policy_array,
-    propagation_workspace,
 )
 from rearrangement_planner.planning.machinery.push_policy import PushPolicy
 from rearrangement_planner.planning.machinery.search import Search
@@ -192,7 +191,7 @@ class PCRRT:
                    tree.arrays, a.counters, a.best, a.refused, a.naming, a.ints, a.reals,
                    a.goal_xy, a.table, a.limits, a.weights, a.others, a.action, a.pushes,
                    a.held, a.overlap, a.goal, a.project, a.world, a.arm, a.objects, a.flags,
-                   a.results, a.features, a.sample_arm, a.sample_objects, a.clock, a.scratch)
+                   a.results, a.features, a.sample_arm, a.sample_objects, a.clock)
         tree.n, tree.steps, run.best = int(a.counters[0]), int(a.counters[1]), float(a.best[0])
         run.iterations += int(a.counters[2])
         run.count(int(a.counters[3]), a.refused)
@@ -233,8 +232,6 @@ class PCRRT:
         pushes = np.array([policy_array(physics, PushTarget(i, (0.0, 0.0), opts.max_speed,
                                                             opts.face_push))
                            for i in range(m)])
-        project = project_arrays(robot, scene.table.height)
-        flags = np.zeros((k, physics.flag_count), dtype=np.int64)
         return IterationArrays(
             ints=np.array([m, g, k, int(uniform), opts.push_steps, pushable.size,
                            int(opts.greedy_goal)], dtype=np.int64),
@@ -248,16 +245,14 @@ class PCRRT:
             action=np.array([self._action_low, self._action_span]),
             pushes=pushes, held=np.array(policy_array(physics, None)),
             overlap=physics.world.overlap_arrays(), goal=np.array(stop.packed),
-            project=project, world=physics.arrays,
+            project=project_arrays(robot, scene.table.height), world=physics.arrays,
             arm=np.zeros((k, steps, robot.nq)), objects=np.zeros((k, steps, m, 3)),
-            flags=flags,
+            flags=np.zeros((k, physics.flag_count), dtype=np.int64),
             results=np.zeros((k, 3), dtype=np.int64), features=np.zeros((k, feature)),
             sample_arm=np.zeros(feature), sample_objects=np.zeros((m, 3)),
             clock=np.zeros(2, dtype=np.int64), counters=np.zeros(7, dtype=np.int64),
             best=np.zeros(1), refused=np.zeros((len(reasons), 2), dtype=np.int64),
-            naming=np.array([r in _NAMING for r in reasons], dtype=np.int64),
-            scratch=propagation_workspace(np.zeros(robot.nq), np.zeros((m, 3)), project,
-                                          physics.arrays, flags[0]))
+            naming=np.array([r in _NAMING for r in reasons], dtype=np.int64))
 
     def _extend(self, run: _Run, parent: int, chosen: Propagation,
                 arm: np.ndarray | None = None) -> PlanResult | None:

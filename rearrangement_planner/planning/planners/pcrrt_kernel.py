@@ -79,7 +79,6 @@ class IterationArrays:
     sample_arm: np.ndarray  # (feature,)
     sample_objects: np.ndarray  # (objects, 3)
     clock: np.ndarray       # (2,) int64, `termination.monotonic`'s buffer
-    scratch: tuple          # `propagation.propagation_workspace`
     counters: np.ndarray    # (7,) int64, `iterations`'
     best: np.ndarray        # (1,)
     refused: np.ndarray     # (codes, 2) int64
@@ -96,7 +95,7 @@ def iterations(rng: np.random.Generator, clock: Any, deadline: float, until: flo
                project: tuple, world: tuple, arm: np.ndarray, objects: np.ndarray,
                flags: np.ndarray, results: np.ndarray, features: np.ndarray,
                sample_arm: np.ndarray, sample_objects: np.ndarray,
-               clock_buffer: np.ndarray, scratch: tuple) -> None:
+               clock_buffer: np.ndarray) -> None:
     """Up to `most` iterations (`iteration`), each chosen edge added to the tree (`Tree`'s
     arrays: q, arm, objects, parent, spans, step q, step objects, Nearest's), until the clock passes
     `until` (the caller then asks the cancel, the race's gate and the progress report) or an
@@ -118,7 +117,7 @@ def iterations(rng: np.random.Generator, clock: Any, deadline: float, until: flo
             rng, clock, deadline, tree_q, tree_arm, tree_objects, n, nearest, ints, reals,
             goal_xy, table, limits, weights, others, action, pushes, held, overlap, goal, project,
             world, arm, objects, flags, results, features, sample_arm, sample_objects,
-            clock_buffer, scratch)
+            clock_buffer)
         for k in range(results.shape[0]):
             done, code = results[k, 0], results[k, 1]
             if done < 0:
@@ -158,7 +157,7 @@ def iteration(rng: np.random.Generator, clock: Any, deadline: float,
               project: tuple, world: tuple, arm: np.ndarray, objects: np.ndarray,
               flags: np.ndarray, results: np.ndarray, features: np.ndarray,
               sample_arm: np.ndarray, sample_objects: np.ndarray,
-              clock_buffer: np.ndarray, scratch: tuple) -> tuple[int, int, bool]:
+              clock_buffer: np.ndarray) -> tuple[int, int, bool]:
     """Algorithm 1's iteration up to the choice (`IterationArrays` for the arguments): sample
     x_rand (`_sample`), Nearest, then k propagations from it (`_draw`), and the one ending
     nearest x_rand by the metric (one that reached the goal first). Returns (the nearest
@@ -177,8 +176,7 @@ def iteration(rng: np.random.Generator, clock: Any, deadline: float,
                                                 tree_q.shape[1])
         done, code, named = _propagate(tree_q[near], tree_objects[near], steps, velocity, law,
                                        nullspace, reals[5], goal, project, world, arm[k],
-                                       objects[k], flags[k], clock, clock_buffer, deadline,
-                                       scratch)
+                                       objects[k], flags[k], clock, clock_buffer, deadline)
         results[k, 0], results[k, 1], results[k, 2] = done, code, named
         if code == TIMED_OUT:
             return near, chosen, True
@@ -255,7 +253,7 @@ def _propagate(q: np.ndarray, objects: np.ndarray, steps: int,
                velocity: np.ndarray, law: np.ndarray, nullspace: np.ndarray, dt: float,
                goal: np.ndarray, project: tuple, world: tuple, arm: np.ndarray,
                out: np.ndarray, flags: np.ndarray, clock: Any, clock_buffer: np.ndarray,
-               deadline: float, scratch: tuple) -> tuple[int, int, int]:
+               deadline: float) -> tuple[int, int, int]:
     """`propagation.propagate` compiled: up to `steps` steps in batches of CHECK_EVERY, the
     deadline read after each. Returns (valid steps, 0 | the invalid step's code | -GOAL |
     -ARRIVED | TIMED_OUT, the object the invalid step names or -1)."""
@@ -269,7 +267,7 @@ def _propagate(q: np.ndarray, objects: np.ndarray, steps: int,
             q0, objects0 = arm[done - 1].copy(), out[done - 1].copy()
         count, code, named = propagate_kernel(q0, objects0, velocity, law, nullspace, batch,
                                               dt, goal, project, world, arm[done:],
-                                              out[done:], flags, scratch)
+                                              out[done:], flags)
         done += count
         if code == -ARRIVED:
             return done, code, named
