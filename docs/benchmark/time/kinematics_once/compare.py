@@ -2,14 +2,17 @@
 (one forward kinematics a step, Nearest by arrangement), run one after the other on the same
 day (docs/benchmark.md, "One forward kinematics a step; Nearest by arrangement"), beside
 `6ade336`'s run of 2026-11-29: reached (servo arm, nothing toppled), solved, toppling, request
-time, and the requests whose outcome differs. Run from this folder:
-python3 compare.py > compare_s9_s10.txt"""
+time, and the requests whose outcome differs. Seeds 11 + 12 were run the same way, without an
+earlier run beside them. Run from this folder:
+python3 compare.py s9_s10 > compare_s9_s10.txt; python3 compare.py s11_s12 > compare_s11_s12.txt"""
 import csv
 import statistics
+import sys
 
-runs = {'6ade336 (2026-11-29)': '../project_gram/varied_s9_s10_6ade336/trials.csv',
-        '62c1471': 'varied_s9_s10_62c1471/trials.csv',
-        '0a50c89': 'varied_s9_s10_0a50c89/trials.csv'}
+seeds = sys.argv[1]
+runs = {'6ade336 (2026-11-29)': f'../project_gram/varied_{seeds}_6ade336/trials.csv',
+        '62c1471': f'varied_{seeds}_62c1471/trials.csv',
+        '0a50c89': f'varied_{seeds}_0a50c89/trials.csv'}
 arms = {}
 for label, path in runs.items():
     try:
