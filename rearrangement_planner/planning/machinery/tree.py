@@ -185,18 +185,13 @@ def nearest_kernel(arms: np.ndarray, objects: np.ndarray, n: int, arrays: tuple,
     twentieth to a fifth as many arrangements (`Tree.nearest_arrays`, `set_arrangement`).
     The objects' term is summed once per arrangement, then each node adds its arm's: the same
     sums as `metric` node by node, with a square root per object only once per
-    arrangement. A node whose objects' term alone is no less than the best so far is passed
-    over without its arm's: adding a term that is not negative cannot bring a sum below it,
-    in floating point too (arm_weight >= 0)."""
+    arrangement."""
     arrangement, first_node, arrangements, distance = arrays
     for a in range(arrangements[0]):
         distance[a] = _objects_distance(objects[first_node[a]], sample, weights)
     best, best_node = math.inf, 0
     for i in range(n):
-        objects_term = distance[arrangement[i]]
-        if objects_term >= best:
-            continue
-        total = arm_weight * _arm_distance(arms[i], arm) + objects_term
+        total = arm_weight * _arm_distance(arms[i], arm) + distance[arrangement[i]]
         if total < best:
             best, best_node = total, i
     return best_node
