@@ -445,18 +445,8 @@ def tool_from_joints(world: np.ndarray, parents: np.ndarray, axes: np.ndarray,
     """`tool_kinematics` from the joints' poses `world` (J, 4, 4) at q (`joint_poses`), without
     computing them again: a revolute joint j of unit world axis w through o_j moves the tool
     origin p at w x (p - o_j) and turns it at w. The same numbers as from q."""
-    for i in range(3):
-        a0, a1, a2, a3 = (world[tool_joint, i, 0], world[tool_joint, i, 1],
-                          world[tool_joint, i, 2], world[tool_joint, i, 3])
-        for j in range(3):
-            pose[i, j] = a0 * tool_local[0, j] + a1 * tool_local[1, j] + a2 * tool_local[2, j]
-        pose[i, 3] = (a0 * tool_local[0, 3] + a1 * tool_local[1, 3] + a2 * tool_local[2, 3]
-                      + a3)
-    pose[3, 0] = pose[3, 1] = pose[3, 2] = 0.0
-    pose[3, 3] = 1.0
-    for r in range(jac.shape[0]):
-        for c in range(jac.shape[1]):
-            jac[r, c] = 0.0
+    _product(world, tool_joint, tool_local.reshape((1, 4, 4)), 0, pose.reshape((1, 4, 4)), 0)
+    jac[:] = 0.0
     j = tool_joint
     while j > 0:
         k = q_index[j]

@@ -135,6 +135,28 @@ def test_the_compiled_propagation_takes_the_same_steps_as_python():
     assert {None, "Invalid", StopReason.GOAL} <= outcomes, outcomes
 
 
+def test_a_propagation_from_outside_the_joint_limits_projects_from_inside_them():
+    """A propagation's later steps take the tool's kinematics from the physics step's (q is
+    Project's own output, inside the limits); its first step from a q past a limit must read
+    the tool where Project holds q, at the limit, as Project from Python does."""
+    scene = load_scene("easy_push")
+    physics = Physics(scene, SIM)
+    robot = physics.robot
+    q = default_push_configuration(robot, scene.table.height)
+    for j, past_limit in ((0, robot.upper[0] + 0.005), (0, robot.lower[0] - 0.005),
+                          (2, robot.upper[2] + 0.005), (3, robot.lower[3] - 0.005)):
+        past = q.copy()                   # a joint past its limit, the arm clear of the table
+        past[j] = past_limit
+        start = State(past, scene.initial_state().objects)
+        action = Action(np.array([0.05, -0.03, 0.1]), 0.5, np.zeros(robot.nq))
+        result = constrained_prop(physics, start, action, 0.05)
+        states, stopped, _ = _one_by_one(physics, start, action, 0.05, None)
+        assert result.count == len(states) > 1 and result.stopped == stopped
+        for got, want in zip(result.states, states, strict=True):
+            np.testing.assert_array_equal(got.q, want.q)
+            np.testing.assert_array_equal(got.objects, want.objects)
+
+
 def test_a_step_skips_the_pairs_and_substeps_that_cannot_touch_and_ends_the_same():
     """The physics step asks only the (shape, object) pairs within the step's reach by their exact
     distance (`_clear_far`) and starts at the substep before the nearest of them could touch.

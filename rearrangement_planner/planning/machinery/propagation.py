@@ -326,7 +326,10 @@ def propagate_kernel(q: np.ndarray, objects: np.ndarray, held: np.ndarray,
     pose, jac = projecting[1], projecting[2]
     q_new = np.empty(q.shape[0])
     for i in range(steps):
-        known = i > 0 or _within(q, limits)     # Project holds q in its limits: read it there
+        # The tool at q, for the push and for Project. Project reads it at q held in its
+        # limits: from the second step on q is Project's own output, inside them; a first q
+        # outside them leaves Project to compute it there (`known` False).
+        known = i > 0 or _within(q, limits)
         if i > 0:
             tool_from_joints(work[WORK_JOINTS], chain[0], chain[2], chain[3], project[1],
                              project[2], pose, jac)

@@ -151,12 +151,11 @@ def iterations(rng: np.random.Generator, clock: Any, deadline: float, until: flo
 def iteration(rng: np.random.Generator, clock: Any, deadline: float,
               tree_q: np.ndarray, tree_arm: np.ndarray, tree_objects: np.ndarray, n: int,
               nearest: tuple, ints: np.ndarray, reals: np.ndarray, goal_xy: np.ndarray,
-              table: np.ndarray,
-              limits: np.ndarray, weights: np.ndarray, others: np.ndarray, action: np.ndarray,
-              pushes: np.ndarray, held: np.ndarray, overlap: tuple, goal: np.ndarray,
-              project: tuple, world: tuple, arm: np.ndarray, objects: np.ndarray,
-              flags: np.ndarray, results: np.ndarray, features: np.ndarray,
-              sample_arm: np.ndarray, sample_objects: np.ndarray,
+              table: np.ndarray, limits: np.ndarray, weights: np.ndarray, others: np.ndarray,
+              action: np.ndarray, pushes: np.ndarray, held: np.ndarray, overlap: tuple,
+              goal: np.ndarray, project: tuple, world: tuple, arm: np.ndarray,
+              objects: np.ndarray, flags: np.ndarray, results: np.ndarray,
+              features: np.ndarray, sample_arm: np.ndarray, sample_objects: np.ndarray,
               clock_buffer: np.ndarray) -> tuple[int, int, bool]:
     """Algorithm 1's iteration up to the choice (`IterationArrays` for the arguments): sample
     x_rand (`_sample`), Nearest, then k propagations from it (`_draw`), and the one ending
