@@ -96,8 +96,8 @@ class StepResult:
 def object_limit_surface_c(obj: MovableObject) -> float:
     """c = m_max / f_max (m) of a scene object's footprint: under uniform pressure 2R/3 for a
     cylinder of radius R, the integrated mean distance for a box (King et al. 2015, §III-A;
-    `pushing.limit_surface_c`), times the object's `SupportPressure.c_scale` (1 unless a
-    perturbation drew another pressure distribution)."""
+    `pushing.limit_surface_c`), times the object's `SupportPressure.c_scale`
+    (`model.scene.NOMINAL_C_SCALE` unless a perturbation drew another pressure distribution)."""
     if obj.shape == "cylinder":
         radius = obj.radius
         assert radius is not None  # MovableObject.radius is a float for every cylinder
