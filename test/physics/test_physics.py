@@ -9,6 +9,7 @@ import pytest
 import yaml
 
 from rearrangement_planner.model.robot import RobotConfig, RobotModel
+from rearrangement_planner.model.scene import NOMINAL_C_SCALE
 from rearrangement_planner.model.state import State
 from rearrangement_planner.physics.options import PhysicsOptions, simulation_options
 from rearrangement_planner.physics.step import OBJ_C, Invalid, Physics
@@ -198,12 +199,13 @@ def test_limit_surface_c_uses_each_objects_footprint(panda):
                         box("block", [0.5, -0.3, 0.0], size=(0.06, 0.08, 0.1))],
                        LOW_ARM, robot=panda)
     physics = Physics(scene, SIM)
-    assert physics.c[0] == pytest.approx(2 * 0.04 / 3, rel=1e-12)
+    # Uniform pressure's c times the nominal support's scale (model.scene.NOMINAL_C_SCALE).
+    assert physics.c[0] == pytest.approx(2 * 0.04 / 3 * NOMINAL_C_SCALE, rel=1e-12)
     # 6 x 8 cm rectangle: mean distance from the centre, by numerical integration.
     xs = (np.arange(600) + 0.5) / 600 * 0.06 - 0.03
     ys = (np.arange(800) + 0.5) / 800 * 0.08 - 0.04
     rbar = np.hypot(*np.meshgrid(xs, ys)).mean()
-    assert physics.c[1] == pytest.approx(rbar, rel=1e-5)
+    assert physics.c[1] == pytest.approx(rbar * NOMINAL_C_SCALE, rel=1e-5)
     assert physics.arrays.obj_props[1, OBJ_C] == physics.c[1]
 
 
@@ -413,7 +415,7 @@ def test_a_tipping_push_is_invalid_and_the_same_push_slides_without_the_check(pa
 
 
 def test_a_push_that_turns_its_object_fast_is_invalid_with_max_turn(panda):
-    """Pushed 2.5 cm off its centre line the box turns about a radian over the push (6 rad
+    """Pushed 2.8 cm off its centre line the box turns about a radian over the push (6 rad
     per metre at first): refused with max_turn 5, named with its rate; the centred push and
     the 1.5 cm offset one (the pads' face still reaches the centre line) go straight and stay
     valid."""
@@ -431,9 +433,9 @@ def test_a_push_that_turns_its_object_fast_is_invalid_with_max_turn(panda):
             state = result.state
         return result, state
 
-    result, state = push(0.025, 0.0)
+    result, state = push(0.028, 0.0)
     assert result.valid and state.objects[0, 2] > 0.8
-    result, state = push(0.025, 5.0)
+    result, state = push(0.028, 5.0)
     assert result.reason is Invalid.TURNING and state.objects[0, 0] == 0.46
     assert result.detail == "'b' would turn too fast: 6.0 rad per m it moves"
     for offset in (0.0, 0.015):

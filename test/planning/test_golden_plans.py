@@ -14,8 +14,10 @@ for the compiled core, which took the same search (iterations, tree sizes, best
 distances and all but one count of propagation steps equal) to trajectories within 4e-11 rad
 and final object poses within 2.4e-9 m of the Python core's: rounding, from exact geometry
 where python-fcl's GJK iterated; re-recorded when the turn limit left cylinders alone
-(2026-11-27: the default scene's PC-RRT plans changed). A change that alters plans on
-purpose must say so and regenerate the file (`python test/planning/test_golden_plans.py`)."""
+(2026-11-27: the default scene's PC-RRT plans changed) and when the nominal support's c
+was fitted to MuJoCo (2026-11-30, `model.scene.NOMINAL_C_SCALE`: every plan that pushes
+changed). A change that alters plans on purpose must say so and regenerate the file
+(`python test/planning/test_golden_plans.py`)."""
 
 from __future__ import annotations
 

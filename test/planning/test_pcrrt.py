@@ -106,10 +106,11 @@ def test_timeout_is_a_failure_without_a_path(panda):
 
 
 def test_cancel_stops_within_0_2_s(panda, cancel_after):
-    clutter = load_scene(scenes_dir() / "clutter.yaml", robot=panda)  # not solved in 1 s
+    # seed 5: no plan within 20,000 iterations (5 s at the fastest), so it is still running
+    clutter = load_scene(scenes_dir() / "clutter.yaml", robot=panda)
     planner = PCRRT(clutter, PCRRTOptions(time_limit=60.0, goal_bias=0.0))
     result, running, latency = cancel_after(
-        lambda cancel: planner.plan(seed=3, stop=planner.options.termination(cancel)), 1.0)
+        lambda cancel: planner.plan(seed=5, stop=planner.options.termination(cancel)), 1.0)
     assert running
     assert result.outcome is Outcome.CANCELLED
     assert latency < 0.2
@@ -117,10 +118,11 @@ def test_cancel_stops_within_0_2_s(panda, cancel_after):
 
 def test_progress_is_reported(easy):
     # A period of 0 reports before every iteration: the count does not depend on the machine's
-    # speed (seed 2 takes 18 iterations; a 0.1 s period gave 2 reports on a loaded machine).
+    # speed (seed 0 takes 350 iterations and reports 18 times; a 0.1 s period gave 2 reports
+    # on a loaded machine).
     reports = []
     PCRRT(easy, PCRRTOptions(time_limit=30.0, progress_period=0.0)).plan(
-        seed=2, progress=reports.append)
+        seed=0, progress=reports.append)
     assert len(reports) >= 10
     assert all(b.elapsed > a.elapsed for a, b in pairwise(reports))
     assert reports[-1].tree_size >= 1 and reports[-1].best_goal_distance > 0

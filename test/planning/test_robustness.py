@@ -192,22 +192,22 @@ def _same_path(a, b) -> bool:
 
 def test_with_accept_best_the_most_robust_candidate_answers_when_none_is_robust_enough(
         easy, remembered_searches):
-    """min_robustness 1 is out of reach of all three candidates of seed 11: without
+    """min_robustness 1 is out of reach of all three candidates of seed 16: without
     accept_best the request fails, with it (and no travel penalty) the most robust candidate,
-    the second (the first of the two at 0.9: a tie keeps the earlier), answers."""
+    the third, answers."""
     options = PCRRTOptions(time_limit=60.0)
-    three_candidates = _three_candidates(easy, "easy", 11)
+    three_candidates = _three_candidates(easy, "easy", 16)
     scores = [score for _, score, _ in three_candidates]
-    assert 0 < int(np.argmax(scores)) and max(scores) < 1.0, scores    # 0.6, 0.9, 0.9
+    assert 0 < int(np.argmax(scores)) and max(scores) < 1.0, scores    # 0.4, 0.3, 0.9
     expected = three_candidates[int(np.argmax(scores))]
-    best = plan_scene(PlanRequest.first_plan(easy, "pc-rrt", options, seed=11,
+    best = plan_scene(PlanRequest.first_plan(easy, "pc-rrt", options, seed=16,
                                              robust=RobustOptions(
         min_robustness=1.0, rollouts=10, candidates=3, candidate_effort=0.0, travel_penalty=0.0,
         accept_best=True)))
     assert best.solved and best.robustness == expected[1], (best.robustness, scores)
-    assert best.result.seed == 11          # the request's seed, which reproduces the choice
+    assert best.result.seed == 16          # the request's seed, which reproduces the choice
     assert _same_path(best, expected[0])
-    refused = plan_scene(PlanRequest.first_plan(easy, "pc-rrt", options, seed=11,
+    refused = plan_scene(PlanRequest.first_plan(easy, "pc-rrt", options, seed=16,
                                                 robust=RobustOptions(min_robustness=1.0,
                                                                      rollouts=10, candidates=3,
                                                                      candidate_effort=0.0,
@@ -219,59 +219,60 @@ def test_with_accept_best_the_most_robust_candidate_answers_when_none_is_robust_
 
 def test_candidates_are_ranked_by_robustness_less_the_travel_penalty(slim, remembered_searches):
     """The rank is robustness - travel_penalty x the goal object's push path (m). The three
-    candidates of the slim box with seed 23 score 0.7, 0.4 and 0.5 and push the box 0.24,
-    0.25 and 0.20 m: the default 0.5 still picks the first, a penalty of 10 per metre the
-    third, the shortest push."""
+    candidates of the slim box with seed 58 score 0.9, 0.4 and 0.8 and push the box 0.49,
+    0.42 and 0.19 m: without a penalty the first answers, the default 0.5 already prefers the
+    third, the shortest push (0.70 against 0.65), and so does a penalty of 10 per metre."""
     options = PCRRTOptions(time_limit=60.0)
-    three_candidates = _three_candidates(slim, "slim", 23)
+    three_candidates = _three_candidates(slim, "slim", 58)
     picks = {}
     for penalty in (0.0, 0.5, 10.0):
         ranks = [score - penalty * travel for _, score, travel in three_candidates]
         picks[penalty] = int(np.argmax(ranks))
-        chosen = plan_scene(PlanRequest.first_plan(slim, "pc-rrt", options, seed=23,
+        chosen = plan_scene(PlanRequest.first_plan(slim, "pc-rrt", options, seed=58,
                                                    robust=RobustOptions(
             min_robustness=1.0, rollouts=10, candidates=3, candidate_effort=0.0,
             travel_penalty=penalty)))
         expected = three_candidates[picks[penalty]]
         assert chosen.robustness == expected[1] and _same_path(chosen, expected[0]), penalty
-    assert picks == {0.0: 0, 0.5: 0, 10.0: 2}, picks
+    assert picks == {0.0: 0, 0.5: 2, 10.0: 2}, picks
 
 
 def test_a_fragile_best_earns_more_candidates_a_sound_one_does_not(slim, remembered_searches,
                                                                    monkeypatch):
     """fragile_candidates: past `candidates`, robust selection searches on while its best so
-    far is below fragile_below. The slim box's three candidates of seed 23 score 0.7, 0.4 and
-    0.5 (10 rollouts): after one candidate, with two more for a fragile best, fragile_below 0.8
-    searches all three (the best stays 0.7) and answers the best ranked, 0.6 stops at the
-    first; with none (the default) the first answers too."""
+    far is below fragile_below. The slim box's three candidates of seed 14 score 0.6, 0.0 and
+    0.6 (10 rollouts): after one candidate, with two more for a fragile best, fragile_below 0.8
+    searches all three (the best stays 0.6) and answers the best ranked, the first (its push
+    is the shorter of the two at 0.6); 0.5 stops at the first; with none (the default) the
+    first answers too."""
     from rearrangement_planner.planning.requests.pipeline import Candidates
 
     options = PCRRTOptions(time_limit=60.0)
-    scores = [score for _, score, _ in _three_candidates(slim, "slim", 23)]
-    assert scores == [0.7, 0.4, 0.5], scores
+    scores = [score for _, score, _ in _three_candidates(slim, "slim", 14)]
+    assert scores == [0.6, 0.0, 0.6], scores
     seeds: list[int] = []
     remembered = Candidates.plan
     monkeypatch.setattr(Candidates, "plan",
                         lambda self, seed: seeds.append(seed) or remembered(self, seed))
     searched = {}
-    for below, more in ((0.8, 2), (0.6, 2), (0.8, 0)):
+    for below, more in ((0.8, 2), (0.5, 2), (0.8, 0)):
         robust = RobustOptions(min_robustness=1.0, rollouts=10, candidates=1,
                                fragile_candidates=more, fragile_below=below,
                                candidate_effort=0.0)
-        answer = plan_scene(PlanRequest.first_plan(slim, "pc-rrt", options, seed=23,
+        answer = plan_scene(PlanRequest.first_plan(slim, "pc-rrt", options, seed=14,
                                                    robust=robust))
-        assert answer.solved and answer.robustness == 0.7
+        assert answer.solved and answer.robustness == 0.6
         searched[below, more] = len(seeds)
         seeds.clear()
-    assert searched == {(0.8, 2): 3, (0.6, 2): 1, (0.8, 0): 1}, searched
+    assert searched == {(0.8, 2): 3, (0.5, 2): 1, (0.8, 0): 1}, searched
 
 
 def test_later_candidates_search_at_most_candidate_effort_times_the_first_plans_iterations(
         slim, monkeypatch):
-    """The slim box with seed 23: the first plan takes 696 iterations, the next two seeds
-    5,830 and 2,070 (tests above). With candidate_effort 1 both later searches end at 696
-    iterations without a plan, and the first answers; with 10 (6,960) both find theirs, and
-    the three are ranked. Only the searches after the first are bounded."""
+    """The slim box with seed 7: the first plan takes 370 iterations, the next two seeds
+    1,470 and 1,421. With candidate_effort 1 both later searches end at 370 iterations
+    without a plan, and the first answers; with 10 (3,700) both find theirs, and the three
+    are ranked. Only the searches after the first are bounded."""
     from rearrangement_planner.planning.requests.pipeline import Candidates, candidate_seed
 
     searched: dict[int, tuple] = {}
@@ -284,20 +285,20 @@ def test_later_candidates_search_at_most_candidate_effort_times_the_first_plans_
 
     monkeypatch.setattr(Candidates, "plan", plan)
     options = PCRRTOptions(time_limit=60.0)
-    later = [candidate_seed(23, k) for k in (1, 2)]
-    for effort, bound in ((1.0, 696), (10.0, 6960)):
+    later = [candidate_seed(7, k) for k in (1, 2)]
+    for effort, bound in ((1.0, 370), (10.0, 3700)):
         searched.clear()
         robust = RobustOptions(min_robustness=1.0, rollouts=10, candidates=3,
                                candidate_effort=effort)
-        assert candidate_iterations(robust, 696) == bound
-        answer = plan_scene(PlanRequest.first_plan(slim, "pc-rrt", options, seed=23,
+        assert candidate_iterations(robust, 370) == bound
+        answer = plan_scene(PlanRequest.first_plan(slim, "pc-rrt", options, seed=7,
                                                    robust=robust))
         assert answer.solved and answer.phases.candidates == 3
-        assert searched[23][:2] == (options.max_iterations, 696)
+        assert searched[7][:2] == (options.max_iterations, 370)
         assert [searched[seed][0] for seed in later] == [bound, bound]
         solved = [searched[seed][2] is Outcome.SUCCEEDED for seed in later]
         assert solved == ([False, False] if effort == 1.0 else [True, True]), searched
-    assert [searched[seed][1] for seed in later] == [5830, 2070]
+    assert [searched[seed][1] for seed in later] == [1470, 1421]
 
 
 def test_the_candidate_effort_bound_has_a_floor_and_can_be_lifted():
@@ -444,14 +445,14 @@ def test_a_cancel_ends_the_selection_not_only_the_candidate(panda, cancel_after,
     plan = Candidates.plan
     monkeypatch.setattr(Candidates, "plan",
                         lambda self, seed: planned.append(seed) or plan(self, seed))
-    clutter = load_scene("clutter", robot=panda)             # not solved in 1 s
+    clutter = load_scene("clutter", robot=panda)  # seed 5: no tree in 20,000 iterations
     request = PlanRequest.first_plan(
-        clutter, "pc-rrt", PCRRTOptions(time_limit=60.0, goal_bias=0.0), seed=3,
+        clutter, "pc-rrt", PCRRTOptions(time_limit=60.0, goal_bias=0.0), seed=5,
         robust=RobustOptions(min_robustness=0.9, rollouts=4, candidates=4))
     output, running, latency = cancel_after(lambda cancel: plan_scene(request, cancel), 1.0)
     assert running and latency < 0.5
     assert output.result.outcome.name == "CANCELLED" and not output.solved
-    assert planned == [3]
+    assert planned == [5]
 
 
 def test_a_fragile_plan_says_so_and_never_rounds_up_to_its_floor(easy):

@@ -105,7 +105,8 @@ def test_the_tree_is_grouped_in_slices_of_one_arrangement(default):
     planner._iteration = spy
     result = planner.plan(seed=3)
     run = captured["run"]
-    assert result.outcome in (Outcome.SUCCEEDED, Outcome.TIMEOUT)
+    # 150 iterations may end it with a plan or without one (PLANNING_FAILED); never an error
+    assert result.outcome in (Outcome.SUCCEEDED, Outcome.TIMEOUT, Outcome.PLANNING_FAILED)
     assert len(run.members) > 1                      # pushes made new slices
     assert sum(len(m) for m in run.members) == run.tree.n
     for index, nodes in enumerate(run.members):

@@ -934,7 +934,7 @@ def test_action_closes_the_loop_until_the_goal_is_observed_reached(ros):
         with client.lock:
             client.controller = True
             client.commands.clear()
-            client.world = [_objects_at(0.65, -0.1), _objects_at(*scene.goal.position)]
+            client.world = [_objects_at(0.52, -0.23), _objects_at(*scene.goal.position)]
         status, result = client.run_goal(PlanRearrangement.Goal(
             settings=ROBUST, execute=True, replan_attempts=2), feedback)
         assert status == GoalStatus.STATUS_SUCCEEDED, result.message

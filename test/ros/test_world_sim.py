@@ -433,7 +433,10 @@ def test_node_demo_exit_code_is_the_open_loop_outcome(tmp_path, monkeypatch, cap
     from rearrangement_planner.ros.sim import node_demo
 
     monkeypatch.setenv("ROS_DOMAIN_ID", str(DOMAIN_ID))
-    common = ["--scene", "easy_push", "--seed", "1", "--time-limit", "20", "--time-scale", "20",
+    # Seed 8's plan ends 3 mm from the goal point; a world seen 3 cm off (seed 5) leaves it
+    # 8.2 cm away, just outside (with the nominal support fitted to MuJoCo, seed 1's plan
+    # reached in all of 30 such worlds).
+    common = ["--scene", "easy_push", "--seed", "8", "--time-limit", "20", "--time-scale", "20",
               "--record-dir", str(tmp_path), "--execute-fragile", "--engine", "quasistatic"]
     plot = tmp_path / "demo.png"
     assert node_demo.main([*common, "--plot", str(plot)]) == 0
@@ -443,14 +446,14 @@ def test_node_demo_exit_code_is_the_open_loop_outcome(tmp_path, monkeypatch, cap
     recording = out.split("recording: ")[1].split()[0]
     assert Path(recording).is_file() and plot.stat().st_size > 10_000
 
-    assert node_demo.main([*common, "--pose-noise", "0.03", "--world-seed", "8"]) == 1
+    assert node_demo.main([*common, "--pose-noise", "0.03", "--world-seed", "5"]) == 1
     out = capsys.readouterr().out
     assert "outcome: execution 1: GOAL_NOT_REACHED" in out and "outside radius" in out
 
     # The closed loop mends that miss: the arm backs out of contact (execution 2), the node
     # plans again from the observed poses, and the goal object ends inside. (Without the
     # watch: at time scale 20 on a loaded machine, when it fires would depend on the load.)
-    assert node_demo.main([*common, "--pose-noise", "0.03", "--world-seed", "8",
+    assert node_demo.main([*common, "--pose-noise", "0.03", "--world-seed", "5",
                            "--replan", "2", "--divergence-bound", "0"]) == 0
     out = capsys.readouterr().out
     assert "re-planning up to 2 times" in out and "goal reached after 1 re-plans" in out

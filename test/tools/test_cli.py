@@ -34,8 +34,10 @@ def test_solved_scene_exits_0_with_every_field_and_a_plot(tmp_path):
 
 
 def test_unsolved_scene_exits_1_and_still_reports(tmp_path):
+    """clutter's first plan takes 2,026 iterations of a tree (6.8 s with robust selection on
+    this machine): 0.05 s is far too little on any machine (0.5 s was not on an idle one)."""
     out = tmp_path / "plan.json"
-    code = main([str(scenes_dir() / "clutter.yaml"), "--time-limit", "0.5", "--json", str(out),
+    code = main([str(scenes_dir() / "clutter.yaml"), "--time-limit", "0.05", "--json", str(out),
                  "--quiet"])
     assert code == 1
     record = json.loads(out.read_text())
@@ -240,10 +242,10 @@ def test_replan_needs_check_execution_and_a_count(argv, capsys):
 
 
 def test_accept_best_answers_with_the_most_robust_candidate(tmp_path, capsys):
-    """Seed 3's plan of easy_push does not reach the goal in every perturbed rollout
-    (test_robustness): the request fails with --no-accept-best; by default the most robust
-    candidate (here the only one) answers, and is reported fragile."""
-    args = [str(scenes_dir() / "easy_push.yaml"), "--seed", "3", "--trees", "1", "--shortcut",
+    """Seed 0's plan of easy_push does not reach the goal in every perturbed rollout (9 of
+    10): the request fails with --no-accept-best; by default the most robust candidate (here
+    the only one) answers, and is reported fragile."""
+    args = [str(scenes_dir() / "easy_push.yaml"), "--seed", "0", "--trees", "1", "--shortcut",
             "0", "--time-limit", "60", "--min-robustness", "1", "--rollouts", "10",
             "--candidates", "1", "--quiet"]
     out = tmp_path / "plan.json"
