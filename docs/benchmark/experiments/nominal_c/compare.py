@@ -3,7 +3,8 @@ the nominal support's c was fitted to MuJoCo (`fcce53e`), on held-out varied see
 the variant with max_turn 4.1 rad/m (docs/experiments.md, 2026-11-30). Seeds 9-12 before are
 the rows of docs/benchmark/time/kinematics_once/ (run one after the other on an idle machine
 on 2026-11-30); after, run the same way. Seeds 13 + 14 before and after ran at the same time,
-one beside the other, so their times are longer. Run from this folder: python3 compare.py"""
+one beside the other, so their times are longer, as did the fixed set's seed 0 before and
+after. Run from this folder: python3 compare.py > compare.txt"""
 import csv
 from math import comb
 
@@ -61,3 +62,9 @@ for name, test in (('reached', reached), ('toppling', toppled)):
     p = min(1.0, 2 * sum(comb(n, i) for i in range(low + 1)) / 2 ** n)
     print(f'\n{name}: before only {only_before}, after only {only_after} (two-sided sign '
           f'test p = {p:.2f})')
+
+print('\n| fixed set, seed 0 | requests | solved | reached | plans toppling | the goal object |'
+      ' median / p90 | over 20 s |')
+print('|---|---|---|---|---|---|---|---|')
+line('before', list(load('fixed_s0_9da04b9').values()))
+line('after', list(load('fixed_s0_fcce53e').values()))
