@@ -4,7 +4,8 @@ the variant with max_turn 4.1 rad/m (docs/experiments.md, 2026-11-30). Seeds 9-1
 the rows of docs/benchmark/time/kinematics_once/ (run one after the other on an idle machine
 on 2026-11-30); after, run the same way. Seeds 13 + 14 before and after ran at the same time,
 one beside the other, so their times are longer, as did the fixed set's seed 0 before and
-after. Run from this folder: python3 compare.py > compare.txt"""
+after. The fixed set's seeds 0-2 after ran alone, from a clone of `fcce53e`. Run from this
+folder: python3 compare.py > compare.txt"""
 import csv
 from math import comb
 
@@ -68,3 +69,13 @@ print('\n| fixed set, seed 0 | requests | solved | reached | plans toppling | th
 print('|---|---|---|---|---|---|---|---|')
 line('before', list(load('fixed_s0_9da04b9').values()))
 line('after', list(load('fixed_s0_fcce53e').values()))
+
+rows = list(load('fixed_s0_s2_fcce53e').values())
+print('\n| fixed set, seeds 0-2, after, alone | requests | solved | reached | plans toppling |'
+      ' the goal object | median / p90 | over 20 s |')
+print('|---|---|---|---|---|---|---|---|')
+line('after', rows)
+slow = [r for r in rows if float(r['plan_time_s']) > 20]
+print(f"\nover 20 s: {len(slow)}, of which {sum(r['solved'] != '1' for r in slow)} unsolved, "
+      f"{sum(int(r['candidates'] or 0) >= 3 for r in slow)} searched 3-5 candidates "
+      f"(a fragile best), {sum(r['executed_servo'] == '1' for r in slow)} reached")
