@@ -8,6 +8,7 @@ service, on any rclpy node. `make demo` and the bag replay use it; a user's scri
 
 from __future__ import annotations
 
+import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -43,19 +44,55 @@ class PlanReply:
     """The action's whole PlanRearrangement result."""
 
 
+def action_client(node: Any, action_type: Any, name: str) -> Any:
+    """An rclpy ActionClient on `node` whose requests cannot lose their response.
+
+    rclpy's `send_goal_async` (and the cancel and result requests) sends the request, then
+    registers its sequence number. An executor spinning in another thread can take the
+    response in between. The client then logs "Ignoring unexpected goal response" and the
+    future never completes (ros2/rclpy#1123). A clean-clone test run failed this way with
+    `node_demo`: the node planned and executed, and the demo waited for an answer it had
+    dropped. rclpy fixed it in #1308 (Jazzy backport #1519), which the pinned wheel predates.
+    The fix is the same: one lock held while a request is sent and registered, and while the
+    executor takes responses."""
+    from rclpy.action import ActionClient
+
+    class _Client(ActionClient):
+        def __init__(self, *args: Any, **kwargs: Any) -> None:
+            super().__init__(*args, **kwargs)
+            self._sending = threading.Lock()
+
+        def take_data(self) -> Any:
+            with self._sending:
+                return super().take_data()
+
+        def send_goal_async(self, *args: Any, **kwargs: Any) -> Any:
+            with self._sending:
+                return super().send_goal_async(*args, **kwargs)
+
+        def _cancel_goal_async(self, goal_handle: Any) -> Any:
+            with self._sending:
+                return super()._cancel_goal_async(goal_handle)
+
+        def _get_result_async(self, goal_handle: Any) -> Any:
+            with self._sending:
+                return super()._get_result_async(goal_handle)
+
+    return _Client(node, action_type, name)
+
+
 class PlannerClient:
     """The planner node seen from `node`: its action `~/plan_rearrangement` (`plan`) and its
     `~/execute` service (send the last plan to the controller)."""
 
     def __init__(self, node, namespace: str = f"/{NODE_NAME}"):
-        from rclpy.action import ActionClient
         from std_srvs.srv import Trigger
 
         from rearrangement_interfaces.action import PlanRearrangement
 
         self.namespace = namespace.rstrip("/")
-        self._action = ActionClient(node, PlanRearrangement,
-                                    f"{self.namespace}/plan_rearrangement")
+        self._action = action_client(node, PlanRearrangement,
+                                     f"{self.namespace}/plan_rearrangement")
         self._execute = node.create_client(Trigger, f"{self.namespace}/execute")
 
     def wait_ready(self, timeout: float = 10.0) -> None:

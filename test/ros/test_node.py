@@ -25,7 +25,6 @@ import yaml  # noqa: E402
 from action_msgs.msg import GoalStatus  # noqa: E402
 from diagnostic_msgs.msg import DiagnosticArray  # noqa: E402
 from geometry_msgs.msg import PoseArray, PoseStamped, Quaternion  # noqa: E402
-from rclpy.action import ActionClient  # noqa: E402
 from rclpy.callback_groups import ReentrantCallbackGroup  # noqa: E402
 from rclpy.context import Context  # noqa: E402
 from rclpy.exceptions import InvalidHandle  # noqa: E402
@@ -64,6 +63,7 @@ from rearrangement_planner.planning.machinery.propagation import replay  # noqa:
 from rearrangement_planner.planning.requests.request import request_settings  # noqa: E402
 from rearrangement_planner.ros import plan_request as plan_request_module  # noqa: E402
 from rearrangement_planner.ros import replan  # noqa: E402
+from rearrangement_planner.ros.client import action_client  # noqa: E402
 from rearrangement_planner.ros.node import (  # noqa: E402
     EXECUTOR_THREADS,
     REPORT_CHARS,
@@ -111,7 +111,7 @@ class Client:
         n.create_subscription(JointTrajectory, "/joint_trajectory", self._on_command, 10)
         self.clients = {name: n.create_client(Trigger, f"{NS}/{name}")
                         for name in ("plan", "cancel", "execute")}
-        self.action = ActionClient(n, PlanRearrangement, f"{NS}/plan_rearrangement")
+        self.action = action_client(n, PlanRearrangement, f"{NS}/plan_rearrangement")
         self.parameters = AsyncParameterClient(n, NODE_NAME)
         n.create_timer(0.05, self._publish_inputs)
 
@@ -1115,3 +1115,67 @@ def test_action_answers_fragile_and_internal(ros, monkeypatch):
     monkeypatch.undo()
     status, result = client.run_goal(PlanRearrangement.Goal(settings=ROBUST))
     assert result.error_code.val == ErrorCode.SUCCESS, result.message
+
+
+class _HeldSend:
+    """An action client's handle that holds each goal request `hold` s after sending it, so
+    that the spinning thread could take the response before the request is registered
+    (ros2/rclpy#1123); it counts the goal responses taken meanwhile."""
+
+    def __init__(self, handle, hold: float):
+        self._handle, self._hold = handle, hold
+        self.holding = False
+        self.taken_while_holding = 0
+
+    def __getattr__(self, name):
+        return getattr(self._handle, name)
+
+    def __enter__(self):
+        return self._handle.__enter__()
+
+    def __exit__(self, *exc):
+        return self._handle.__exit__(*exc)
+
+    def send_goal_request(self, request):
+        number = self._handle.send_goal_request(request)
+        self.holding = True
+        time.sleep(self._hold)
+        self.holding = False
+        return number
+
+    def take_goal_response(self, response_type):
+        taken = self._handle.take_goal_response(response_type)
+        self.taken_while_holding += self.holding and all(taken)
+        return taken
+
+
+def test_a_goal_response_cannot_overtake_its_request(ros):
+    """`action_client` holds its lock while a request is sent and registered, and while the
+    executor takes responses. With rclpy's own ActionClient, a response taken before its
+    request is registered is dropped ("Ignoring unexpected goal response"), and the goal's
+    future never completes; a clean-clone run of node_demo's test failed this way. Here each
+    goal request is held 1 s after sending, against a small server on the spinning node: the
+    response is never taken in that second, and the goal is answered."""
+    from rclpy.action import ActionServer
+
+    node = ros["client"].node
+
+    def execute(handle):
+        handle.succeed()
+        return PlanRearrangement.Result(message="done")
+
+    server = ActionServer(node, PlanRearrangement, "/overtake_check", execute_callback=execute)
+    action = action_client(node, PlanRearrangement, "/overtake_check")
+    try:
+        assert action.wait_for_server(timeout_sec=10.0)
+        held = _HeldSend(action._client_handle, 1.0)
+        action._client_handle = held
+        sent = action.send_goal_async(PlanRearrangement.Goal())
+        assert wait_until(sent.done, 10.0) and sent.result().accepted
+        answer = sent.result().get_result_async()
+        assert wait_until(answer.done, 10.0)
+        assert answer.result().result.message == "done"
+        assert held.taken_while_holding == 0
+    finally:
+        action.destroy()
+        server.destroy()

@@ -41,7 +41,6 @@ def test_ctrl_c_while_a_goal_plans_is_quiet(tmp_path):
 
     import rclpy
     from geometry_msgs.msg import PoseArray
-    from rclpy.action import ActionClient
     from rclpy.context import Context
     from rclpy.executors import SingleThreadedExecutor
     from rclpy.node import Node
@@ -50,6 +49,7 @@ def test_ctrl_c_while_a_goal_plans_is_quiet(tmp_path):
     from msg_adapters import configuration_to_joint_state, objects_to_pose_array
     from rearrangement_interfaces.action import PlanRearrangement
     from rearrangement_planner.physics.validation import load_scene
+    from rearrangement_planner.ros.client import action_client
     from rearrangement_planner.ros.sim.replay import wait_until
 
     domain = 210 + os.getpid() % 20
@@ -73,7 +73,7 @@ def test_ctrl_c_while_a_goal_plans_is_quiet(tmp_path):
     joint_msg = configuration_to_joint_state(scene.start_configuration, scene.robot.joint_names)
     objects_msg = objects_to_pose_array(scene.object_poses, "world")
     client.create_timer(0.05, lambda: (joints.publish(joint_msg), objects.publish(objects_msg)))
-    action = ActionClient(client, PlanRearrangement, "/rearrangement_planner/plan_rearrangement")
+    action = action_client(client, PlanRearrangement, "/rearrangement_planner/plan_rearrangement")
     spinner = threading.Thread(target=executor.spin, daemon=True)
     spinner.start()
     try:
