@@ -79,3 +79,9 @@ slow = [r for r in rows if float(r['plan_time_s']) > 20]
 print(f"\nover 20 s: {len(slow)}, of which {sum(r['solved'] != '1' for r in slow)} unsolved, "
       f"{sum(int(r['candidates'] or 0) >= 3 for r in slow)} searched 3-5 candidates "
       f"(a fragile best), {sum(r['executed_servo'] == '1' for r in slow)} reached")
+
+print('\n| first plan of one tree, varied seed 0, 20 s (side by side, one core each) | requests |'
+      ' solved | reached | plans toppling | the goal object | median / p90 | over 20 s |')
+print('|---|---|---|---|---|---|---|---|')
+line('before', list(load('first_plan_varied_s0_9da04b9').values()))
+line('after', list(load('first_plan_varied_s0_fcce53e').values()))
