@@ -64,11 +64,17 @@ for name, test in (('reached', reached), ('toppling', toppled)):
     print(f'\n{name}: before only {only_before}, after only {only_after} (two-sided sign '
           f'test p = {p:.2f})')
 
-print('\n| fixed set, seed 0 | requests | solved | reached | plans toppling | the goal object |'
-      ' median / p90 | over 20 s |')
-print('|---|---|---|---|---|---|---|---|')
-line('before', list(load('fixed_s0_9da04b9').values()))
-line('after', list(load('fixed_s0_fcce53e').values()))
+
+
+def before_after(title, before_folder, after_folder):
+    print(f'\n| {title} | requests | solved | reached | plans toppling | the goal object |'
+          ' median / p90 | over 20 s |')
+    print('|---|---|---|---|---|---|---|---|')
+    line('before', list(load(before_folder).values()))
+    line('after', list(load(after_folder).values()))
+
+
+before_after('fixed set, seed 0', 'fixed_s0_9da04b9', 'fixed_s0_fcce53e')
 
 rows = list(load('fixed_s0_s2_fcce53e').values())
 print('\n| fixed set, seeds 0-2, after, alone | requests | solved | reached | plans toppling |'
@@ -80,8 +86,5 @@ print(f"\nover 20 s: {len(slow)}, of which {sum(r['solved'] != '1' for r in slow
       f"{sum(int(r['candidates'] or 0) >= 3 for r in slow)} searched 3-5 candidates "
       f"(a fragile best), {sum(r['executed_servo'] == '1' for r in slow)} reached")
 
-print('\n| first plan of one tree, varied seed 0, 20 s (side by side, one core each) | requests |'
-      ' solved | reached | plans toppling | the goal object | median / p90 | over 20 s |')
-print('|---|---|---|---|---|---|---|---|')
-line('before', list(load('first_plan_varied_s0_9da04b9').values()))
-line('after', list(load('first_plan_varied_s0_fcce53e').values()))
+before_after('first plan of one tree, varied seed 0, 20 s (side by side, one core each)',
+             'first_plan_varied_s0_9da04b9', 'first_plan_varied_s0_fcce53e')
