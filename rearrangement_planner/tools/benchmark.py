@@ -472,6 +472,7 @@ CSV_COLUMNS = (
     "trajectory_s", "replan", "replan_reached", "replans_made", "time_to_goal_s",
     "perturbed_replan_reached", "closed_loop_endings",
     "search_s", "shortcuts_s", "rollouts_s", "timing_s", "warm_up_s", "candidates",
+    "candidate_searches",
 )
 """trials.csv: one row per trial. goal_distance_m: the goal object's final distance from the
 goal point (solved) or the least distance reached (not solved). *_before / *_after: of the path
@@ -510,7 +511,8 @@ nominal loop first, then the perturbed ones, ';'-separated ("missed>reached;topp
 search_s, shortcuts_s, rollouts_s, timing_s, warm_up_s: the request's wall time by phase
 (`pipeline.Phases`: every candidate's search with its raced trees, every shortcut, the
 robustness rollouts, trajectory timing, loading the compiled core); candidates: the searches
-it made.
+it made. candidate_searches: robust selection's candidates in order, space-separated, each
+iterations:robustness:goal travel (m):search seconds (`pipeline.Phases.log_candidate`).
 A CSV written before a column existed is read with that column empty."""
 
 PERTURBED_EXECUTIONS = 5
@@ -629,7 +631,8 @@ def run_trial(trial: Trial, settings: dict[str, Any]) -> dict:
     phases = output.phases
     row.update(search_s=_num(phases.search, 3), shortcuts_s=_num(phases.shortcut, 3),
                rollouts_s=_num(phases.rollouts, 3), timing_s=_num(phases.timing, 3),
-               warm_up_s=_num(phases.warm_up, 3), candidates=str(phases.candidates))
+               warm_up_s=_num(phases.warm_up, 3), candidates=str(phases.candidates),
+               candidate_searches=" ".join(phases.searches))
     row["pushing_links"] = ";".join(sorted(links))
     row["non_goal_objects_moved"] = str(len(moved)) if result.solved else ""
     executions = _executions(output, trial.seed, trial.perturbed)

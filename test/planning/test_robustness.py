@@ -298,6 +298,9 @@ def test_later_candidates_search_at_most_candidate_effort_times_the_first_plans_
         assert [searched[seed][0] for seed in later] == [bound, bound]
         solved = [searched[seed][2] is Outcome.SUCCEEDED for seed in later]
         assert solved == ([False, False] if effort == 1.0 else [True, True]), searched
+        logged = [entry.split(":") for entry in answer.phases.searches]      # the bench's log
+        assert [int(e[0]) for e in logged] == [searched[s][1] for s in [7, *later]]
+        assert [e[1] != "-" for e in logged] == [True, *solved]
     assert [searched[seed][1] for seed in later] == [1470, 1421]
 
 

@@ -95,6 +95,16 @@ class Phases:
     warm_up: float = 0.0
     candidates: int = 0
     """Searches made (robust selection makes one per candidate)."""
+    searches: list[str] = dataclasses.field(default_factory=list)
+    """Robust selection's candidates in order (`log_candidate`): what a rule bounding them
+    differently would have kept and answered."""
+
+    def log_candidate(self, result: PlanResult, seconds: float, score: float | None = None,
+                      travel: float | None = None) -> None:
+        """One candidate's search in `searches`: `iterations:robustness:goal travel
+        (m):search seconds`, the last three `-` when it found no plan."""
+        judged = "-:-" if score is None else f"{score:g}:{travel:.3f}"
+        self.searches.append(f"{result.iterations}:{judged}:{seconds:.2f}")
 
     @contextmanager
     def timed(self, phase: str) -> Iterator[None]:
@@ -378,29 +388,43 @@ def robust_search(candidates: Candidates) -> tuple[Candidate, float | None]:
             break               # past `candidates`, only a fragile best earns another look
         searched += 1
         k_seed = candidate_seed(seed, k)
+        started = time.monotonic()
         last = searches.plan(k_seed)
+        searched_s = time.monotonic() - started
         if last.outcome is Outcome.CANCELLED:
             return Candidate(last), None        # the user's cancel ends the selection too
         if not last.solved:
+            candidates.phases.log_candidate(last, searched_s)
             continue
         if best is None:
             searches = candidates.bounded(candidate_iterations(robust, last.iterations))
         candidate = candidates.shortcut(last, k_seed)
         score = candidates.judge(candidate, k_seed)
+        travel = goal_travel(request.scene, candidate.result.states)
+        candidates.phases.log_candidate(last, searched_s, score, travel)
         if score >= robust.min_robustness:
             return _answer(candidate, t0, seed), score
-        rank = candidate_rank(score, goal_travel(request.scene, candidate.result.states),
-                              robust.travel_penalty)
+        rank = candidate_rank(score, travel, robust.travel_penalty)
         if best is None or rank > best[2]:
             best = (candidate, score, rank)
         most_robust = max(most_robust, score)
+    return _unrobust_answer(request, best, last, searched, most_robust, t0)
+
+
+def _unrobust_answer(request: PlanRequest, best: tuple[Candidate, float, float] | None,
+                     last: PlanResult | None, searched: int, most_robust: float,
+                     t0: float) -> tuple[Candidate, float | None]:
+    """Robust selection's answer when no candidate reached min_robustness: the best ranked
+    (`accept_best`), else a failure saying how robust the best was; the last search's failure
+    when none found a plan."""
+    robust = request.robust
     if best is None:
         assert last is not None or request.options.time_limit <= 0.001
         return Candidate(last or PlanResult(Outcome.TIMEOUT, "no time for a candidate",
-                                            seed)), None
+                                            request.seed)), None
     fragile, score, _ = best
     if robust.accept_best:
-        return _answer(fragile, t0, seed), score
+        return _answer(fragile, t0, request.seed), score
     return Candidate(dataclasses.replace(
         fragile.result, outcome=Outcome.TIMEOUT, states=(),
         message=f"no plan reached min_robustness {robust.min_robustness:g} within "
