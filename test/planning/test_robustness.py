@@ -309,8 +309,9 @@ def test_a_fragile_bests_extra_candidates_search_only_within_fragile_iterations(
         slim, monkeypatch):
     """The slim box with seed 7, one candidate and two more for a fragile best: its searches
     take 370, 1,470 and 1,421 iterations (candidate_effort 10 bounds each at 3,700). With
-    fragile_iterations 1,890 the first extra search may take what is left after the first plan (1,520) and plans;
-    then 50 are left, too few for a search, and the selection answers. With 1,500 the first
+    fragile_iterations 1,890 the first extra search may take what is left after the first
+    plan (1,520) and plans; then 50 are left, too few for a search, and the selection
+    answers. With 1,500 the first
     extra search ends without a plan at 1,130 iterations, and no more follow."""
     from rearrangement_planner.planning.requests.pipeline import Candidates
 
