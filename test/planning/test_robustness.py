@@ -34,7 +34,6 @@ from rearrangement_planner.planning.requests.parallel import tree_seed
 from rearrangement_planner.planning.requests.pipeline import CANDIDATE_SEED_OFFSET
 from rearrangement_planner.planning.requests.robustness import (
     MIN_CANDIDATE_ITERATIONS,
-    CandidateBounds,
     RobustOptions,
     candidate_iterations,
     goal_travel,
@@ -303,57 +302,6 @@ def test_later_candidates_search_at_most_candidate_effort_times_the_first_plans_
         assert [int(e[0]) for e in logged] == [searched[s][1] for s in [7, *later]]
         assert [e[1] != "-" for e in logged] == [True, *solved]
     assert [searched[seed][1] for seed in later] == [1470, 1421]
-
-
-def test_a_fragile_bests_extra_candidates_search_only_within_fragile_iterations(
-        slim, monkeypatch):
-    """The slim box with seed 7, one candidate and two more for a fragile best: its searches
-    take 370, 1,470 and 1,421 iterations (candidate_effort 10 bounds each at 3,700). With
-    fragile_iterations 1,890 the first extra search may take what is left after the first
-    plan (1,520) and plans; then 50 are left, too few for a search, and the selection
-    answers. With 1,500 the first
-    extra search ends without a plan at 1,130 iterations, and no more follow."""
-    from rearrangement_planner.planning.requests.pipeline import Candidates
-
-    bounds: list = []
-    search = Candidates.plan
-
-    def plan(self, seed):
-        result = search(self, seed)
-        bounds.append((self.stop.max_iterations, result.iterations, result.solved))
-        return result
-
-    monkeypatch.setattr(Candidates, "plan", plan)
-    options = PCRRTOptions(time_limit=60.0)
-    searched = {}
-    for total in (1890, 1500):
-        bounds.clear()
-        robust = RobustOptions(min_robustness=1.0, rollouts=10, candidates=1,
-                               fragile_candidates=2, fragile_below=1.0, candidate_effort=10.0,
-                               fragile_iterations=total)
-        answer = plan_scene(PlanRequest.first_plan(slim, "pc-rrt", options, seed=7,
-                                                   robust=robust))
-        assert answer.solved
-        searched[total] = bounds[1:]
-    assert searched == {1890: [(1520, 1470, True)],
-                        1500: [(1130, 1130, False)]}, searched
-
-
-def test_candidate_bounds_count_what_every_later_search_took():
-    """`CandidateBounds`: each later search within candidate_effort x the first plan's
-    iterations; the extra ones also within what is left of fragile_iterations, a race's
-    unsolved search counting one tree's bound, not its trees' sum."""
-    bounds = CandidateBounds.after(RobustOptions(candidate_effort=1.0,
-                                                 fragile_iterations=1000), 300)
-    assert (bounds.bound(extra=False), bounds.bound(extra=True)) == (300, 300)
-    bounds.spent(250, 300)
-    assert (bounds.left, bounds.bound(extra=True)) == (450, 300)
-    bounds.spent(600, 300)            # two trees of 300, neither planned
-    assert (bounds.left, bounds.bound(extra=False), bounds.bound(extra=True)) == (150, 300, 150)
-    unbounded = CandidateBounds.after(RobustOptions(candidate_effort=0.0,
-                                                    fragile_iterations=0), 300)
-    unbounded.spent(5000, None)
-    assert (unbounded.bound(extra=False), unbounded.bound(extra=True)) == (None, None)
 
 
 def test_the_candidate_effort_bound_has_a_floor_and_can_be_lifted():

@@ -33,8 +33,7 @@ from rearrangement_planner.planning.requests.finish import FINISH_TIME, finish
 from rearrangement_planner.planning.requests.parallel import plan_race, tree_seed, warm_up_race
 from rearrangement_planner.planning.requests.request import PlanRequest
 from rearrangement_planner.planning.requests.robustness import (
-    MIN_CANDIDATE_ITERATIONS,
-    CandidateBounds,
+    candidate_iterations,
     candidate_rank,
     goal_travel,
     robustness,
@@ -370,43 +369,35 @@ def robust_search(candidates: Candidates) -> tuple[Candidate, float | None]:
     (a request takes no longer than without robust selection); the searches after the first
     plan also after `candidate_effort` times its iterations
     (`robustness.candidate_iterations`: a plan the first search took long to find is not
-    worth as long again to better, a quick one is worth a quick look), and the fragile best's
-    extra candidates only within `fragile_iterations` in all (`robustness.CandidateBounds`:
-    on a scene whose first plan took long, they cost more than they return). The answer's
-    plan time is all of it but its own shortcutting (reported apart, as without robust
-    selection), and its seed the request's (which reproduces the whole selection). A cancel
-    ends it with the cancelled search."""
+    worth as long again to better, a quick one is worth a quick look). The answer's plan time
+    is all of it but its own shortcutting (reported apart, as without robust selection), and
+    its seed the request's (which reproduces the whole selection). A cancel ends it with the
+    cancelled search."""
     request = candidates.request
     robust, seed = request.robust, request.seed
     t0 = time.monotonic()
     best: tuple[Candidate, float, float] | None = None    # candidate, robustness, rank
     most_robust = 0.0
     last: PlanResult | None = None
-    bounds: CandidateBounds | None = None       # after the first plan
+    searches = candidates
     searched = 0
     for k in range(robust.candidates + robust.fragile_candidates):
-        extra = k >= robust.candidates
         if candidates.stop.remaining() <= 0.001:
             break
-        if extra and (best is None or most_robust >= robust.fragile_below):
+        if k >= robust.candidates and (best is None or most_robust >= robust.fragile_below):
             break               # past `candidates`, only a fragile best earns another look
-        bound = bounds.bound(extra) if bounds is not None else None
-        if extra and bound is not None and bound < MIN_CANDIDATE_ITERATIONS:
-            break               # ... within `fragile_iterations`
         searched += 1
         k_seed = candidate_seed(seed, k)
         started = time.monotonic()
-        last = candidates.bounded(bound).plan(k_seed)
+        last = searches.plan(k_seed)
         searched_s = time.monotonic() - started
         if last.outcome is Outcome.CANCELLED:
             return Candidate(last), None        # the user's cancel ends the selection too
-        if bounds is not None:
-            bounds.spent(last.iterations, bound)
         if not last.solved:
             candidates.phases.log_candidate(last, searched_s)
             continue
-        if bounds is None:
-            bounds = CandidateBounds.after(robust, last.iterations)
+        if best is None:
+            searches = candidates.bounded(candidate_iterations(robust, last.iterations))
         candidate = candidates.shortcut(last, k_seed)
         score = candidates.judge(candidate, k_seed)
         travel = goal_travel(request.scene, candidate.result.states)

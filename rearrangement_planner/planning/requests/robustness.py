@@ -64,13 +64,6 @@ class RobustOptions(Settings):
     whole budget looking for a better plan than the one its first seconds gave; counted in
     iterations, so the answer does not depend on the machine's speed. 0 = only the time
     limit bounds them. Measured: docs/benchmark.md ("A robust plan sooner")."""
-    fragile_iterations: int = setting(40000, low=0, high=10**9)
-    """A fragile best earns more candidates only while robust selection has searched fewer than
-    this many iterations in all (the first plan's, and every later candidate's), and each of
-    them ends where it would pass it (`CandidateBounds`): a scene whose first plan took long
-    answers sooner, with the better of its first `candidates`. Counted in iterations, so the
-    answer does not depend on the machine's speed. 0 = only the time limit bounds them.
-    Measured: docs/benchmark.md ("A fragile best's candidates within 40,000 iterations")."""
     travel_penalty: float = setting(0.5, low=0.0, high=100.0)
     """Candidates are ranked by robustness less this much per metre their goal object is
     pushed (`goal_travel`): the model's error grows along every push, so of two nearly equally
@@ -92,35 +85,6 @@ def candidate_iterations(options: RobustOptions, first: int) -> int | None:
     if options.candidate_effort <= 0:
         return None
     return max(MIN_CANDIDATE_ITERATIONS, math.ceil(options.candidate_effort * first))
-
-
-@dataclass
-class CandidateBounds:
-    """The iteration bounds of robust selection's searches after a first plan: each at most
-    `candidate_iterations`, and a fragile best's extra candidates only within what is left of
-    `fragile_iterations` (None: no bound but the time limit)."""
-
-    each: int | None
-    left: int | None
-    """Iterations the extra candidates may still search."""
-
-    @classmethod
-    def after(cls, options: RobustOptions, first: int) -> CandidateBounds:
-        """The bounds after a first plan found in `first` iterations."""
-        left = options.fragile_iterations - first if options.fragile_iterations > 0 else None
-        return cls(candidate_iterations(options, first), left)
-
-    def bound(self, extra: bool) -> int | None:
-        """The iteration bound of the next search (`extra`: one of `fragile_candidates`)."""
-        if not extra or self.left is None:
-            return self.each
-        return self.left if self.each is None else min(self.each, self.left)
-
-    def spent(self, iterations: int, bound: int | None) -> None:
-        """A search bounded by `bound` took `iterations` (a race's unsolved search counts its
-        trees' sum: one tree's bound is what it took)."""
-        if self.left is not None:
-            self.left -= iterations if bound is None else min(iterations, bound)
 
 
 ROLLOUT_PERTURBATION = Perturbation()
