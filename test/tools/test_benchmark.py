@@ -24,7 +24,8 @@ from rearrangement_planner.tools.benchmark import CSV_COLUMNS
 
 SCENE_DIR = benchmark.scene_set_dir()
 TIMING = ("plan_time_s", "shortcut_time_s", "trial_wall_s", "search_s", "shortcuts_s",
-          "rollouts_s", "timing_s", "warm_up_s")
+          "rollouts_s", "timing_s", "warm_up_s", "candidate_searches")
+"""Columns that hold wall times (each candidate's search seconds in candidate_searches)."""
 
 # --------------------------------------------------------------------------------------------
 # The scene set
