@@ -50,26 +50,33 @@ def sign_test(before, after, test):
     return only_before, only_after, p
 
 
-print("| set, commit | requests | solved | reached | plans toppling (the goal object) |"
-      " median / p90 | over 20 s | candidates per request |")
-print("|---|---|---|---|---|---|---|---|")
-tests = []
-for name, (b, a) in PAIRS.items():
-    before, after = load(b), load(a)
-    if before is None or after is None:
-        continue
-    line(f"{name}, before", list(before.values()))
-    line(f"{name}, after", list(after.values()))
-    tests.append((name, before, after))
-for name, before, after in tests:
-    print(f"\n{name}:")
-    for label, test in (("reached", reached), ("toppling", toppled)):
-        ob, oa, p = sign_test(before, after, test)
-        print(f"- {label}: before only {ob}, after only {oa} (two-sided sign test p = {p:.2f})")
-    changed = [k for k in before if searches(before[k]) != searches(after[k])]
-    print(f"- {len(changed)} requests searched other candidates:")
-    for k in sorted(changed):
-        print(f"  - {k[0]} seed {k[1]}: reached {int(reached(before[k]))} -> "
-              f"{int(reached(after[k]))}, {before[k]['plan_time_s']} -> "
-              f"{after[k]['plan_time_s']} s; {before[k]['candidate_searches']} -> "
-              f"{after[k]['candidate_searches']}")
+def main(pairs):
+    """The before-and-after table of `pairs` ({set: (before folder, after folder)}), sign
+    tests, and the requests that searched other candidates."""
+    print("| set, commit | requests | solved | reached | plans toppling (the goal object) |"
+          " median / p90 | over 20 s | candidates per request |")
+    print("|---|---|---|---|---|---|---|---|")
+    tests = []
+    for name, (b, a) in pairs.items():
+        before, after = load(b), load(a)
+        if before is None or after is None:
+            continue
+        line(f"{name}, before", list(before.values()))
+        line(f"{name}, after", list(after.values()))
+        tests.append((name, before, after))
+    for name, before, after in tests:
+        print(f"\n{name}:")
+        for label, test in (("reached", reached), ("toppling", toppled)):
+            ob, oa, p = sign_test(before, after, test)
+            print(f"- {label}: before only {ob}, after only {oa} (two-sided sign test p = {p:.2f})")
+        changed = [k for k in before if searches(before[k]) != searches(after[k])]
+        print(f"- {len(changed)} requests searched other candidates:")
+        for k in sorted(changed):
+            print(f"  - {k[0]} seed {k[1]}: reached {int(reached(before[k]))} -> "
+                  f"{int(reached(after[k]))}, {before[k]['plan_time_s']} -> "
+                  f"{after[k]['plan_time_s']} s; {before[k]['candidate_searches']} -> "
+                  f"{after[k]['candidate_searches']}")
+
+
+if __name__ == "__main__":
+    main(PAIRS)
