@@ -31,8 +31,12 @@ class Tree:
         # Node i's arrangement (`arrangement[i]`): the objects' poses it shares with every node
         # reached from it without moving an object; `first_node[a]` holds arrangement a,
         # `arrangements[0]` counts them, `distance` is Nearest's scratch (one per arrangement).
+        # An arrangement's nodes in the order they were added: from `first_node[a]` along
+        # `next_node` (-1 ends it) to `last_node[a]`.
         self.arrangement = np.empty(capacity, dtype=np.int64)
         self.first_node = np.empty(capacity, dtype=np.int64)
+        self.last_node = np.empty(capacity, dtype=np.int64)
+        self.next_node = np.empty(capacity, dtype=np.int64)
         self.arrangements = np.zeros(1, dtype=np.int64)
         self.distance = np.empty(capacity)
         self._spans = np.empty((capacity, 2), dtype=np.int64)     # node i's steps: [start, end)
@@ -61,8 +65,7 @@ class Tree:
         self.arm[self.n] = arm
         self.objects[self.n] = state.objects
         self.parent[self.n] = parent
-        set_arrangement(self.objects, self.arrangement, self.first_node, self.arrangements,
-                        self.n, parent)
+        set_arrangement(self.objects, self.nearest_arrays, self.n, parent)
         self.n += 1
         return self.n - 1
 
@@ -78,8 +81,10 @@ class Tree:
     @property
     def nearest_arrays(self) -> tuple[np.ndarray, ...]:
         """What `nearest_kernel` reads besides the nodes' arm features and objects: each node's
-        arrangement, each arrangement's first node, their count (1,), and its scratch."""
-        return self.arrangement, self.first_node, self.arrangements, self.distance
+        arrangement, each arrangement's first node, their count (1,), Nearest's scratch, each
+        arrangement's last node and each node's next in its arrangement."""
+        return (self.arrangement, self.first_node, self.arrangements, self.distance,
+                self.last_node, self.next_node)
 
     @property
     def steps(self) -> int:
@@ -94,9 +99,10 @@ class Tree:
         """Double the arrays that cannot take one more node of `steps` steps."""
         if self.n == len(self.arm):
             (self.q, self.arm, self.objects, self.parent, self._spans, self.arrangement,
-             self.first_node, self.distance) = (
+             self.first_node, self.distance, self.last_node, self.next_node) = (
                 _doubled(a) for a in (self.q, self.arm, self.objects, self.parent, self._spans,
-                                      self.arrangement, self.first_node, self.distance))
+                                      self.arrangement, self.first_node, self.distance,
+                                      self.last_node, self.next_node))
         while self._steps + steps > len(self._step_q):
             self._step_q, self._step_objects = _doubled(self._step_q), _doubled(
                 self._step_objects)
@@ -183,33 +189,58 @@ def nearest_kernel(arms: np.ndarray, objects: np.ndarray, n: int, arrays: tuple,
     Most edges move no object (the arm travels, or its push misses), so most nodes share their
     objects' poses with others: the nodes of 10,000 iterations on four varied scenes held a
     twentieth to a fifth as many arrangements (`Tree.nearest_arrays`, `set_arrangement`).
-    The objects' term is summed once per arrangement, then each node adds its arm's: the same
-    sums as `metric` node by node, with a square root per object only once per
-    arrangement."""
-    arrangement, first_node, arrangements, distance = arrays
+    The objects' term is summed once per arrangement, and each node of an arrangement adds its
+    arm's to it. No node is nearer than its arrangement's objects' term, so only arrangements
+    whose term is no larger than the best distance found so far are scanned, the one of least
+    term first (docs/benchmark.md, "Nearest by arrangement"). The same sums as `metric` node by
+    node, and the same node: the least (distance, index)."""
+    arrangement, first_node, arrangements, distance, last_node, next_node = arrays
+    least = 0
     for a in range(arrangements[0]):
         distance[a] = _objects_distance(objects[first_node[a]], sample, weights)
-    best, best_node = math.inf, 0
-    for i in range(n):
-        total = arm_weight * _arm_distance(arms[i], arm) + distance[arrangement[i]]
-        if total < best:
-            best, best_node = total, i
+        if distance[a] < distance[least]:
+            least = a
+    best, best_node = _nearest_of(arms, n, first_node[least], next_node, distance[least], arm,
+                                  arm_weight, math.inf, 0)
+    for a in range(arrangements[0]):
+        if a != least and distance[a] <= best:
+            best, best_node = _nearest_of(arms, n, first_node[a], next_node, distance[a], arm,
+                                          arm_weight, best, best_node)
     return best_node
 
 
+@njit(cache=True, inline="always")
+def _nearest_of(arms: np.ndarray, n: int, node: int, next_node: np.ndarray,
+                objects_term: float, arm: np.ndarray, arm_weight: float, best: float,
+                best_node: int) -> tuple[float, int]:
+    """The least (distance, node) of (best, best_node) and an arrangement's nodes below n,
+    from `node` along `next_node`, whose objects' term is `objects_term`."""
+    while 0 <= node < n:
+        total = arm_weight * _arm_distance(arms[node], arm) + objects_term
+        if total < best or (total == best and node < best_node):
+            best, best_node = total, node
+        node = next_node[node]
+    return best, best_node
+
+
 @njit(cache=True)
-def set_arrangement(objects: np.ndarray, arrangement: np.ndarray, first_node: np.ndarray,
-                    arrangements: np.ndarray, node: int, parent: int) -> None:
+def set_arrangement(objects: np.ndarray, arrays: tuple, node: int, parent: int) -> None:
     """Give the new node its arrangement (`Tree.nearest_arrays`): its parent's, where its
-    objects' poses equal the parent's entry by entry, else a new one that it holds first."""
+    objects' poses equal the parent's entry by entry, else a new one that it holds first; it
+    is its arrangement's last node."""
+    arrangement, first_node, arrangements, _, last_node, next_node = arrays
+    next_node[node] = -1
     if parent >= 0:
         same = True
         for j in range(objects.shape[1]):
             for c in range(objects.shape[2]):
                 same = same and objects[node, j, c] == objects[parent, j, c]
         if same:
-            arrangement[node] = arrangement[parent]
+            a = arrangement[parent]
+            arrangement[node] = a
+            next_node[last_node[a]] = node
+            last_node[a] = node
             return
     a = arrangements[0]
-    arrangement[node], first_node[a] = a, node
+    arrangement[node], first_node[a], last_node[a] = a, node, node
     arrangements[0] = a + 1

@@ -137,7 +137,7 @@ def iterations(rng: np.random.Generator, clock: Any, deadline: float, until: flo
                 return
             tree_q[n], tree_arm[n], tree_objects[n] = arm[chosen, done - 1], features[chosen], end
             parent[n], spans[n, 0], spans[n, 1] = near, used, used + done
-            set_arrangement(tree_objects, nearest[0], nearest[1], nearest[2], n, near)
+            set_arrangement(tree_objects, nearest, n, near)
             step_q[used:used + done] = arm[chosen, :done]
             step_objects[used:used + done] = objects[chosen, :done]
             counters[0], counters[1] = n + 1, used + done
