@@ -27,7 +27,9 @@ def _brute_force(tree: Tree, arm, objects, arm_weight, weights) -> int:
 
 def arrangements_hold(tree: Tree) -> int:
     """Assert that every node's arrangement holds its objects' poses and is its parent's when
-    the two nodes' objects are equal; returns the number of arrangements."""
+    the two nodes' objects are equal, and that each arrangement's list (from its first node
+    along `next_node` to its last) is its nodes in the order they were added, with its
+    objects' positions; returns the number of arrangements."""
     count = int(tree.arrangements[0])
     for i in range(tree.n):
         a = int(tree.arrangement[i])
@@ -36,6 +38,14 @@ def arrangements_hold(tree: Tree) -> int:
         parent = int(tree.parent[i])
         if parent >= 0 and np.array_equal(tree.objects[parent], tree.objects[i]):
             assert tree.arrangement[parent] == a
+    for a in range(count):
+        listed = [int(tree.first_node[a])]
+        while tree.next_node[listed[-1]] >= 0:
+            listed.append(int(tree.next_node[listed[-1]]))
+        assert listed == np.flatnonzero(tree.arrangement[:tree.n] == a).tolist()
+        assert listed[-1] == tree.last_node[a]
+        np.testing.assert_array_equal(tree.places[:, :, a].T,
+                                      tree.objects[tree.first_node[a], :, :2])
     return count
 
 
@@ -62,6 +72,41 @@ def test_nearest_is_the_node_of_least_weighted_distance_ties_to_the_first():
             expected = _brute_force(tree, arm, objects, 0.3, weights)
             assert tree.nearest(arm, objects, 0.3, weights) == expected
         assert tree.nearest(tree.arm[17], tree.objects[17], 0.3, weights) == 17
+
+
+def test_nearest_breaks_ties_across_arrangements_to_the_first_node():
+    """Nearest scans the arrangement of least objects' term first and skips those whose term
+    exceeds the best distance so far; a node of a later arrangement can still tie it. On a
+    grid (arm weight and object weights 1, coordinates 0, 1 or 2) distances such as 1 + 1
+    and 2 + 0 tie exactly: the answer is still the first of the nodes at the least distance,
+    as the metric written out node by node says, also where that node's arrangement is not
+    the one of least term."""
+    rng = np.random.default_rng(2)
+    grid = np.array([0.0, 1.0, 2.0])
+    tied_elsewhere = 0
+    for trial in range(10):
+        m = 1 + trial % 2
+        tree = Tree(State(np.zeros(7), rng.choice(grid, (m, 3))), rng.choice(grid, 2),
+                    capacity=4)
+        for _ in range(150):
+            parent = int(rng.integers(0, tree.n))
+            objects = (tree.objects[parent].copy() if rng.random() < 0.6
+                       else rng.choice(grid, (m, 3)))
+            tree.add(State(np.zeros(7), objects), rng.choice(grid, 2), parent, ())
+        arrangements_hold(tree)
+        weights = np.ones(m)
+        for _ in range(30):
+            arm, objects = rng.choice(grid, 2), rng.choice(grid, (m, 3))
+            totals = [_written_out(tree.arm[i], tree.objects[i], arm, objects, 1.0, weights)
+                      for i in range(tree.n)]
+            expected = _brute_force(tree, arm, objects, 1.0, weights)
+            assert tree.nearest(arm, objects, 1.0, weights) == expected
+            terms = [_written_out(arm, tree.objects[i], arm, objects, 1.0, weights)
+                     for i in range(tree.n)]
+            tied = [i for i in range(tree.n) if totals[i] == totals[expected]]
+            if len(tied) > 1 and terms[expected] > min(terms[i] for i in tied):
+                tied_elsewhere += 1
+    assert tied_elsewhere > 10, tied_elsewhere
 
 
 def test_the_metric_alone_is_the_one_nearest_uses():

@@ -32,11 +32,14 @@ class Tree:
         # reached from it without moving an object; `first_node[a]` holds arrangement a,
         # `arrangements[0]` counts them, `distance` is Nearest's scratch (one per arrangement).
         # An arrangement's nodes in the order they were added: from `first_node[a]` along
-        # `next_node` (-1 ends it) to `last_node[a]`.
+        # `next_node` (-1 ends it) to `last_node[a]`. `places[c, j, a]` is coordinate c (x, y)
+        # of its object j: each object's coordinates of every arrangement side by side, for
+        # Nearest's pass over them (`nearest_kernel`).
         self.arrangement = np.empty(capacity, dtype=np.int64)
         self.first_node = np.empty(capacity, dtype=np.int64)
         self.last_node = np.empty(capacity, dtype=np.int64)
         self.next_node = np.empty(capacity, dtype=np.int64)
+        self.places = np.empty((2, root.objects.shape[0], capacity))
         self.arrangements = np.zeros(1, dtype=np.int64)
         self.distance = np.empty(capacity)
         self._spans = np.empty((capacity, 2), dtype=np.int64)     # node i's steps: [start, end)
@@ -82,9 +85,10 @@ class Tree:
     def nearest_arrays(self) -> tuple[np.ndarray, ...]:
         """What `nearest_kernel` reads besides the nodes' arm features and objects: each node's
         arrangement, each arrangement's first node, their count (1,), Nearest's scratch, each
-        arrangement's last node and each node's next in its arrangement."""
+        arrangement's last node, each node's next in its arrangement and each arrangement's
+        objects' positions."""
         return (self.arrangement, self.first_node, self.arrangements, self.distance,
-                self.last_node, self.next_node)
+                self.last_node, self.next_node, self.places)
 
     @property
     def steps(self) -> int:
@@ -103,6 +107,7 @@ class Tree:
                 _doubled(a) for a in (self.q, self.arm, self.objects, self.parent, self._spans,
                                       self.arrangement, self.first_node, self.distance,
                                       self.last_node, self.next_node))
+            self.places = np.concatenate([self.places, np.empty_like(self.places)], axis=2)
         while self._steps + steps > len(self._step_q):
             self._step_q, self._step_objects = _doubled(self._step_q), _doubled(
                 self._step_objects)
@@ -114,7 +119,7 @@ class Tree:
         the plane). One compiled pass (`nearest_kernel`; NumPy's temporaries took half of a
         long plan's time)."""
         # Fresh writable copies: one compiled signature whoever calls.
-        return int(nearest_kernel(self.arm, self.objects, self.n, self.nearest_arrays,
+        return int(nearest_kernel(self.arm, self.n, self.nearest_arrays,
                                   np.array(arm, dtype=float), np.array(objects, dtype=float),
                                   float(arm_weight), np.array(weights, dtype=float)))
 
@@ -181,23 +186,27 @@ def _doubled(a: np.ndarray) -> np.ndarray:
 
 
 @njit(cache=True)
-def nearest_kernel(arms: np.ndarray, objects: np.ndarray, n: int, arrays: tuple,
-                   arm: np.ndarray, sample: np.ndarray, arm_weight: float,
-                   weights: np.ndarray) -> int:
+def nearest_kernel(arms: np.ndarray, n: int, arrays: tuple, arm: np.ndarray,
+                   sample: np.ndarray, arm_weight: float, weights: np.ndarray) -> int:
     """The node of the first n nearest (arm, sample) by `metric` (the first of equals).
 
     Most edges move no object (the arm travels, or its push misses), so most nodes share their
     objects' poses with others: the nodes of 10,000 iterations on four varied scenes held a
     twentieth to a fifth as many arrangements (`Tree.nearest_arrays`, `set_arrangement`).
-    The objects' term is summed once per arrangement, and each node of an arrangement adds its
-    arm's to it. No node is nearer than its arrangement's objects' term, so only arrangements
-    whose term is no larger than the best distance found so far are scanned, the one of least
-    term first (docs/benchmark.md, "Nearest by arrangement"). The same sums as `metric` node by
-    node, and the same node: the least (distance, index)."""
-    arrangement, first_node, arrangements, distance, last_node, next_node = arrays
+    The objects' term is summed once per arrangement, object by object over all of them at
+    once (`_add_object_term`), and each node of an arrangement adds its arm's to it. No node
+    is nearer than its arrangement's objects' term, so only arrangements whose term is no
+    larger than the best distance found so far are scanned, the one of least term first
+    (docs/benchmark.md, "Nearest by arrangement"). The same sums as `metric` node by node,
+    and the same node: the least (distance, index)."""
+    arrangement, first_node, arrangements, distance, last_node, next_node, places = arrays
+    count = arrangements[0]
+    distance[:count] = 0.0
+    for j in range(weights.shape[0]):       # object by object: each sum in `metric`'s order
+        _add_object_term(places[0, j], places[1, j], sample[j, 0], sample[j, 1], weights[j],
+                         distance[:count])
     least = 0
-    for a in range(arrangements[0]):
-        distance[a] = _objects_distance(objects[first_node[a]], sample, weights)
+    for a in range(count):
         if distance[a] < distance[least]:
             least = a
     best, best_node = _nearest_of(arms, n, first_node[least], next_node, distance[least], arm,
@@ -207,6 +216,16 @@ def nearest_kernel(arms: np.ndarray, objects: np.ndarray, n: int, arrays: tuple,
             best, best_node = _nearest_of(arms, n, first_node[a], next_node, distance[a], arm,
                                           arm_weight, best, best_node)
     return best_node
+
+
+@njit(cache=True, inline="always")
+def _add_object_term(xs: np.ndarray, ys: np.ndarray, x: float, y: float, weight: float,
+                     distance: np.ndarray) -> None:
+    """Add one object's term of `metric` to every arrangement's sum (a loop the compiler
+    runs several arrangements at a time)."""
+    for a in range(distance.shape[0]):
+        dx, dy = xs[a] - x, ys[a] - y
+        distance[a] += weight * math.sqrt(dx * dx + dy * dy)
 
 
 @njit(cache=True, inline="always")
@@ -228,7 +247,7 @@ def set_arrangement(objects: np.ndarray, arrays: tuple, node: int, parent: int) 
     """Give the new node its arrangement (`Tree.nearest_arrays`): its parent's, where its
     objects' poses equal the parent's entry by entry, else a new one that it holds first; it
     is its arrangement's last node."""
-    arrangement, first_node, arrangements, _, last_node, next_node = arrays
+    arrangement, first_node, arrangements, _, last_node, next_node, places = arrays
     next_node[node] = -1
     if parent >= 0:
         same = True
@@ -243,4 +262,5 @@ def set_arrangement(objects: np.ndarray, arrays: tuple, node: int, parent: int) 
             return
     a = arrangements[0]
     arrangement[node], first_node[a], last_node[a] = a, node, node
+    places[0, :, a], places[1, :, a] = objects[node, :, 0], objects[node, :, 1]
     arrangements[0] = a + 1

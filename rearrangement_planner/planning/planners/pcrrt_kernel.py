@@ -163,8 +163,8 @@ def iteration(rng: np.random.Generator, clock: Any, deadline: float,
     node, the chosen propagation or -1, whether the deadline passed)."""
     k_actions, uniform, arm_weight = ints[2], ints[3], reals[2]
     _sample(rng, ints, reals, goal_xy, table, limits, overlap, sample_arm, sample_objects)
-    near = nearest_kernel(tree_arm, tree_objects, n, nearest, sample_arm, sample_objects,
-                          arm_weight, weights)
+    near = nearest_kernel(tree_arm, n, nearest, sample_arm, sample_objects, arm_weight,
+                          weights)
     policy = reals[3] > 0 and rng.random() < reals[3]
     results[:, 0] = -1
     chosen, chosen_cost = -1, math.inf
