@@ -1,8 +1,9 @@
 """Microseconds per Nearest call on a real search tree: one PC-RRT tree of a fixed-set scene
-(default n4_s0; seed 100, 40,000 iterations unless given, one tree), then 3,000 samples drawn as PC-RRT draws them (every object and
-the tool uniform over the table), each answered by `Tree.nearest` (the compiled `nearest_kernel` over the tree's own arrays).
-Prints the mean call time and a checksum of the answers, which two clones must share
-(docs/benchmark.md, "Nearest by arrangement").
+(default n4_s0; seed 100, 40,000 iterations unless given, one tree), then 3,000 samples drawn
+as PC-RRT draws them (every object and the tool uniform over the table), each answered by
+`Tree.nearest` (the compiled `nearest_kernel` over the tree's own arrays). Prints the mean
+call time and a checksum of the answers, which two clones must share (docs/benchmark.md,
+"Nearest skips far arrangements").
 
     PYTHONPATH=CLONE AMENT_PREFIX_PATH=.venv python nearest_calls.py [scene.yaml [iterations]]
 """

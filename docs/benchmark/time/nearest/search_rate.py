@@ -1,7 +1,7 @@
 """Seconds one PC-RRT tree takes for 5,000 ... 60,000 iterations of a fixed-set scene (default
 n4_s0, seed 100, no time limit to speak of), with its tree size and propagation steps: the
 same search in every clone whose plans are the same, so two clones' seconds compare
-(docs/benchmark.md, "Nearest by arrangement").
+(docs/benchmark.md, "Nearest skips far arrangements").
 
     PYTHONPATH=CLONE AMENT_PREFIX_PATH=.venv python search_rate.py [scene.yaml]
 """

@@ -1,7 +1,7 @@
 #!/bin/bash
 # search_rate.py from two clones, alternated, three rounds (docs/benchmark.md, "Nearest by
 # arrangement"). Run from the repository's root:
-#   BEFORE=/path/to/clone/of/794b4ac AFTER=/path/to/clone/of/8d69e3a \
+#   BEFORE=/path/to/clone/of/794b4ac AFTER=/path/to/clone/of/7d48fd9 \
 #     docs/benchmark/time/nearest/search_rate_ab.sh [scene.yaml]
 # Each clone compiles its core on its first run (a few minutes): run it once before.
 here=$(cd "$(dirname "$0")" && pwd)
