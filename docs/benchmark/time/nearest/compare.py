@@ -16,6 +16,7 @@ from compare import load, main  # noqa: E402  (the same table, for other pairs)
 
 BEFORE = "../../experiments/fragile_iterations/"
 PAIRS = {"fixed, seeds 0-2": (BEFORE + "before_fixed_s012", "fixed_s012_7d48fd9"),
+         "varied, seeds 9 + 10": (BEFORE + "before_varied_s9_s10", "varied_s9_s10_7d48fd9"),
          "varied, seeds 15 + 16": (BEFORE + "before_varied_s15_s16",
                                    "varied_s15_s16_7d48fd9")}
 BANDS = ((0, 10_000), (10_000, 30_000), (30_000, 60_000), (60_000, 10**9))
