@@ -7,7 +7,7 @@ import math
 import numpy as np
 
 from rearrangement_planner.model.state import State
-from rearrangement_planner.planning.machinery.tree import Tree, weighted_distance
+from rearrangement_planner.planning.machinery.tree import Tree, nearest_kernel, weighted_distance
 
 
 def _written_out(arm_i, objects_i, arm, objects, arm_weight, weights) -> float:
@@ -107,6 +107,31 @@ def test_nearest_breaks_ties_across_arrangements_to_the_first_node():
             if len(tied) > 1 and terms[expected] > min(terms[i] for i in tied):
                 tied_elsewhere += 1
     assert tied_elsewhere > 10, tied_elsewhere
+
+
+def test_nearest_of_the_first_n_nodes_leaves_the_later_ones_out():
+    """The compiled iterations ask Nearest of the nodes added so far (`n`): nodes listed in an
+    arrangement at or past n are not answered, even the nearest of all."""
+    rng = np.random.default_rng(3)
+    tree = Tree(State(np.zeros(7), rng.uniform(0, 1, (2, 3))), rng.uniform(0, 1, 2))
+    for _ in range(200):
+        parent = int(rng.integers(0, tree.n))
+        objects = (tree.objects[parent].copy() if rng.random() < 0.7
+                   else rng.uniform(0, 1, (2, 3)))
+        tree.add(State(np.zeros(7), objects), rng.uniform(0, 1, 2), parent, ())
+    weights = np.array([5.0, 1.0])
+    first = Tree.__new__(Tree)
+    first.n, first.arm, first.objects = 120, tree.arm[:120], tree.objects[:120]
+    left_out = 0
+    for _ in range(50):
+        arm, objects = rng.uniform(0, 1, 2), rng.uniform(0, 1, (2, 3))
+        answer = int(nearest_kernel(tree.arm, 120, tree.nearest_arrays, arm, objects, 0.5,
+                                    weights))
+        assert answer == _brute_force(first, arm, objects, 0.5, weights)
+        left_out += _brute_force(tree, arm, objects, 0.5, weights) >= 120
+    assert left_out > 5, left_out
+
+
 
 
 def test_the_metric_alone_is_the_one_nearest_uses():
