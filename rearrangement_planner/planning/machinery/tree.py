@@ -1,5 +1,5 @@
 """The search tree shared by PC-RRT and the baselines: nodes in growing arrays, so that Nearest
-is one compiled pass over them (`Tree.nearest`), and the edge (the propagated states) into each
+is one compiled call over them (`Tree.nearest`), and the edge (the propagated states) into each
 node."""
 
 from __future__ import annotations
@@ -116,7 +116,7 @@ class Tree:
                 weights: np.ndarray) -> int:
         """Nearest (King et al. 2015, §III-D): the node closest to (arm, objects) by
         Dist = arm_weight |arm_i - arm| + sum_j weights[j] |o_i^j - o^j| (object positions in
-        the plane). One compiled pass (`nearest_kernel`; NumPy's temporaries took half of a
+        the plane). One compiled call (`nearest_kernel`; NumPy's temporaries took half of a
         long plan's time)."""
         # Fresh writable copies: one compiled signature whoever calls.
         return int(nearest_kernel(self.arm, self.n, self.nearest_arrays,
@@ -211,7 +211,7 @@ def nearest_kernel(arms: np.ndarray, n: int, arrays: tuple, arm: np.ndarray,
             least = a
     best, best_node = _nearest_of(arms, n, first_node[least], next_node, distance[least], arm,
                                   arm_weight, math.inf, 0)
-    for a in range(arrangements[0]):
+    for a in range(count):
         if a != least and distance[a] <= best:
             best, best_node = _nearest_of(arms, n, first_node[a], next_node, distance[a], arm,
                                           arm_weight, best, best_node)
