@@ -172,6 +172,42 @@ def _scratch(jac):
     return np.empty(mf.solver_scratch_size(*jac.shape))
 
 
+def _svd_solution(jac, xdot, h):
+    """`solve_task`'s equation by LAPACK's SVD: the reference the compiled solvers meet."""
+    u, s, vt = np.linalg.svd(jac)
+    damping2 = mf._damping2(s[-1])
+    rank = int(np.sum(s > mf.RANK_TOLERANCE))
+    gains = s[:rank] / (s[:rank] ** 2 + damping2)
+    null = vt[rank:]
+    return vt[:rank].T @ (gains * (u[:, :rank].T @ xdot)) + null.T @ (null @ h)
+
+
+def _svd(jac, xdot, h):
+    qdot = np.empty(jac.shape[1])
+    mf._solve_svd(jac, xdot, h, qdot, _scratch(jac))
+    return qdot
+
+
+def test_one_sided_jacobi_gives_the_svd_solution_near_and_at_singularities():
+    """The last resort of Project's solve, for J near an exact singularity: its rotations
+    find the singular values that the Gram matrix loses to rounding, and give LAPACK's
+    solution (damping, rank and nullspace alike) without allocating."""
+    rng = np.random.default_rng(9)
+    for k in range(300):
+        rows, cols = (6, 6, 6, 6, 3)[k % 5], (7, 6, 5, 3, 7)[k % 5]
+        u, s, vt = np.linalg.svd(rng.normal(size=(rows, cols)), full_matrices=False)
+        s[-1] = (0.0, 1e-12, 1e-7, 1e-5, 0.02, 0.5)[k % 6]   # a lost rank to well conditioned
+        jac = (u * s) @ vt
+        xdot, h = rng.normal(size=rows), rng.normal(size=cols)
+        assert np.allclose(_svd(jac, xdot, h), _svd_solution(jac, xdot, h), rtol=0.0,
+                           atol=1e-8), (k, s[-1])
+    jac = rng.normal(size=(6, 7))
+    jac[5] = jac[4]                                      # rank 5, two rows alike
+    qdot = _svd(jac, np.ones(6), np.zeros(7))
+    assert np.allclose(qdot, _svd_solution(jac, np.ones(6), np.zeros(7)), atol=1e-10)
+    assert abs(mf._kth_largest(np.array([3.0, 1.0, 3.0, 2.0]), 3) - 2.0) < 1e-15
+
+
 def test_the_normal_equations_give_the_svd_solution_where_they_are_used(panda, q_push):
     """Project solves by a Cholesky factor of J Jᵀ where J is well conditioned (a fifth of the
     SVD's cost) and by the SVD elsewhere: where the fast path answers, the two agree to
@@ -181,14 +217,14 @@ def test_the_normal_equations_give_the_svd_solution_where_they_are_used(panda, q
     for k in range(400):
         jac = rng.normal(size=(6, (7, 6, 5)[k % 3])) * (1.0, 0.3, 0.05)[k % 4 % 3]
         xdot, h = rng.normal(size=6), rng.normal(size=jac.shape[1])
-        qdot, svd = np.empty(jac.shape[1]), mf._solve_svd(jac, xdot, h)
+        qdot, svd = np.empty(jac.shape[1]), _svd_solution(jac, xdot, h)
         fast = mf._solve_normal(jac, xdot, h, qdot, _scratch(jac))
         if fast:
             answered += 1
             assert np.linalg.svd(jac, compute_uv=False)[-1] >= mf.SINGULAR_THRESHOLD
             assert np.allclose(qdot, svd, rtol=0, atol=1e-10)
         if not fast and not mf._solve_gram(jac, xdot, h, qdot, _scratch(jac)):
-            qdot = svd                          # below the Gram matrix's floor
+            qdot = _svd(jac, xdot, h)           # below the Gram matrix's floor
         assert np.array_equal(mf._solve(jac, xdot, h), qdot)
     assert 100 < answered < 400                 # 6 x 5 Jacobians never take the fast path
     jac = rng.normal(size=(6, 7))
@@ -211,14 +247,14 @@ def test_the_gram_matrix_gives_the_svd_solution_without_lapack():
         s[-1] = 10.0 ** rng.uniform(-3.9, 0.0)          # from damped to well conditioned
         jac = (u * s) @ vt
         xdot, h = rng.normal(size=rows), rng.normal(size=cols)
-        qdot, svd = np.empty(cols), mf._solve_svd(jac, xdot, h)
+        qdot, svd = np.empty(cols), _svd_solution(jac, xdot, h)
         assert mf._solve_gram(jac, xdot, h, qdot, _scratch(jac))
         assert np.allclose(qdot, svd, rtol=0.0, atol=1e-6), (k, s[-1])
     jac = rng.normal(size=(6, 7))
     jac[5] = jac[4]                                      # rank 5: the SVD's
     assert not mf._solve_gram(jac, np.ones(6), np.zeros(7), np.empty(7), _scratch(jac))
     assert np.array_equal(mf._solve(jac, np.ones(6), np.zeros(7)),
-                          mf._solve_svd(jac, np.ones(6), np.zeros(7)))
+                          _svd(jac, np.ones(6), np.zeros(7)))
     a = rng.normal(size=(6, 6))
     a = a + a.T
     values, vectors = a.copy(), np.empty((6, 6))

@@ -292,24 +292,25 @@ def solver_scratch_size(m: int, n: int) -> int:
     return 3 * k * k + 3 * k
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _carve(scratch: np.ndarray, start: int, rows: int, cols: int) -> np.ndarray:
-    """A rows x cols array over scratch[start:] (no allocation)."""
+    """A rows x cols array over scratch[start:] (no allocation). Inlined: kernels with and
+    without reference counting carve (`kernels.njit_bare`)."""
     return scratch[start:start + rows * cols].reshape((rows, cols))
 
 
-@njit(cache=True)
+@kernels.njit_bare
 def _solve_into(jac: np.ndarray, xdot: np.ndarray, h: np.ndarray, qdot: np.ndarray,
                 scratch: np.ndarray) -> None:
     """qdot = `solve_task`, in `scratch` (`solver_scratch_size` floats): the normal equations
     where J is well conditioned (no damping, full row rank), else the eigenvectors of its
-    smaller Gram matrix (`_solve_gram`), else, near an exact singularity, LAPACK's SVD
-    (`_solve_svd`, which allocates)."""
+    smaller Gram matrix (`_solve_gram`), else, near an exact singularity, the SVD by
+    one-sided Jacobi (`_solve_svd`)."""
     if _solve_normal(jac, xdot, h, qdot, scratch):
         return
     if _solve_gram(jac, xdot, h, qdot, scratch):
         return
-    qdot[:] = _solve_svd(jac, xdot, h)
+    _solve_svd(jac, xdot, h, qdot, scratch)
 
 
 GRAM_FLOOR = 1e-8
@@ -537,35 +538,97 @@ def _inverse_column(low: np.ndarray, col: int, inv: np.ndarray) -> None:
 
 
 @njit(cache=True)
-def _solve_svd(jac: np.ndarray, xdot: np.ndarray, h: np.ndarray) -> np.ndarray:
-    u, s, vt = np.linalg.svd(jac)
-    k = s.size
-    damping2 = _damping2(s[-1])
-    inv = np.zeros(k)
-    rank = 0
-    for i in range(k):
-        if s[i] > RANK_TOLERANCE:
-            inv[i] = s[i] / (s[i] * s[i] + damping2)
-            rank += 1
-    # qdot = V_k diag(inv) U_k^T xdot, then the nullspace part V_n V_n^T h (the rows of vt
-    # from `rank` on: an orthonormal basis of the nullspace of J). Written out: the matrices
-    # are at most 6 x 7, below what a BLAS call pays for.
-    n = vt.shape[0]
-    qdot = np.zeros(n)
-    for i in range(k):
-        coeff = 0.0
-        for r in range(u.shape[0]):
-            coeff += u[r, i] * xdot[r]
-        coeff *= inv[i]
-        for j in range(n):
-            qdot[j] += vt[i, j] * coeff
-    for i in range(rank, n):
-        along = 0.0
-        for j in range(n):
-            along += vt[i, j] * h[j]
-        for j in range(n):
-            qdot[j] += vt[i, j] * along
-    return qdot
+def _solve_svd(jac: np.ndarray, xdot: np.ndarray, h: np.ndarray, qdot: np.ndarray,
+               scratch: np.ndarray) -> None:
+    """qdot = `solve_task` from the SVD of J by one-sided Jacobi rotations (Hestenes 1958;
+    Demmel & Veselić 1992, who show it finds small singular values to high relative accuracy):
+    plane rotations of J's columns, accumulated in V, until every pair is orthogonal; then
+    J V = B, the columns of B are s_j u_j and V's columns the right singular vectors. For J
+    near an exact singularity, where the Gram matrix's eigenvalues (`_solve_gram`) have lost
+    the small singular values to rounding. Its arrays are carved from `scratch`
+    (`solver_scratch_size`): no allocation and no LAPACK call."""
+    m, n = jac.shape
+    b, v = _carve(scratch, 0, m, n), _carve(scratch, m * n, n, n)
+    norms = scratch[m * n + n * n:m * n + n * n + n]
+    for r in range(m):
+        for c in range(n):
+            b[r, c] = jac[r, c]
+    for r in range(n):
+        for c in range(n):
+            v[r, c] = 1.0 if r == c else 0.0
+    for _ in range(60):
+        if not _orthogonalise_columns(b, v):
+            break
+    for c in range(n):
+        acc = 0.0
+        for r in range(m):
+            acc += b[r, c] * b[r, c]
+        norms[c] = math.sqrt(acc)
+    damping2 = _damping2(_kth_largest(norms, min(m, n)))
+    for c in range(n):
+        qdot[c] = h[c]
+    for j in range(n):
+        if norms[j] <= RANK_TOLERANCE:        # a nullspace direction: h keeps its part
+            continue
+        task, null = 0.0, 0.0                 # (s_j u_j . xdot), (v_j . h)
+        for r in range(m):
+            task += b[r, j] * xdot[r]
+        for c in range(n):
+            null += v[c, j] * h[c]
+        coeff = task / (norms[j] * norms[j] + damping2) - null
+        for c in range(n):
+            qdot[c] += v[c, j] * coeff
+
+
+@njit(cache=True)
+def _orthogonalise_columns(b: np.ndarray, v: np.ndarray) -> bool:
+    """One sweep of one-sided Jacobi (`_solve_svd`): each pair of b's columns that is not
+    orthogonal to rounding turned by the rotation that makes it so, and v's columns with it.
+    Returns whether any pair turned."""
+    m, n = b.shape
+    turned = False
+    for p in range(n - 1):
+        for q in range(p + 1, n):
+            alpha, beta, gamma = 0.0, 0.0, 0.0
+            for r in range(m):
+                alpha += b[r, p] * b[r, p]
+                beta += b[r, q] * b[r, q]
+                gamma += b[r, p] * b[r, q]
+            if gamma == 0.0 or abs(gamma) <= 1e-15 * math.sqrt(alpha * beta):
+                continue
+            turned = True
+            zeta = (beta - alpha) / (2.0 * gamma)
+            t = 1.0 / (abs(zeta) + math.sqrt(1.0 + zeta * zeta))
+            if zeta < 0.0:
+                t = -t
+            c = 1.0 / math.sqrt(1.0 + t * t)
+            s = c * t
+            for r in range(m):
+                bp, bq = b[r, p], b[r, q]
+                b[r, p], b[r, q] = c * bp - s * bq, s * bp + c * bq
+            for r in range(n):
+                vp, vq = v[r, p], v[r, q]
+                v[r, p], v[r, q] = c * vp - s * vq, s * vp + c * vq
+    return turned
+
+
+@njit(cache=True)
+def _kth_largest(values: np.ndarray, k: int) -> float:
+    """The k-th largest of `values` (k from 1), without sorting them in place."""
+    bound = math.inf
+    found = 0
+    while True:
+        largest, ties = -math.inf, 0
+        for x in values:
+            if x < bound:
+                if x > largest:
+                    largest, ties = x, 1
+                elif x == largest:
+                    ties += 1
+        found += ties
+        if found >= k or ties == 0:
+            return largest
+        bound = largest
 
 
 def project_step(
@@ -661,7 +724,7 @@ def project_workspace(nq: int, joints: int) -> tuple:
             np.empty((joints, 4, 4)), np.empty((2, 4, 4)))
 
 
-@njit(cache=True)
+@kernels.njit_bare
 def project_into(q: np.ndarray, action: np.ndarray, dt: float, extra: np.ndarray,
                  chain: tuple, tool_joint: int, tool_local: np.ndarray, up: np.ndarray,
                  height: float, limits: np.ndarray, velocity_limits: np.ndarray,
@@ -673,7 +736,8 @@ def project_into(q: np.ndarray, action: np.ndarray, dt: float, extra: np.ndarray
     `velocity_scale` of the velocity limits, and the step clipped to the limits. `known`:
     work[1] and work[2] already hold the tool's pose and Jacobian at q, which is within its
     limits (`propagation.propagate_kernel` has them from the last physics step's kinematics,
-    `kernels.tool_from_joints`)."""
+    `kernels.tool_from_joints`). Compiled without reference counting (`kernels.njit_bare`):
+    it allocates nothing, and its calls would otherwise count every row and tuple it reads."""
     qc, pose, jac, xdot, joint_rows = work[0], work[1], work[2], work[3], work[4]
     h, lo, hi, qdot = joint_rows[0], joint_rows[1], joint_rows[2], joint_rows[3]
     lower, upper = limits[0], limits[1]
@@ -724,7 +788,8 @@ def _solve_within_limits(jac: np.ndarray, xdot: np.ndarray, h: np.ndarray, lo: n
         nf = _free_joints(locked, free)
         if nf == 0:
             break
-        rest[:] = xdot
+        for r in range(m):
+            rest[r] = xdot[r]
         for j in range(n):
             if locked[j]:
                 for r in range(m):

@@ -35,6 +35,7 @@ from numba import njit
 
 from rearrangement_planner.model.robot import RobotModel
 from rearrangement_planner.model.state import State
+from rearrangement_planner.physics import kernels
 from rearrangement_planner.physics.kernels import tool_from_joints, tool_kinematics_into
 from rearrangement_planner.physics.step import (
     WORK_JOINTS,
@@ -317,14 +318,24 @@ def propagate_kernel(q: np.ndarray, objects: np.ndarray, held: np.ndarray,
     at its q1, the same q (`step.WORK_JOINTS`, `kernels.tool_from_joints`); only the first
     step computes them, at q."""
     info = np.zeros(4 + flags.shape[0], dtype=np.int64)
-    value = np.zeros(1)
     work = step_workspace(world, q, objects)
+    projecting = project_workspace(q.shape[0], project[0][0].shape[0])
+    return _steps(q, objects, held.copy(), policy, nullspace, steps, dt, goal, project, world,
+                  arm, out, flags, info, np.zeros(1), work, projecting, np.empty(q.shape[0]))
+
+
+@kernels.njit_bare
+def _steps(q: np.ndarray, objects: np.ndarray, velocity: np.ndarray, policy: np.ndarray,
+           nullspace: np.ndarray, steps: int, dt: float, goal: np.ndarray, project: tuple,
+           world: tuple, arm: np.ndarray, out: np.ndarray, flags: np.ndarray, info: np.ndarray,
+           value: np.ndarray, work: tuple, projecting: tuple,
+           q_new: np.ndarray) -> tuple[int, int, int]:
+    """`propagate_kernel`'s steps, in the buffers it made: compiled without reference counting
+    (`kernels.njit_bare`), which the tuples and rows a step reads would otherwise count up and
+    down at every step."""
     g, pushed = int(goal[0]), int(policy[0])
-    velocity = held.copy()
     chain, limits = project[0], project[5]
-    projecting = project_workspace(q.shape[0], chain[0].shape[0])
     pose, jac = projecting[1], projecting[2]
-    q_new = np.empty(q.shape[0])
     for i in range(steps):
         # The tool at q, for the push and for Project. Project reads it at q held in its
         # limits: from the second step on q is Project's own output, inside them; a first q
@@ -347,7 +358,8 @@ def propagate_kernel(q: np.ndarray, objects: np.ndarray, held: np.ndarray,
         code = step_kernel(q, q_new, objects, world, out[i], info, value, work)
         if code != 0:
             return i, code, info[1]
-        arm[i] = q_new
+        for j in range(q_new.shape[0]):
+            arm[i, j] = q_new[j]
         for k in range(flags.shape[0]):
             flags[k] |= info[4 + k]
         q, objects = arm[i], out[i]
