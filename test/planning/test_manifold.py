@@ -223,7 +223,7 @@ def test_the_normal_equations_give_the_svd_solution_where_they_are_used(panda, q
             answered += 1
             assert np.linalg.svd(jac, compute_uv=False)[-1] >= mf.SINGULAR_THRESHOLD
             assert np.allclose(qdot, svd, rtol=0, atol=1e-10)
-        if not fast and not mf._solve_gram(jac, xdot, h, qdot, _scratch(jac)):
+        if not fast and not mf._solve_damped(jac, xdot, h, qdot, _scratch(jac)):
             qdot = _svd(jac, xdot, h)           # below the Gram matrix's floor
         assert np.array_equal(mf._solve(jac, xdot, h), qdot)
     assert 100 < answered < 400                 # 6 x 5 Jacobians never take the fast path
@@ -235,33 +235,34 @@ def test_the_normal_equations_give_the_svd_solution_where_they_are_used(panda, q
     assert mf._solve_normal(jac, xdot, np.zeros(7), np.empty(7), _scratch(jac))
 
 
-def test_the_gram_matrix_gives_the_svd_solution_without_lapack():
+def test_the_damped_solve_gives_the_svd_solution_without_lapack():
     """Where the normal equations do not answer (a damped, near-singular J, or fewer free
-    joints than rows), the eigenvectors of the smaller Gram matrix give the SVD's solution to
-    rounding (2e-15 / s_min², at most 2e-7 rad/s), damping and nullspace included; J's with a
-    singular value below 1e-4 (near an exact singularity, a lost rank) are left to the SVD."""
+    joints than rows), a Cholesky factor of the smaller Gram matrix and the damping of its
+    least eigenvalue give the SVD's solution to rounding (2e-15 / s_min², at most 2e-7 rad/s),
+    damping and nullspace included; J's with a singular value below 1e-4 (near an exact
+    singularity, a lost rank) are left to the SVD."""
     rng = np.random.default_rng(8)
     for k in range(600):
         rows, cols = 6, (7, 6, 5, 3)[k % 4]
         u, s, vt = np.linalg.svd(rng.normal(size=(rows, cols)), full_matrices=False)
         s[-1] = 10.0 ** rng.uniform(-3.9, 0.0)          # from damped to well conditioned
+        if k % 8 == 1:
+            s[-2] = s[-1] * (1.0 + 1e-9)                 # two least singular values alike
         jac = (u * s) @ vt
         xdot, h = rng.normal(size=rows), rng.normal(size=cols)
         qdot, svd = np.empty(cols), _svd_solution(jac, xdot, h)
-        assert mf._solve_gram(jac, xdot, h, qdot, _scratch(jac))
+        assert mf._solve_damped(jac, xdot, h, qdot, _scratch(jac))
         assert np.allclose(qdot, svd, rtol=0.0, atol=1e-6), (k, s[-1])
     jac = rng.normal(size=(6, 7))
     jac[5] = jac[4]                                      # rank 5: the SVD's
-    assert not mf._solve_gram(jac, np.ones(6), np.zeros(7), np.empty(7), _scratch(jac))
+    assert not mf._solve_damped(jac, np.ones(6), np.zeros(7), np.empty(7), _scratch(jac))
     assert np.array_equal(mf._solve(jac, np.ones(6), np.zeros(7)),
                           _svd(jac, np.ones(6), np.zeros(7)))
     a = rng.normal(size=(6, 6))
-    a = a + a.T
-    values, vectors = a.copy(), np.empty((6, 6))
-    mf.jacobi_eigen(values, vectors)
-    assert np.allclose(np.sort(np.diag(values)), np.linalg.eigvalsh(a), atol=1e-12)
-    assert np.allclose(vectors @ np.diag(np.diag(values)) @ vectors.T, a, atol=1e-12)
-    assert np.allclose(vectors.T @ vectors, np.eye(6), atol=1e-12)
+    a = a @ a.T + 1e-3 * np.eye(6)
+    x, y = np.empty(6), np.empty(6)
+    least = mf._least_eigenvalue(np.linalg.cholesky(a), x, y)
+    assert abs(least - np.linalg.eigvalsh(a)[0]) <= 1e-12 * np.linalg.eigvalsh(a)[-1]
 
 
 def test_project_step_returns_to_the_manifold(panda, q_push):

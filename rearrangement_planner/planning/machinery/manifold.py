@@ -303,77 +303,21 @@ def _carve(scratch: np.ndarray, start: int, rows: int, cols: int) -> np.ndarray:
 def _solve_into(jac: np.ndarray, xdot: np.ndarray, h: np.ndarray, qdot: np.ndarray,
                 scratch: np.ndarray) -> None:
     """qdot = `solve_task`, in `scratch` (`solver_scratch_size` floats): the normal equations
-    where J is well conditioned (no damping, full row rank), else the eigenvectors of its
-    smaller Gram matrix (`_solve_gram`), else, near an exact singularity, the SVD by
-    one-sided Jacobi (`_solve_svd`)."""
+    where J is well conditioned (no damping, full row rank), else a Cholesky factor of its
+    smaller Gram matrix with the damping of its least eigenvalue (`_solve_damped`), else,
+    near an exact singularity, the SVD by one-sided Jacobi (`_solve_svd`)."""
     if _solve_normal(jac, xdot, h, qdot, scratch):
         return
-    if _solve_gram(jac, xdot, h, qdot, scratch):
+    if _solve_damped(jac, xdot, h, qdot, scratch):
         return
     _solve_svd(jac, xdot, h, qdot, scratch)
 
 
 GRAM_FLOOR = 1e-8
-"""Below this smallest eigenvalue of the Gram matrix (a singular value of 1e-4), `_solve_gram`
-leaves the solve to the SVD. An eigenvalue of J Jᵀ is exact to about 1e-16 of its largest, so
-its solution differs from the SVD's by about 2e-15 / s_min² (2e-7 rad/s at the floor, 3e-10
-from s_min 0.01 up; test_manifold)."""
-
-
-@njit(cache=True)
-def _solve_gram(jac: np.ndarray, xdot: np.ndarray, h: np.ndarray, qdot: np.ndarray,
-                scratch: np.ndarray) -> bool:
-    """`_solve_svd`'s solution from the eigenvectors of the smaller Gram matrix, J Jᵀ (m ≤ n)
-    or JᵀJ (m > n: joints locked), by cyclic Jacobi rotations (`jacobi_eigen`): its
-    eigenvalues are the squared singular values s_i², and for each s_i above RANK_TOLERANCE the
-    right singular vector v_i is an eigenvector of JᵀJ, or Jᵀ u_i / s_i. Then
-    J⁺ xdot = Σ v_i v_iᵀ Jᵀ xdot / (s_i² + λ²) and (I - J⁺J) h = h - Σ v_i v_iᵀ h, with the
-    same adaptive damping λ² as the SVD. A few microseconds and no LAPACK call, where the SVD
-    took four fifths of a Project step and a tenth of a search (perf, docs/benchmark.md).
-    Returns False, qdot unset, when the smallest eigenvalue is below GRAM_FLOOR. Its arrays
-    are carved from `scratch` (`solver_scratch_size`)."""
-    m, n = jac.shape
-    wide = m <= n
-    k = m if wide else n
-    gram, vectors = _carve(scratch, 0, k, k), _carve(scratch, k * k, k, k)
-    jt_xdot, v = scratch[2 * k * k:2 * k * k + n], scratch[2 * k * k + n:2 * k * k + 2 * n]
-    _gram(jac, wide, gram)
-    jacobi_eigen(gram, vectors)
-    smallest = math.inf
-    for i in range(k):
-        smallest = min(smallest, gram[i, i])
-    if smallest < GRAM_FLOOR:
-        return False
-    damping2 = _damping2(math.sqrt(smallest))
-    for c in range(n):
-        acc = 0.0
-        for r in range(m):
-            acc += jac[r, c] * xdot[r]
-        jt_xdot[c] = acc
-    for c in range(n):
-        qdot[c] = h[c]
-    for i in range(k):
-        s2 = gram[i, i]
-        if math.sqrt(s2) <= RANK_TOLERANCE:
-            continue
-        if wide:                              # v_i = Jᵀ u_i / s_i
-            scale = 1.0 / math.sqrt(s2)
-            for c in range(n):
-                acc = 0.0
-                for r in range(m):
-                    acc += jac[r, c] * vectors[r, i]
-                v[c] = acc * scale
-        else:
-            for c in range(n):
-                v[c] = vectors[c, i]
-        task, null = 0.0, 0.0
-        for c in range(n):
-            task += v[c] * jt_xdot[c]
-            null += v[c] * h[c]
-        coeff = task / (s2 + damping2) - null
-        for c in range(n):
-            qdot[c] += v[c] * coeff
-    return True
+"""Below this least eigenvalue of the Gram matrix (a singular value of 1e-4), `_solve_damped`
+leaves the solve to the SVD. The Gram matrix squares J's condition number: its solution
+differs from the SVD's by about 2e-15 / s_min² (2e-7 rad/s at the floor, 3e-10 from s_min 0.01
+up; test_manifold)."""
 
 
 @njit(cache=True)
@@ -400,50 +344,6 @@ def _gram(jac: np.ndarray, wide: bool, gram: np.ndarray) -> None:
                 for r in range(m):
                     acc += jac[r, i] * jac[r, j]
             gram[i, j] = gram[j, i] = acc
-
-
-@njit(cache=True)
-def jacobi_eigen(a: np.ndarray, vectors: np.ndarray) -> None:
-    """The eigen-decomposition of the small symmetric matrix `a` in place by cyclic Jacobi
-    rotations (Golub & Van Loan, Matrix Computations, §8.5): on return a's diagonal holds the
-    eigenvalues and `vectors`' columns the orthonormal eigenvectors, in the same order."""
-    k = a.shape[0]
-    for i in range(k):
-        for j in range(k):
-            vectors[i, j] = 1.0 if i == j else 0.0
-    for _ in range(30):
-        off, scale = 0.0, 0.0
-        for i in range(k):
-            scale += a[i, i] * a[i, i]
-            for j in range(i + 1, k):
-                off += a[i, j] * a[i, j]
-        if off <= 1e-32 * scale:
-            return
-        for p in range(k - 1):
-            for q in range(p + 1, k):
-                apq = a[p, q]
-                if apq == 0.0:
-                    continue
-                theta = (a[q, q] - a[p, p]) / (2.0 * apq)
-                t = 1.0 / (abs(theta) + math.sqrt(theta * theta + 1.0))
-                if theta < 0.0:
-                    t = -t
-                c = 1.0 / math.sqrt(t * t + 1.0)
-                s = t * c
-                # a <- Gᵀ a G, G the rotation by (c, s) in the (p, q) plane chosen to zero
-                # a[p, q]; the rest of rows and columns p and q turn with it.
-                a[p, p] -= t * apq
-                a[q, q] += t * apq
-                a[p, q] = a[q, p] = 0.0
-                for r in range(k):
-                    if r != p and r != q:
-                        arp, arq = a[r, p], a[r, q]
-                        a[r, p] = a[p, r] = c * arp - s * arq
-                        a[r, q] = a[q, r] = s * arp + c * arq
-                for r in range(k):
-                    vrp, vrq = vectors[r, p], vectors[r, q]
-                    vectors[r, p] = c * vrp - s * vrq
-                    vectors[r, q] = s * vrp + c * vrq
 
 
 @njit(cache=True)
@@ -538,13 +438,130 @@ def _inverse_column(low: np.ndarray, col: int, inv: np.ndarray) -> None:
 
 
 @njit(cache=True)
+def _solve_damped(jac: np.ndarray, xdot: np.ndarray, h: np.ndarray, qdot: np.ndarray,
+                  scratch: np.ndarray) -> bool:
+    """`_solve_svd`'s solution where the normal equations do not answer (a damped J, or fewer
+    free joints than rows) and J still has full rank, from a Cholesky factor of its smaller
+    Gram matrix A, J Jᵀ (m ≤ n) or JᵀJ. With λ² the damping of s_min² = A's least eigenvalue
+    (`_least_eigenvalue`): J⁺ = Jᵀ (A + λ²I)⁻¹ and the nullspace projector I - Jᵀ A⁻¹ J
+    (wide J), or J⁺ = (A + λ²I)⁻¹ Jᵀ and no nullspace (tall J: full column rank). The same
+    equation as the SVD's V diag(s / (s² + λ²)) Uᵀ and I - V_r V_rᵀ, with no eigenvectors to
+    find; a tall J's s_min is sought only where `_certainly_undamped` cannot rule damping out,
+    as it mostly can (joints locked at their limits, not a singularity). Returns False, qdot
+    unset, when A has no factor or s_min² is below GRAM_FLOOR. Its arrays are carved from
+    `scratch` (`solver_scratch_size`)."""
+    m, n = jac.shape
+    wide = m <= n
+    k = m if wide else n
+    a, low, inv = _carve(scratch, 0, k, k), _carve(scratch, k * k, k, k), _carve(
+        scratch, 2 * k * k, k, k)
+    base = 3 * k * k
+    x, y, rhs = (scratch[base:base + k], scratch[base + k:base + 2 * k],
+                 scratch[base + 2 * k:base + 3 * k])
+    _gram(jac, wide, a)
+    if not _cholesky(a, low):
+        return False
+    damping2 = 0.0
+    if wide or not _certainly_undamped(low, inv):      # (a wide J's is not: `_solve_normal`)
+        smallest = _least_eigenvalue(low, x, y)
+        if smallest < GRAM_FLOOR:
+            return False
+        damping2 = _damping2(math.sqrt(smallest))
+    if wide:                                  # y = A⁻¹ J h, for the nullspace projector
+        for i in range(m):
+            acc = 0.0
+            for c in range(n):
+                acc += jac[i, c] * h[c]
+            rhs[i] = acc
+        _cholesky_solve(low, rhs, y)
+    for i in range(k):
+        a[i, i] += damping2
+    _cholesky(a, low)                         # A + λ²I: positive definite as A is
+    if not wide:                              # qdot = (A + λ²I)⁻¹ Jᵀ xdot
+        for c in range(n):
+            acc = 0.0
+            for r in range(m):
+                acc += jac[r, c] * xdot[r]
+            rhs[c] = acc
+        _cholesky_solve(low, rhs, qdot)
+        return True
+    _cholesky_solve(low, xdot, x)             # qdot = h + Jᵀ ((A + λ²I)⁻¹ xdot - A⁻¹ J h)
+    for c in range(n):
+        acc = h[c]
+        for i in range(m):
+            acc += jac[i, c] * (x[i] - y[i])
+        qdot[c] = acc
+    return True
+
+
+@njit(cache=True)
+def _certainly_undamped(low: np.ndarray, inv: np.ndarray) -> bool:
+    """Whether A = low lowᵀ's least eigenvalue is at least SINGULAR_THRESHOLD², by the bound
+    1 / ||A⁻¹||_F ≤ λ_min (`_solve_normal`'s test), A⁻¹ into `inv`."""
+    k = low.shape[0]
+    for col in range(k):
+        _inverse_column(low, col, inv)
+    frobenius2 = 0.0
+    for i in range(k):
+        for j in range(k):
+            frobenius2 += inv[i, j] * inv[i, j]
+    return frobenius2 * SINGULAR_THRESHOLD**4 <= 1.0
+
+
+@njit(cache=True)
+def _least_eigenvalue(low: np.ndarray, x: np.ndarray, y: np.ndarray) -> float:
+    """The least eigenvalue of A = low lowᵀ by inverse iteration (Golub & Van Loan, Matrix
+    Computations, §7.6.1): x ← A⁻¹x / ‖A⁻¹x‖ until the Rayleigh quotient xᵀA⁻¹x changes by
+    less than 1e-10 of itself (4–5 steps for a damped Project J, whose least eigenvalue is far
+    below the next); its error is at most the two least eigenvalues' gap, and the damping,
+    smooth in s_min, barely feels it. x and y are scratch."""
+    k = low.shape[0]
+    for i in range(k):
+        x[i] = 1.0 + 0.1 * i                  # not orthogonal to any one eigenvector, a rule
+    norm = 0.0
+    for i in range(k):
+        norm += x[i] * x[i]
+    for i in range(k):
+        x[i] /= math.sqrt(norm)
+    quotient = 0.0
+    for _ in range(100):
+        _cholesky_solve(low, x, y)
+        last, quotient, norm = quotient, 0.0, 0.0
+        for i in range(k):
+            quotient += x[i] * y[i]
+            norm += y[i] * y[i]
+        norm = math.sqrt(norm)
+        for i in range(k):
+            x[i] = y[i] / norm
+        if quotient - last <= 1e-10 * quotient:
+            break
+    return 1.0 / quotient
+
+
+@njit(cache=True)
+def _cholesky_solve(low: np.ndarray, b: np.ndarray, out: np.ndarray) -> None:
+    """out = (low lowᵀ)⁻¹ b, low lower triangular; out may not be b."""
+    k = low.shape[0]
+    for i in range(k):
+        acc = b[i]
+        for c in range(i):
+            acc -= low[i, c] * out[c]
+        out[i] = acc / low[i, i]
+    for i in range(k - 1, -1, -1):
+        acc = out[i]
+        for c in range(i + 1, k):
+            acc -= low[c, i] * out[c]
+        out[i] = acc / low[i, i]
+
+
+@njit(cache=True)
 def _solve_svd(jac: np.ndarray, xdot: np.ndarray, h: np.ndarray, qdot: np.ndarray,
                scratch: np.ndarray) -> None:
     """qdot = `solve_task` from the SVD of J by one-sided Jacobi rotations (Hestenes 1958;
     Demmel & Veselić 1992, who show it finds small singular values to high relative accuracy):
     plane rotations of J's columns, accumulated in V, until every pair is orthogonal; then
     J V = B, the columns of B are s_j u_j and V's columns the right singular vectors. For J
-    near an exact singularity, where the Gram matrix's eigenvalues (`_solve_gram`) have lost
+    near an exact singularity, where the Gram matrix's eigenvalues (`_solve_damped`) have lost
     the small singular values to rounding. Its arrays are carved from `scratch`
     (`solver_scratch_size`): no allocation and no LAPACK call."""
     m, n = jac.shape
