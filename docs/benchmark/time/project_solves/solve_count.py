@@ -5,7 +5,8 @@ then one Project step from each of 3,000 of its nodes with a drawn planar action
 the compiled solves, so each solve is counted: the normal equations (`_solve_normal`, on a
 wide or, with joints locked, a tall Jacobian) and their fallback, the Jacobi eigenvectors
 (`_solve_gram`); for each failed wide solve, whether J's smallest singular value is below
-SINGULAR_THRESHOLD (the damped zone) by NumPy's SVD. From the checkout:
+SINGULAR_THRESHOLD (the damped zone) by NumPy's SVD. Run at `7d48fd9`: since `7b33efc`
+the fallback is `_solve_damped` (../damped_solve/solve_time.py times both). From the checkout:
 
     PYTHONPATH=. AMENT_PREFIX_PATH=.venv python solve_count.py \\
         config/benchmark/scenes/n6_s1.yaml 10000
