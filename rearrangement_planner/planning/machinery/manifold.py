@@ -468,21 +468,13 @@ def _solve_damped(jac: np.ndarray, xdot: np.ndarray, h: np.ndarray, qdot: np.nda
             return False
         damping2 = _damping2(math.sqrt(smallest))
     if wide:                                  # y = A⁻¹ J h, for the nullspace projector
-        for i in range(m):
-            acc = 0.0
-            for c in range(n):
-                acc += jac[i, c] * h[c]
-            rhs[i] = acc
+        _multiply(jac, h, rhs, False)
         _cholesky_solve(low, rhs, y)
     for i in range(k):
         a[i, i] += damping2
     _cholesky(a, low)                         # A + λ²I: positive definite as A is
     if not wide:                              # qdot = (A + λ²I)⁻¹ Jᵀ xdot
-        for c in range(n):
-            acc = 0.0
-            for r in range(m):
-                acc += jac[r, c] * xdot[r]
-            rhs[c] = acc
+        _multiply(jac, xdot, rhs, True)
         _cholesky_solve(low, rhs, qdot)
         return True
     _cholesky_solve(low, xdot, x)             # qdot = h + Jᵀ ((A + λ²I)⁻¹ xdot - A⁻¹ J h)
@@ -492,6 +484,17 @@ def _solve_damped(jac: np.ndarray, xdot: np.ndarray, h: np.ndarray, qdot: np.nda
             acc += jac[i, c] * (x[i] - y[i])
         qdot[c] = acc
     return True
+
+
+@njit(cache=True)
+def _multiply(jac: np.ndarray, v: np.ndarray, out: np.ndarray, transposed: bool) -> None:
+    """out = J v, or Jᵀ v (`transposed`), each entry summed in index order."""
+    m, n = jac.shape
+    for i in range(n if transposed else m):
+        acc = 0.0
+        for j in range(m if transposed else n):
+            acc += (jac[j, i] if transposed else jac[i, j]) * v[j]
+        out[i] = acc
 
 
 @njit(cache=True)
