@@ -462,7 +462,7 @@ def _solve_damped(jac: np.ndarray, xdot: np.ndarray, h: np.ndarray, qdot: np.nda
     if not _cholesky(a, low):
         return False
     damping2 = 0.0
-    if wide or not _certainly_undamped(low, inv):      # (a wide J's is not: `_solve_normal`)
+    if wide or not _certainly_undamped(low, inv):      # a wide J here failed that bound
         smallest = _least_eigenvalue(low, x, y)
         if smallest < GRAM_FLOOR:
             return False
