@@ -369,7 +369,8 @@ def robust_search(candidates: Candidates) -> tuple[Candidate, float | None]:
     (a request takes no longer than without robust selection); the searches after the first
     plan also after `candidate_effort` times its iterations
     (`robustness.candidate_iterations`: a plan the first search took long to find is not
-    worth as long again to better, a quick one is worth a quick look). The answer's plan time
+    worth as long again to better, a quick one is worth a quick look), and a fragile best's
+    extra candidates also after `fragile_search_iterations` each. The answer's plan time
     is all of it but its own shortcutting (reported apart, as without robust selection), and
     its seed the request's (which reproduces the whole selection). A cancel ends it with the
     cancelled search."""
@@ -389,7 +390,9 @@ def robust_search(candidates: Candidates) -> tuple[Candidate, float | None]:
         searched += 1
         k_seed = candidate_seed(seed, k)
         started = time.monotonic()
-        last = searches.plan(k_seed)
+        extra = k >= robust.candidates and robust.fragile_search_iterations > 0
+        last = (searches.bounded(robust.fragile_search_iterations) if extra
+                else searches).plan(k_seed)
         searched_s = time.monotonic() - started
         if last.outcome is Outcome.CANCELLED:
             return Candidate(last), None        # the user's cancel ends the selection too

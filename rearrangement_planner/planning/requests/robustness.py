@@ -64,6 +64,14 @@ class RobustOptions(Settings):
     whole budget looking for a better plan than the one its first seconds gave; counted in
     iterations, so the answer does not depend on the machine's speed. 0 = only the time
     limit bounds them. Measured: docs/benchmark.md ("A robust plan sooner")."""
+    fragile_search_iterations: int = setting(10000, low=0, high=10**9)
+    """Each of a fragile best's extra candidates (`fragile_candidates`) searches at most this
+    many iterations, besides `candidate_effort`'s bound: the extra candidates that rescue a
+    fragile best are mostly plans found quickly, and the long ones mostly find another
+    fragile plan, on the scenes whose every search is long. Counted in iterations, so the
+    answer does not depend on the machine's speed. 0 = only `candidate_effort` and the time
+    limit bound them. Measured: docs/benchmark.md ("A fragile best's extra candidates within
+    10,000 iterations each")."""
     travel_penalty: float = setting(0.5, low=0.0, high=100.0)
     """Candidates are ranked by robustness less this much per metre their goal object is
     pushed (`goal_travel`): the model's error grows along every push, so of two nearly equally
