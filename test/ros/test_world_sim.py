@@ -324,8 +324,9 @@ def test_preemption_goal_updates_empty_trajectory_and_reset(session, reference):
                                              "/preempt/rearrangement_planner/goal", 10)
     try:
         assert wait_until(lambda: goal_pub.get_subscription_count() > 0, 10.0)
-        goal_pub.publish(goal_to_pose_stamped([0.3, 0.4], "world"))      # wrong frame: ignored
+        goal_pub.publish(goal_to_pose_stamped([0.3, 0.4], FRAME))        # replaced by the next
         goal_pub.publish(goal_to_pose_stamped([0.45, -0.2], FRAME))
+        goal_pub.publish(goal_to_pose_stamped([0.1, 0.1], "map"))         # wrong frame: ignored
         time.sleep(0.3)
         seen = sim.outcomes.count()
         q1 = q0 + np.array([0.3, 0, 0, 0, 0, 0, 0])

@@ -62,7 +62,7 @@ import numpy as np
 import rclpy
 from builtin_interfaces.msg import Time
 from geometry_msgs.msg import PoseArray, PoseStamped
-from rclpy.callback_groups import ReentrantCallbackGroup
+from rclpy.callback_groups import MutuallyExclusiveCallbackGroup, ReentrantCallbackGroup
 from rclpy.exceptions import InvalidParameterTypeException, InvalidParameterValueException
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.logging import get_logger
@@ -209,8 +209,13 @@ class WorldSim(Node):
         # Every callback runs under self._lock (see `_guarded`), so the executor may dispatch
         # them concurrently: in a mutually exclusive group rclpy's MultiThreadedExecutor leaves
         # a timer that fires while another callback runs out of its wait set until something
-        # else wakes it up, which throttled joint_states to ~14 Hz.
+        # else wakes it up, which throttled joint_states to ~14 Hz. The commands and the goals
+        # each have a mutually exclusive group of their own: in the reentrant one, two messages
+        # that came together ran in two threads and could take the lock out of order, leaving
+        # the older goal in force (test_preemption_goal_updates_empty_trajectory_and_reset
+        # failed so, once in a full run).
         group = ReentrantCallbackGroup()
+        commands, goals = MutuallyExclusiveCallbackGroup(), MutuallyExclusiveCallbackGroup()
         self._joint_pub = self.create_publisher(JointState, "joint_states", 10)
         self._objects_pub = self.create_publisher(PoseArray, p["object_poses_topic"],
                                                   qos_profile_sensor_data)
@@ -220,9 +225,9 @@ class WorldSim(Node):
         self._command_sub = self.create_subscription(
             JointTrajectory, "joint_trajectory", self._guarded(self._on_command),
             QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE,
-                       durability=DurabilityPolicy.VOLATILE), callback_group=group)
+                       durability=DurabilityPolicy.VOLATILE), callback_group=commands)
         self.create_subscription(PoseStamped, p["goal_topic"], self._guarded(self._on_goal), 10,
-                                 callback_group=group)
+                                 callback_group=goals)
         self.create_service(Trigger, "~/reset", self._guarded(self._on_reset),
                             callback_group=group)
         self.create_timer(self._period, self._guarded(self._on_update, tick=True),
