@@ -304,6 +304,42 @@ def test_later_candidates_search_at_most_candidate_effort_times_the_first_plans_
     assert [searched[seed][1] for seed in later] == [1470, 1421]
 
 
+def test_a_fragile_bests_extra_candidates_search_at_most_fragile_search_iterations_each(
+        slim, monkeypatch):
+    """The slim box with seed 7 (the test above): the first plan takes 370 iterations, the
+    next two seeds 1,470 and 1,421, all fragile at fragile_below 1. With candidate_effort 10
+    the later searches may take 3,700 iterations; fragile_search_iterations 1,000 bounds the
+    extra candidates only: with one candidate and two extra, both end at 1,000 without a
+    plan; with two candidates and one extra, the second finds its plan and the third ends at
+    1,000; with 0, both extra ones find theirs."""
+    from rearrangement_planner.planning.requests.pipeline import Candidates, candidate_seed
+
+    searched: dict[int, tuple] = {}
+    search = Candidates.plan
+
+    def plan(self, seed):
+        result = search(self, seed)
+        searched[seed] = (self.stop.max_iterations, result.outcome)
+        return result
+
+    monkeypatch.setattr(Candidates, "plan", plan)
+    options = PCRRTOptions(time_limit=60.0)
+    later = [candidate_seed(7, k) for k in (1, 2)]
+    found, ended = Outcome.SUCCEEDED, Outcome.PLANNING_FAILED
+    for candidates, extra_bound, expected in (
+            (1, 1000, [(1000, ended), (1000, ended)]),
+            (2, 1000, [(3700, found), (1000, ended)]),
+            (1, 0, [(3700, found), (3700, found)])):
+        searched.clear()
+        robust = RobustOptions(min_robustness=1.0, rollouts=10, candidates=candidates,
+                               fragile_candidates=3 - candidates, fragile_below=1.0,
+                               candidate_effort=10.0, fragile_search_iterations=extra_bound)
+        answer = plan_scene(PlanRequest.first_plan(slim, "pc-rrt", options, seed=7,
+                                                   robust=robust))
+        assert answer.solved and answer.phases.candidates == 3, answer.phases.searches
+        assert [searched[seed] for seed in later] == expected, (candidates, extra_bound)
+
+
 def test_the_candidate_effort_bound_has_a_floor_and_can_be_lifted():
     """A first plan found in a handful of iterations still leaves the next candidates
     MIN_CANDIDATE_ITERATIONS; candidate_effort 0 leaves them only the time limit."""
