@@ -368,15 +368,7 @@ def _solve_normal(jac: np.ndarray, xdot: np.ndarray, h: np.ndarray, qdot: np.nda
             for c in range(n):
                 acc += jac[i, c] * jac[j, c]
             a[i, j] = acc
-    if not _cholesky(a, low):
-        return False
-    for col in range(m):                                  # (J Jᵀ)⁻¹, column by column
-        _inverse_column(low, col, inv)
-    frobenius2 = 0.0
-    for i in range(m):
-        for j in range(m):
-            frobenius2 += inv[i, j] * inv[i, j]
-    if frobenius2 * SINGULAR_THRESHOLD**4 > 1.0:
+    if not _cholesky(a, low) or not _certainly_undamped(low, inv):     # inv = (J Jᵀ)⁻¹
         return False
     # y = (J Jᵀ)⁻¹ (xdot - J h); qdot = h + Jᵀ y = J⁺ xdot + (I - J⁺J) h
     for i in range(m):
@@ -470,9 +462,10 @@ def _solve_damped(jac: np.ndarray, xdot: np.ndarray, h: np.ndarray, qdot: np.nda
     if wide:                                  # y = A⁻¹ J h, for the nullspace projector
         _multiply(jac, h, rhs, False)
         _cholesky_solve(low, rhs, y)
-    for i in range(k):
-        a[i, i] += damping2
-    _cholesky(a, low)                         # A + λ²I: positive definite as A is
+    if damping2 > 0.0:                        # else low is already A's factor
+        for i in range(k):
+            a[i, i] += damping2
+        _cholesky(a, low)                     # A + λ²I: positive definite as A is
     if not wide:                              # qdot = (A + λ²I)⁻¹ Jᵀ xdot
         _multiply(jac, xdot, rhs, True)
         _cholesky_solve(low, rhs, qdot)
@@ -497,10 +490,10 @@ def _multiply(jac: np.ndarray, v: np.ndarray, out: np.ndarray, transposed: bool)
         out[i] = acc
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _certainly_undamped(low: np.ndarray, inv: np.ndarray) -> bool:
     """Whether A = low lowᵀ's least eigenvalue is at least SINGULAR_THRESHOLD², by the bound
-    1 / ||A⁻¹||_F ≤ λ_min (`_solve_normal`'s test), A⁻¹ into `inv`."""
+    1 / ||A⁻¹||_F ≤ λ_min, A⁻¹ into `inv` (column by column)."""
     k = low.shape[0]
     for col in range(k):
         _inverse_column(low, col, inv)
