@@ -196,7 +196,8 @@ def rollout_options(options: PhysicsOptions) -> PhysicsOptions:
     refused; and every object is movable (the Static RRT's static objects are its rule too)."""
     return dataclasses.replace(options, penetration_tolerance=max(
         options.penetration_tolerance, ROLLOUT_PENETRATION_TOLERANCE), max_turn=0.0,
-        top_clearance=0.0, tipping=False, tip_judgement=True, object_contact=True, static_objects=frozenset())
+        top_clearance=0.0, tipping=False, tip_judgement=True, object_contact=True,
+        static_objects=frozenset())
 
 
 def robustness(scene: Scene, states: Sequence[State], rollouts: int, seed: int,
