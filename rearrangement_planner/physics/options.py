@@ -39,14 +39,15 @@ class PhysicsOptions(Settings):
     model predicts what execution does when objects meet. Off: a state in which objects touch
     is invalid, as in King et al. 2015 (§III-A). Results: docs/experiments.md."""
     top_clearance: float = setting(0.0, low=0.0, high=0.1)
-    """Refuse a step in which a contact shape comes within this distance (m) of a movable
-    object's top from above or over its top rim (`Invalid.OVER_TOP`): the shape's nearest
+    """Refuse a step in which a contact shape of the arm behind the tool (the forearm and the
+    wrist, not the hand; `RobotModel.moves_with_tool`) comes within this distance (m) of a
+    movable object's top from above or over its top rim (`Invalid.OVER_TOP`): the shape's nearest
     point on the object lies within `step.TOP_RIM` of its top, with the normal tilted out of
     the horizontal. In the model a link sweeping just over an object, or grazing its rim, pushes
     nothing; the real link, a mesh larger than its contact shape, presses on the rim of an
     object a few mm from where the plan has it and topples it (docs/experiments.md, "What
-    topples objects now"). A shape meeting the object's side below the rim, as a hand face
-    pressed against it, is not affected. 0 = off, as in King et al. 2015."""
+    topples objects now"). A shape meeting the object's side below the rim is not affected,
+    nor is the hand, which pushes near an object's top by design. 0 = off, as in King et al. 2015."""
     tip_judgement: bool = internal(False)
     """Judge rather than refuse a push that would tip its object: the step reports, per
     object, how far the pusher must carry it while it tips to topple it (`step._tip_travel`),

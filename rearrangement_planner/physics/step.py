@@ -176,7 +176,9 @@ class World(NamedTuple):
     half height)."""
 
     chain: tuple[np.ndarray, ...]   # kernels.shape_poses arguments: parents .. shape_local
-    shapes: np.ndarray              # (S, 3): axis half length, radius, bounding radius
+    shapes: np.ndarray              # (S, 5): axis half length, radius against objects, bounding
+                                    # radius, radius against the static world, 1 if the top
+                                    # clearance applies
     limits: np.ndarray              # (2, nq): lower, upper
     static_centre: np.ndarray       # (1 + K, 3): the table slab, then the obstacle boxes
     static_yaw: np.ndarray          # (1 + K,)
@@ -358,10 +360,13 @@ def _world_arrays(scene: Scene, robot: RobotModel, options: PhysicsOptions,
     # Columns: half length, radius against the objects, bounding radius, radius against the
     # table and obstacles (a `RobotModel.grown` arm meets objects a few mm off, the static world
     # as it was: the offset stands for where the real links touch objects, not for the arm's
-    # clearance, which the plans keep with their own margin).
+    # clearance, which the plans keep with their own margin); then 1 for the arm's links
+    # behind the tool, which keep the top clearance (`_over_top`).
     shapes = np.array([[0.5 * s.dims[1] if s.kind == "capsule" else 0.0, s.dims[0],
-                        s.bounding_radius, max(s.dims[0] - robot.contact_offset, 1e-4)]
-                       for s in robot.contact_shapes], dtype=float)
+                        s.bounding_radius, max(s.dims[0] - robot.contact_offset, 1e-4),
+                        0.0 if with_tool else 1.0]
+                       for s, with_tool in zip(robot.contact_shapes, robot.moves_with_tool,
+                                               strict=True)], dtype=float)
     table = scene.table
     top = float(table.height)
     static_centre = [[table.center[0], table.center[1], top - 0.5 * TABLE_THICKNESS]]
@@ -1098,12 +1103,14 @@ def _over_top(poses: np.ndarray, shapes: np.ndarray, objects: np.ndarray, near: 
               obj_kind: np.ndarray, obj_dims: np.ndarray, obj_props: np.ndarray,
               clearance: float, point: np.ndarray, normal: np.ndarray, info: np.ndarray,
               value: np.ndarray) -> int:
-    """The first contact shape (in order) within `clearance` of an object's top from above or
-    over its rim (`PhysicsOptions.top_clearance`): its nearest point on the object within
-    `TOP_RIM` of the top, the normal tilted more than `TOP_NORMAL_TILT` out of the horizontal.
-    Only the pairs `near` allows (`_reach`, grown by the clearance); `point` and `normal` are
-    scratch rows."""
+    """The first contact shape (in order) of the arm behind the tool (`World.shapes` column 4)
+    within `clearance` of an object's top from above or over its rim
+    (`PhysicsOptions.top_clearance`): its nearest point on the object within `TOP_RIM` of the
+    top, the normal tilted more than `TOP_NORMAL_TILT` out of the horizontal. Only the pairs
+    `near` allows (`_reach`, grown by the clearance); `point` and `normal` are scratch rows."""
     for s in range(poses.shape[0]):
+        if shapes[s, 4] == 0.0:
+            continue
         a, b = kernels.segment(poses, s, shapes[s, 0])
         for m in range(objects.shape[0]):
             if not near[s, m]:
