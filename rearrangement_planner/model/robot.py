@@ -14,7 +14,6 @@ so it is not thread-safe: give each planning thread its own (`RobotModel.copy()`
 from __future__ import annotations
 
 import functools
-
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace

@@ -47,7 +47,8 @@ class PhysicsOptions(Settings):
     nothing; the real link, a mesh larger than its contact shape, presses on the rim of an
     object a few mm from where the plan has it and topples it (docs/experiments.md, "What
     topples objects now"). A shape meeting the object's side below the rim is not affected,
-    nor is the hand, which pushes near an object's top by design. 0 = off, as in King et al. 2015."""
+    nor is the hand, which pushes near an object's top by design. 0 = off, as in King et al.
+    2015."""
     tip_judgement: bool = internal(False)
     """Judge rather than refuse a push that would tip its object: the step reports, per
     object, how far the pusher must carry it while it tips to topple it (`step._tip_travel`),
