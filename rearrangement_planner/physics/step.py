@@ -1100,23 +1100,20 @@ the horizontal comes from above the rim, not from beside the object's side face.
 
 @kernels.njit_bare
 def _over_top(poses: np.ndarray, shapes: np.ndarray, objects: np.ndarray, near: np.ndarray,
-              obj_kind: np.ndarray, obj_dims: np.ndarray, obj_size: np.ndarray,
-              obj_props: np.ndarray, clearance: float, point: np.ndarray, normal: np.ndarray,
-              info: np.ndarray, value: np.ndarray) -> int:
+              obj_kind: np.ndarray, obj_dims: np.ndarray, obj_props: np.ndarray,
+              clearance: float, point: np.ndarray, normal: np.ndarray, info: np.ndarray,
+              value: np.ndarray) -> int:
     """The first contact shape (in order) of the arm behind the tool (`World.shapes` column 4)
-    within `clearance` of the top of an object that a push at its rim could tip, from above or
-    over its rim (`PhysicsOptions.top_clearance`): its nearest point on the object within
-    `TOP_RIM` of the top, the normal tilted more than `TOP_NORMAL_TILT` out of the horizontal.
-    An object tips under a push at its rim when mu_s times its height exceeds the footprint's
-    least extent from its centre (`tips_over` along its narrow side). Only the pairs `near`
-    allows (`_reach`, grown by the clearance); `point` and `normal` are scratch rows."""
+    within `clearance` of an object's top from above or over its rim
+    (`PhysicsOptions.top_clearance`): its nearest point on the object within `TOP_RIM` of the
+    top, the normal tilted more than `TOP_NORMAL_TILT` out of the horizontal. Only the pairs
+    `near` allows (`_reach`, grown by the clearance); `point` and `normal` are scratch rows."""
     for s in range(poses.shape[0]):
         if shapes[s, 4] == 0.0:
             continue
         a, b = kernels.segment(poses, s, shapes[s, 0])
         for m in range(objects.shape[0]):
-            if not near[s, m] or obj_props[m, OBJ_SUPPORT_MU] * obj_size[m, 2] <= 0.5 * min(
-                    obj_size[m, 0], obj_size[m, 1]):
+            if not near[s, m]:
                 continue
             centre = (objects[m, 0], objects[m, 1], obj_props[m, OBJ_CENTRE_Z])
             dims = _row(obj_dims, m)
@@ -1213,9 +1210,8 @@ def _substep(poses_a: np.ndarray, poses_b: np.ndarray, objects: np.ndarray,
         return code
     if options[OPT_TOP_CLEARANCE] > 0.0 and objects.shape[0] > 0:   # before `_contacts`,
         # which writes these scratch rows
-        code = _over_top(poses_b, shapes, objects, near, obj_kind, obj_dims, obj_size,
-                         obj_props, options[OPT_TOP_CLEARANCE], c_point[0], c_normal[0], info,
-                         value)
+        code = _over_top(poses_b, shapes, objects, near, obj_kind, obj_dims, obj_props,
+                         options[OPT_TOP_CLEARANCE], c_point[0], c_normal[0], info, value)
         if code != _VALID:
             return code
     count = _contacts(poses_b, shapes, objects, everything, near, obj_kind, obj_dims,
