@@ -190,12 +190,14 @@ def rollout_options(options: PhysicsOptions) -> PhysicsOptions:
     step up to a few mm inside it, which the planner's 3 mm residual check would call an
     invalid step although the object is simply pushed. Rollouts judge the goal, not that. The
     turn limit chooses which pushes the planner may plan with; a perturbed world that turns an
-    object a little faster does not fail the plan. Objects that meet push each other, and a
+    object a little faster does not fail the plan, nor does a link passing closer over an
+    object's top than the planner's `top_clearance`. Objects that meet push each other, and a
     push that would tip an object is judged by whether it topples it (`rollout_kernel`), not
     refused; and every object is movable (the Static RRT's static objects are its rule too)."""
     return dataclasses.replace(options, penetration_tolerance=max(
         options.penetration_tolerance, ROLLOUT_PENETRATION_TOLERANCE), max_turn=0.0,
-        tipping=False, tip_judgement=True, object_contact=True, static_objects=frozenset())
+        top_clearance=0.0, tipping=False, tip_judgement=True, object_contact=True,
+        static_objects=frozenset())
 
 
 def robustness(scene: Scene, states: Sequence[State], rollouts: int, seed: int,
