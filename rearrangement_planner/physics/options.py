@@ -38,7 +38,7 @@ class PhysicsOptions(Settings):
     Pang & Tedrake's quasistatic simulator, so that a plan may push a row of objects and the
     model predicts what execution does when objects meet. Off: a state in which objects touch
     is invalid, as in King et al. 2015 (§III-A). Results: docs/experiments.md."""
-    top_clearance: float = setting(0.0, low=0.0, high=0.1)
+    top_clearance: float = internal(0.0)
     """Refuse a step in which a contact shape of the arm behind the tool (the forearm and the
     wrist, not the hand; `RobotModel.moves_with_tool`) comes within this distance (m) of a
     movable object's top from above or over its top rim (`Invalid.OVER_TOP`): the shape's nearest
@@ -48,7 +48,10 @@ class PhysicsOptions(Settings):
     object a few mm from where the plan has it and topples it (docs/experiments.md, "What
     topples objects now"). A shape meeting the object's side below the rim is not affected,
     nor is the hand, which pushes near an object's top by design. 0 = off, as in King et al.
-    2015."""
+    2015. Not a planner rule (refusing such steps lost reached goals on the varied set,
+    docs/experiments.md "A top clearance for the arm behind the tool"): robust selection
+    replays a candidate with it to see whether the plan grazes a rim
+    (`planning.requests.robustness.grazes_top`)."""
     tip_judgement: bool = internal(False)
     """Judge rather than refuse a push that would tip its object: the step reports, per
     object, how far the pusher must carry it while it tips to topple it (`step._tip_travel`),
