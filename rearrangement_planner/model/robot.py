@@ -13,7 +13,6 @@ so it is not thread-safe: give each planning thread its own (`RobotModel.copy()`
 
 from __future__ import annotations
 
-import functools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
@@ -367,15 +366,6 @@ class RobotModel:
         if self._tool_reach is None:
             self._tool_reach = self._reach_past_tool()
         return self._tool_reach
-
-    @functools.cached_property
-    def moves_with_tool(self) -> tuple[bool, ...]:
-        """Per contact shape, whether it moves rigidly with the tool frame (on the links after
-        the last joint: the hand, its fingers and the flange); the rest are the arm behind the
-        wrist's last joint."""
-        tool_joint = self.model.frames[self.tool_frame_id].parentJoint
-        return tuple(self.model.frames[int(fid)].parentJoint == tool_joint
-                     for fid in self._shape_frame_ids)
 
     def _reach_past_tool(self) -> float:
         tool_joint = self.model.frames[self.tool_frame_id].parentJoint

@@ -5,7 +5,7 @@ built from these options, and so do shortcutting and the robustness rollouts of 
 DARRT never steps the physics, so its requests refuse these settings (`planning.requests.registry`).
 A simulator that executes a trajectory (world_sim, `execution.open_loop`) lets objects slide
 however they are pushed: it uses `simulation_options`, with the planner's two validity rules,
-tipping, the turn limit and the top clearance, off.
+tipping and the turn limit, off.
 """
 
 from __future__ import annotations
@@ -38,20 +38,6 @@ class PhysicsOptions(Settings):
     Pang & Tedrake's quasistatic simulator, so that a plan may push a row of objects and the
     model predicts what execution does when objects meet. Off: a state in which objects touch
     is invalid, as in King et al. 2015 (§III-A). Results: docs/experiments.md."""
-    top_clearance: float = internal(0.0)
-    """Refuse a step in which a contact shape of the arm behind the tool (the forearm and the
-    wrist, not the hand; `RobotModel.moves_with_tool`) comes within this distance (m) of a
-    movable object's top from above or over its top rim (`Invalid.OVER_TOP`): the shape's nearest
-    point on the object lies within `step.TOP_RIM` of its top, with the normal tilted out of
-    the horizontal. In the model a link sweeping just over an object, or grazing its rim, pushes
-    nothing; the real link, a mesh larger than its contact shape, presses on the rim of an
-    object a few mm from where the plan has it and topples it (docs/experiments.md, "What
-    topples objects now"). A shape meeting the object's side below the rim is not affected,
-    nor is the hand, which pushes near an object's top by design. 0 = off, as in King et al.
-    2015. Not a planner rule (refusing such steps lost reached goals on the varied set,
-    docs/experiments.md "A top clearance for the arm behind the tool"): robust selection
-    replays a candidate with it to see whether the plan grazes a rim
-    (`planning.requests.robustness.grazes_top`)."""
     tip_judgement: bool = internal(False)
     """Judge rather than refuse a push that would tip its object: the step reports, per
     object, how far the pusher must carry it while it tips to topple it (`step._tip_travel`),
@@ -78,8 +64,8 @@ class PhysicsOptions(Settings):
 
 def simulation_options(max_substep: float = PhysicsOptions.max_substep) -> PhysicsOptions:
     """The physics of a simulated world that executes trajectories (world_sim, open-loop
-    execution): a pushed object slides whatever the push height or turn, because tipping, the
-    turn limit and the top clearance are rules for choosing plans, not physics; objects that
-    meet push each other."""
+    execution): a pushed object slides whatever the push height or turn, because tipping and
+    the turn limit are rules for choosing plans, not physics; objects that meet push each
+    other."""
     return PhysicsOptions(tipping=False, max_turn=0.0, max_substep=max_substep,
-                          object_contact=True, top_clearance=0.0)
+                          object_contact=True)

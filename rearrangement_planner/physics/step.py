@@ -78,7 +78,6 @@ class Invalid(str, Enum):
     RESIDUAL_PENETRATION = "residual_penetration"
     TIPPING = "object_would_tip"
     TURNING = "object_turns"
-    OVER_TOP = "arm_over_object_top"
 
 
 @dataclass(frozen=True)
@@ -145,22 +144,21 @@ def tips_whichever_way(obj: MovableObject, height: float) -> bool:
 
 # Outcome codes of the compiled step (`_REASONS[code]`; 0 is a valid step).
 (_VALID, _JOINT_LIMIT, _ARM_TABLE, _ARM_OBSTACLE, _OBJECT_OVERLAP, _OBJECT_OBSTACLE, _OFF_TABLE,
- _FROM_ABOVE, _JAMMING, _RESIDUAL, _TIPPING, _STATIC_OBJECT, _TURNING, _OVER_TOP) = range(14)
+ _FROM_ABOVE, _JAMMING, _RESIDUAL, _TIPPING, _STATIC_OBJECT, _TURNING) = range(13)
 _REASONS: tuple[Invalid | None, ...] = (
     None, Invalid.JOINT_LIMIT, Invalid.ARM_TABLE, Invalid.ARM_OBSTACLE, Invalid.OBJECT_OVERLAP,
     Invalid.OBJECT_OBSTACLE, Invalid.OFF_TABLE, Invalid.CONTACT_FROM_ABOVE, Invalid.JAMMING,
-    Invalid.RESIDUAL_PENETRATION, Invalid.TIPPING, Invalid.ARM_OBSTACLE, Invalid.TURNING,
-    Invalid.OVER_TOP)
+    Invalid.RESIDUAL_PENETRATION, Invalid.TIPPING, Invalid.ARM_OBSTACLE, Invalid.TURNING)
 
 # The compiled step takes its options and per-object constants as packed float arrays (Numba
 # takes no Python objects); these name their columns. `_world_arrays` packs them in this order
 # (a test checks it against `PhysicsOptions`).
 (OPT_MAX_SUBSTEP, OPT_PENETRATION, OPT_OVERLAP, OPT_VERTICAL_NORMAL, OPT_TIPPING,
  OPT_FREE_SPACE, OPT_MAX_TURN, OPT_OBJECT_CONTACT, OPT_TIP_JUDGEMENT,
- OPT_CONTACT_TOLERANCE, OPT_TOP_CLEARANCE) = range(11)
+ OPT_CONTACT_TOLERANCE) = range(10)
 OPTION_FIELDS = ("max_substep", "penetration_tolerance", "overlap_tolerance",
                  "vertical_normal_limit", "tipping", None, "max_turn", "object_contact",
-                 "tip_judgement", "contact_tolerance", "top_clearance")
+                 "tip_judgement", "contact_tolerance")
 """The `PhysicsOptions` field packed in each `World.options` column (None: a module constant,
 `FREE_SPACE_MARGIN`)."""
 (OBJ_CENTRE_Z, OBJ_C, OBJ_PUSHER_MU, OBJ_SUPPORT_MU, OBJ_FOOTPRINT, OBJ_STATIC, OBJ_COF_X,
@@ -176,9 +174,7 @@ class World(NamedTuple):
     half height)."""
 
     chain: tuple[np.ndarray, ...]   # kernels.shape_poses arguments: parents .. shape_local
-    shapes: np.ndarray              # (S, 5): axis half length, radius against objects, bounding
-                                    # radius, radius against the static world, 1 if the top
-                                    # clearance applies
+    shapes: np.ndarray              # (S, 3): axis half length, radius, bounding radius
     limits: np.ndarray              # (2, nq): lower, upper
     static_centre: np.ndarray       # (1 + K, 3): the table slab, then the obstacle boxes
     static_yaw: np.ndarray          # (1 + K,)
@@ -189,7 +185,7 @@ class World(NamedTuple):
     obj_size: np.ndarray            # (M, 3) full extents (x, y, z), a cylinder's (2r, 2r, h)
     obj_props: np.ndarray           # (M, 9): columns OBJ_CENTRE_Z .. OBJ_MASS
     table: np.ndarray               # (5,): top z, centre x, y, half size x, y
-    options: np.ndarray             # (11,): columns OPT_MAX_SUBSTEP .. OPT_TOP_CLEARANCE
+    options: np.ndarray             # (10,): columns OPT_MAX_SUBSTEP .. OPT_CONTACT_TOLERANCE
 
 
 class Physics:
@@ -320,9 +316,6 @@ class Physics:
             return f"{links[a]} touches '{names[b]}', a static object for this planner"
         if code == _TURNING:
             return f"'{names[a]}' would turn too fast: {v:.1f} rad per m it moves"
-        if code == _OVER_TOP:
-            return (f"{links[a]} comes {max(v, 0.0) * 100:.1f} cm over the top of '{names[b]}' "
-                    f"(clearance {self.options.top_clearance * 100:.1f} cm)")
         if code == _FROM_ABOVE:
             return f"{links[a]} presses on '{names[b]}' from above (normal z = {v:+.2f})"
         if code == _JAMMING:
@@ -360,13 +353,10 @@ def _world_arrays(scene: Scene, robot: RobotModel, options: PhysicsOptions,
     # Columns: half length, radius against the objects, bounding radius, radius against the
     # table and obstacles (a `RobotModel.grown` arm meets objects a few mm off, the static world
     # as it was: the offset stands for where the real links touch objects, not for the arm's
-    # clearance, which the plans keep with their own margin); then 1 for the arm's links
-    # behind the tool, which keep the top clearance (`_over_top`).
+    # clearance, which the plans keep with their own margin).
     shapes = np.array([[0.5 * s.dims[1] if s.kind == "capsule" else 0.0, s.dims[0],
-                        s.bounding_radius, max(s.dims[0] - robot.contact_offset, 1e-4),
-                        0.0 if with_tool else 1.0]
-                       for s, with_tool in zip(robot.contact_shapes, robot.moves_with_tool,
-                                               strict=True)], dtype=float)
+                        s.bounding_radius, max(s.dims[0] - robot.contact_offset, 1e-4)]
+                       for s in robot.contact_shapes], dtype=float)
     table = scene.table
     top = float(table.height)
     static_centre = [[table.center[0], table.center[1], top - 0.5 * TABLE_THICKNESS]]
@@ -1090,46 +1080,6 @@ def _admissible(count: int, c_shape: np.ndarray, c_obj: np.ndarray, c_point: np.
     return _VALID
 
 
-TOP_RIM = 0.005
-"""m: a contact shape's nearest point on an object this close below the object's top counts as
-on its top or its top rim (`PhysicsOptions.top_clearance`)."""
-TOP_NORMAL_TILT = 0.17
-"""sin(10 deg): a normal from an object's rim to a contact shape tilted more than this out of
-the horizontal comes from above the rim, not from beside the object's side face."""
-
-
-@kernels.njit_bare
-def _over_top(poses: np.ndarray, shapes: np.ndarray, objects: np.ndarray, near: np.ndarray,
-              obj_kind: np.ndarray, obj_dims: np.ndarray, obj_props: np.ndarray,
-              clearance: float, point: np.ndarray, normal: np.ndarray, info: np.ndarray,
-              value: np.ndarray) -> int:
-    """The first contact shape (in order) of the arm behind the tool (`World.shapes` column 4)
-    within `clearance` of an object's top from above or over its rim
-    (`PhysicsOptions.top_clearance`): its nearest point on the object within `TOP_RIM` of the
-    top, the normal tilted more than `TOP_NORMAL_TILT` out of the horizontal. Only the pairs
-    `near` allows (`_reach`, grown by the clearance); `point` and `normal` are scratch rows."""
-    for s in range(poses.shape[0]):
-        if shapes[s, 4] == 0.0:
-            continue
-        a, b = kernels.segment(poses, s, shapes[s, 0])
-        for m in range(objects.shape[0]):
-            if not near[s, m]:
-                continue
-            centre = (objects[m, 0], objects[m, 1], obj_props[m, OBJ_CENTRE_Z])
-            dims = _row(obj_dims, m)
-            if not kernels.near_prism(a, b, shapes[s, 1] + clearance, obj_kind[m], centre,
-                                      dims):
-                continue
-            d = kernels.capsule_prism_below(a, b, shapes[s, 1], clearance, obj_kind[m], centre,
-                                            objects[m, 2], dims, point, normal)
-            top = centre[2] + (dims[2] if obj_kind[m] == kernels.BOX else dims[1])
-            if d < clearance and point[2] > top - TOP_RIM and normal[2] > TOP_NORMAL_TILT:
-                info[1], info[2] = s, m
-                value[0] = d
-                return _OVER_TOP
-    return _VALID
-
-
 @kernels.njit_bare
 def _residual_depth(poses: np.ndarray, shapes: np.ndarray, new_objects: np.ndarray,
                     changed: np.ndarray, any_changed: bool, count: int, c_shape: np.ndarray,
@@ -1208,12 +1158,6 @@ def _substep(poses_a: np.ndarray, poses_b: np.ndarray, objects: np.ndarray,
                        info)
     if code != _VALID:
         return code
-    if options[OPT_TOP_CLEARANCE] > 0.0 and objects.shape[0] > 0:   # before `_contacts`,
-        # which writes these scratch rows
-        code = _over_top(poses_b, shapes, objects, near, obj_kind, obj_dims, obj_props,
-                         options[OPT_TOP_CLEARANCE], c_point[0], c_normal[0], info, value)
-        if code != _VALID:
-            return code
     count = _contacts(poses_b, shapes, objects, everything, near, obj_kind, obj_dims,
                       obj_props, c_shape, c_obj, c_point, c_normal, c_depth)
     _copy_rows(objects, new_objects)
@@ -1284,9 +1228,7 @@ def _substeps(q0: np.ndarray, q1: np.ndarray, objects: np.ndarray, chain: tuple,
     first substep."""
     q_b, near, near_static = work[_Q_B], work[_NEAR], work[_NEAR_STATIC]
     n = max(1, math.ceil(sweep / options[OPT_MAX_SUBSTEP] - 1e-9))
-    # A pair within the top clearance is asked as a pair that may touch (`_over_top`).
-    grow = options[OPT_FREE_SPACE] + options[OPT_TOP_CLEARANCE]
-    margin = sweep + grow
+    margin = sweep + options[OPT_FREE_SPACE]
     least = math.inf
     if _reach(poses_a, shapes, objects, obj_size, obj_props, static_centre, static_dims,
               margin, near, near_static):
@@ -1300,7 +1242,7 @@ def _substeps(q0: np.ndarray, q1: np.ndarray, objects: np.ndarray, chain: tuple,
         return 1, 1
     # No point moves more than sweep / n per substep (plus the bulge): the substeps before the
     # nearest pair can close its distance touch nothing, so start at the one before.
-    first = max(1, min(n, int(math.floor((least - grow) / (sweep / n)))))
+    first = max(1, min(n, int(math.floor((least - options[OPT_FREE_SPACE]) / (sweep / n)))))
     if first > 1:
         for j in range(q1.shape[0]):
             q_b[j] = q0[j] + (q1[j] - q0[j]) * ((first - 1) / n)

@@ -461,105 +461,6 @@ def test_the_turn_limit_leaves_cylinders_alone(panda):
             assert result.reason is Invalid.TURNING
 
 
-# --------------------------------------------------------------------------------------------
-# Top clearance (issue 39: a link grazing an object's top rim topples the real object)
-# --------------------------------------------------------------------------------------------
-
-
-def _raised_path(panda, lift):
-    """The tool moving along +x from 0.30 to 0.52 m `lift` m above the pushing plane (IK every
-    5 mm)."""
-    from rearrangement_planner.planning.machinery.manifold import ik_on_manifold
-
-    q = default_push_configuration(panda, lift)
-    path = []
-    for x in np.arange(0.30, 0.52, 0.005):
-        q = ik_on_manifold(panda, float(x), 0.0, 0.0, lift, q)
-        path.append(q)
-    return path
-
-
-def _lowest_point(panda, path, links):
-    """The lowest point the contact shapes of `links` reach along `path`, m above the table top
-    (z = 0 here)."""
-    low = math.inf
-    for q in path:
-        for pose, shape in zip(panda.shape_poses(q), panda.contact_shapes, strict=True):
-            if shape.link not in links:
-                continue
-            half = 0.5 * shape.dims[1] if shape.kind == "capsule" else 0.0
-            ends = [pose[:3, 3] + sign * half * pose[:3, 2] for sign in (-1.0, 1.0)]
-            low = min(low, min(e[2] for e in ends) - shape.dims[0])
-    return low
-
-
-@pytest.mark.parametrize("gap, refused", [(0.002, True), (0.015, True), (0.03, False)])
-def test_the_wrist_passing_just_over_an_object_is_invalid_with_the_top_clearance(panda, gap,
-                                                                               refused):
-    """The forearm and the wrist (panda_link5, panda_link6) sweep over a low box whose top is
-    `gap` below their lowest point:
-    without the clearance nothing touches and every step is valid; with 2 cm the passes closer
-    than that are refused as one comes within 2 cm of the box, naming the link, the
-    object and the gap."""
-    path = _raised_path(panda, 0.08)
-    height = _lowest_point(panda, path, ("panda_link5", "panda_link6")) - gap
-    scene = make_scene([box("low", [0.25, 0.045, 0.0], size=(0.04, 0.05, height))], path[0],
-                       robot=panda)
-    result, state = _walk(Physics(scene, PhysicsOptions()), scene.initial_state(), path[1:])
-    assert result.valid and state.objects[0, 0] == 0.25
-    result, _ = _walk(Physics(scene, PhysicsOptions(top_clearance=0.02)),
-                      scene.initial_state(), path[1:])
-    if not refused:
-        assert result.valid, result.detail
-        return
-    assert result.reason is Invalid.OVER_TOP
-    link, rest = result.detail.split(" comes ")
-    assert link in ("panda_link5", "panda_link6")
-    assert rest.endswith(" cm over the top of 'low' (clearance 2.0 cm)")
-    assert gap - 0.001 <= float(rest.split(" cm")[0]) / 100 <= 0.02  # refused on approach
-
-
-def test_the_hand_may_pass_just_over_an_object_with_the_top_clearance(panda):
-    """The top clearance keeps the arm behind the tool off objects' tops: the hand and the
-    flange, which push near an object's top by design, pass 2 mm over a low box."""
-    assert panda.moves_with_tool.count(True) == sum(
-        s.link in ("panda_link7", "panda_hand") for s in panda.contact_shapes)
-    path = _raised_path(panda, 0.08)
-    height = _lowest_point(panda, path, ("panda_link7", "panda_hand")) - 0.002
-    scene = make_scene([box("low", [0.44, 0.0, 0.0], size=(0.06, 0.08, height))], path[0],
-                       robot=panda)
-    result, state = _walk(Physics(scene, PhysicsOptions(top_clearance=0.02)),
-                          scene.initial_state(), path[1:])
-    assert result.valid, result.detail
-    assert state.objects[0, 0] == 0.44
-
-
-@pytest.mark.parametrize("height", [0.12, 0.08])
-def test_a_push_on_a_face_is_valid_with_the_top_clearance(panda, height):
-    """The finger pads pressed flat against a box's face push it as without the clearance:
-    they meet its side, not its top."""
-    path = _push_path(panda, 0.50)
-    scene = make_scene([box("b", [0.46, 0.0, 0.0], size=(0.06, 0.08, height))], path[0],
-                       robot=panda)
-    ends = []
-    for clearance in (0.0, 0.02):
-        result, state = _walk(Physics(scene, PhysicsOptions(top_clearance=clearance)),
-                              scene.initial_state(), path[1:])
-        assert result.valid, result.detail
-        ends.append(state.objects[0])
-    assert ends[0][0] > 0.5
-    np.testing.assert_allclose(ends[1], ends[0])
-
-
-def test_the_top_clearance_is_a_planning_rule_not_physics():
-    """Simulated execution and the robustness rollouts let a link pass over an object however
-    close: the clearance chooses plans."""
-    from rearrangement_planner.planning.requests.robustness import rollout_options
-
-    assert SIM.top_clearance == 0.0
-    assert rollout_options(PhysicsOptions(top_clearance=0.02)).top_clearance == 0.0
-
-
 def test_the_packed_options_follow_the_named_columns(panda):
     """The compiled step reads `World.options` by the OPT_* constants: each column holds the
     `PhysicsOptions` field `OPTION_FIELDS` names (distinct values, so a swapped column shows),
@@ -569,16 +470,14 @@ def test_the_packed_options_follow_the_named_columns(panda):
     options = PhysicsOptions(max_substep=0.0031, penetration_tolerance=0.0021,
                              overlap_tolerance=0.00011, vertical_normal_limit=0.61,
                              tipping=True, max_turn=7.5, object_contact=True,
-                             tip_judgement=True, contact_tolerance=0.0017,
-                             top_clearance=0.013)
+                             tip_judgement=True, contact_tolerance=0.0017)
     packed = step.packed_options(options)
     columns = {"max_substep": step.OPT_MAX_SUBSTEP, "penetration_tolerance": step.OPT_PENETRATION,
                "overlap_tolerance": step.OPT_OVERLAP,
                "vertical_normal_limit": step.OPT_VERTICAL_NORMAL, "tipping": step.OPT_TIPPING,
                "max_turn": step.OPT_MAX_TURN, "object_contact": step.OPT_OBJECT_CONTACT,
                "tip_judgement": step.OPT_TIP_JUDGEMENT,
-               "contact_tolerance": step.OPT_CONTACT_TOLERANCE,
-               "top_clearance": step.OPT_TOP_CLEARANCE}
+               "contact_tolerance": step.OPT_CONTACT_TOLERANCE}
     assert len(packed) == len(step.OPTION_FIELDS) == len(columns) + 1
     for name, column in columns.items():
         assert step.OPTION_FIELDS[column] == name

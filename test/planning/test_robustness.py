@@ -16,7 +16,7 @@ from rearrangement_planner.model.robot import RobotModel
 from rearrangement_planner.model.state import State
 from rearrangement_planner.physics.options import PhysicsOptions
 from rearrangement_planner.physics.step import Invalid, Physics
-from rearrangement_planner.physics.validation import load_scene, parse_scene
+from rearrangement_planner.physics.validation import load_scene
 from rearrangement_planner.planning import (
     Outcome,
     PCRRTOptions,
@@ -203,7 +203,7 @@ def test_with_accept_best_the_most_robust_candidate_answers_when_none_is_robust_
     best = plan_scene(PlanRequest.first_plan(easy, "pc-rrt", options, seed=16,
                                              robust=RobustOptions(
         min_robustness=1.0, rollouts=10, candidates=3, candidate_effort=0.0, travel_penalty=0.0,
-        graze_penalty=0.0, accept_best=True)))
+        accept_best=True)))
     assert best.solved and best.robustness == expected[1], (best.robustness, scores)
     assert best.result.seed == 16          # the request's seed, which reproduces the choice
     assert _same_path(best, expected[0])
@@ -221,8 +221,7 @@ def test_candidates_are_ranked_by_robustness_less_the_travel_penalty(slim, remem
     """The rank is robustness - travel_penalty x the goal object's push path (m). The three
     candidates of the slim box with seed 58 score 0.9, 0.4 and 0.8 and push the box 0.49,
     0.42 and 0.19 m: without a penalty the first answers, the default 0.5 already prefers the
-    third, the shortest push (0.70 against 0.65), and so does a penalty of 10 per metre (no
-    graze penalty: the next test)."""
+    third, the shortest push (0.70 against 0.65), and so does a penalty of 10 per metre."""
     options = PCRRTOptions(time_limit=60.0)
     three_candidates = _three_candidates(slim, "slim", 58)
     picks = {}
@@ -232,78 +231,10 @@ def test_candidates_are_ranked_by_robustness_less_the_travel_penalty(slim, remem
         chosen = plan_scene(PlanRequest.first_plan(slim, "pc-rrt", options, seed=58,
                                                    robust=RobustOptions(
             min_robustness=1.0, rollouts=10, candidates=3, candidate_effort=0.0,
-            travel_penalty=penalty, graze_penalty=0.0)))
+            travel_penalty=penalty)))
         expected = three_candidates[picks[penalty]]
         assert chosen.robustness == expected[1] and _same_path(chosen, expected[0]), penalty
     assert picks == {0.0: 0, 0.5: 2, 10.0: 2}, picks
-
-
-def test_a_candidate_that_grazes_a_rim_is_ranked_lower_by_the_graze_penalty(
-        slim, remembered_searches, monkeypatch):
-    """Of the slim box's three candidates of seed 58 (0.9, 0.4 and 0.8; ranks 0.65, 0.19 and
-    0.70 with the travel penalty) the third answers; said to graze a rim, it ranks 0.50 with
-    the default penalty 0.2, and the first answers. With the penalty 0 no candidate is asked
-    whether it grazes."""
-    from rearrangement_planner.planning.requests.pipeline import Candidates
-
-    options = PCRRTOptions(time_limit=60.0)
-    three_candidates = _three_candidates(slim, "slim", 58)
-    third = three_candidates[2][0]
-    asked = []
-
-    def grazes(self, candidate):
-        asked.append(candidate)
-        return _same_path(candidate, third)
-
-    monkeypatch.setattr(Candidates, "grazes", grazes)
-    picks = {}
-    for penalty in (0.0, RobustOptions().graze_penalty):
-        chosen = plan_scene(PlanRequest.first_plan(slim, "pc-rrt", options, seed=58,
-                                                   robust=RobustOptions(
-            min_robustness=1.0, rollouts=10, candidates=3, candidate_effort=0.0,
-            graze_penalty=penalty)))
-        picks[penalty] = next(i for i, (plan, score, _) in enumerate(three_candidates)
-                              if _same_path(chosen, plan) and chosen.robustness == score)
-        assert len(asked) == (0 if penalty == 0.0 else 3)
-    assert picks == {0.0: 2, 0.2: 0}, picks
-
-
-def _raised_path(panda, lift):
-    """The tool moving along +x from 0.30 to 0.52 m `lift` m above the pushing plane."""
-    q = default_push_configuration(panda, lift)
-    path = []
-    for x in np.arange(0.30, 0.52, 0.005):
-        q = ik_on_manifold(panda, float(x), 0.0, 0.0, lift, q)
-        path.append(q)
-    return path
-
-
-@pytest.mark.parametrize("gap, grazes", [(0.0005, True), (0.01, False)])
-def test_a_plan_whose_wrist_passes_just_over_a_rim_grazes_it(panda, gap, grazes):
-    """The forearm and the wrist end their sweep over a low box whose top is `gap` below their
-    lowest point: within `GRAZE` (1 mm) of its top the plan grazes it; 1 cm over it does not.
-    The hand, which moves with the tool, may pass as close (`RobotModel.moves_with_tool`)."""
-    from rearrangement_planner.planning.requests.robustness import GRAZE, grazes_top
-
-    path = _raised_path(panda, 0.08)
-    lowest = (math.inf, 0.0, 0.0)         # z, x, y of the lowest point at the path's end
-    for pose, shape, with_tool in zip(panda.shape_poses(path[-1]), panda.contact_shapes,
-                                      panda.moves_with_tool, strict=True):
-        if shape.link in ("panda_link5", "panda_link6"):
-            assert not with_tool
-            half = 0.5 * shape.dims[1] if shape.kind == "capsule" else 0.0
-            for sign in (-1.0, 1.0):
-                end = pose[:3, 3] + sign * half * pose[:3, 2]
-                lowest = min(lowest, (end[2] - shape.dims[0], end[0], end[1]))
-    low, x, y = lowest
-    assert gap < GRAZE or not grazes
-    scene = parse_scene({"start_configuration": path[0].tolist(),
-                         "table": {"center": [0.55, 0.0], "size": [0.8, 1.2], "height": 0.0},
-                         "objects": [{"name": "low", "shape": "box", "pose": [x, y, 0.0],
-                                      "size": [0.04, 0.05, low - gap]}],
-                         "goal": {"object": "low", "position": [0.5, 0.0]}}, robot=panda)
-    states = [State(q, scene.object_poses) for q in path]
-    assert grazes_top(scene, states, PhysicsOptions()) is grazes
 
 
 def test_a_fragile_best_earns_more_candidates_a_sound_one_does_not(slim, remembered_searches,

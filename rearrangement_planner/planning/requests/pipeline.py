@@ -36,7 +36,6 @@ from rearrangement_planner.planning.requests.robustness import (
     candidate_iterations,
     candidate_rank,
     goal_travel,
-    grazes_top,
     robustness,
 )
 from rearrangement_planner.planning.requests.shortcut import shortcut
@@ -353,15 +352,6 @@ class Candidates:
                               seed, physics_options=world)
 
 
-    def grazes(self, candidate: Candidate) -> bool:
-        """Whether the candidate's forearm or wrist grazes an object's top rim in the
-        planner's physics (`robustness.grazes_top`)."""
-        request = self.request
-        world = request.planner.physics(request.scene, self.physics).options
-        with self.phases.timed("rollouts"):
-            return grazes_top(request.scene, candidate.result.states, world)
-
-
 def _answer(candidate: Candidate, t0: float, seed: int) -> Candidate:
     """The chosen candidate as the request's answer: its plan time all the selection took
     since `t0` but its own shortcutting, its seed the request's."""
@@ -418,8 +408,6 @@ def robust_search(candidates: Candidates) -> tuple[Candidate, float | None]:
         if score >= robust.min_robustness:
             return _answer(candidate, t0, seed), score
         rank = candidate_rank(score, travel, robust.travel_penalty)
-        if robust.graze_penalty > 0.0 and candidates.grazes(candidate):
-            rank -= robust.graze_penalty
         if best is None or rank > best[2]:
             best = (candidate, score, rank)
         most_robust = max(most_robust, score)

@@ -11,8 +11,7 @@ it does, and a push that would tip an object topples it only if it carries it fa
 it tips (`rollout_kernel`; `PhysicsOptions.tip_judgement`). `pipeline.plan_scene` uses it to
 accept a candidate plan only at `min_robustness`, or to keep the best of several candidates:
 the most robust, less `travel_penalty` for each metre its goal object is pushed
-(`goal_travel`), and less `graze_penalty` when its forearm or wrist grazes an object's top
-rim (`grazes_top`).
+(`goal_travel`).
 """
 
 from __future__ import annotations
@@ -30,7 +29,7 @@ from rearrangement_planner.model.scene import Scene
 from rearrangement_planner.model.settings import Settings, setting
 from rearrangement_planner.model.state import State
 from rearrangement_planner.physics.options import PhysicsOptions
-from rearrangement_planner.physics.step import Invalid, Physics, step_kernel, step_workspace
+from rearrangement_planner.physics.step import Physics, step_kernel, step_workspace
 
 
 @dataclass(frozen=True)
@@ -77,13 +76,6 @@ class RobustOptions(Settings):
     """Candidates are ranked by robustness less this much per metre their goal object is
     pushed (`goal_travel`): the model's error grows along every push, so of two nearly equally
     robust plans the shorter push is the safer. 0 = the most robust."""
-    graze_penalty: float = setting(0.2, low=0.0, high=1.0)
-    """Candidates are ranked lower by this much when the arm behind the tool (the forearm and
-    the wrist) passes within `GRAZE` of an object's top rim in the model (`grazes_top`): there
-    the real link, a mesh larger than its contact shape, meets the rim of an object a few mm
-    from where the plan has it and topples it. The model's own rollouts cannot see it, as the
-    grazing shape pushes nothing. 0 = not looked at. Measured: docs/benchmark.md ("A grazed
-    rim ranked lower")."""
     accept_best: bool = setting(True)
     """When no candidate reaches min_robustness, answer with the best ranked one (its
     robustness reported) instead of failing: a request then fails only when no plan is found
@@ -190,22 +182,6 @@ def candidate_rank(score: float, travel: float, travel_penalty: float) -> float:
     return score - travel_penalty * travel
 
 
-GRAZE = 0.001
-"""m: how near the arm behind the tool may pass over an object's top rim in a plan before
-`grazes_top` calls it a graze (`RobustOptions.graze_penalty`). Of the shipped plans that
-toppled an object on the fixed set, 11 of 12 come this near, and of those that reached the goal
-24 of 68 (docs/experiments.md, "A top clearance for the arm behind the tool")."""
-
-
-def grazes_top(scene: Scene, states: Sequence[State], physics_options: PhysicsOptions) -> bool:
-    """Whether the plan `states`, replayed in the rollouts' physics, brings a contact shape of
-    the arm behind the tool within `GRAZE` of an object's top from above or over its rim
-    (`PhysicsOptions.top_clearance`)."""
-    options = dataclasses.replace(rollout_options(physics_options), top_clearance=GRAZE)
-    arm = np.array([s.q for s in states])
-    return rollout(scene, arm, options) == Invalid.OVER_TOP.value
-
-
 def rollout_options(options: PhysicsOptions) -> PhysicsOptions:
     """The physics options a rollout judges a plan with, from the planner's: the world as it
     is, not the planner's rules for choosing pushes.
@@ -214,14 +190,12 @@ def rollout_options(options: PhysicsOptions) -> PhysicsOptions:
     step up to a few mm inside it, which the planner's 3 mm residual check would call an
     invalid step although the object is simply pushed. Rollouts judge the goal, not that. The
     turn limit chooses which pushes the planner may plan with; a perturbed world that turns an
-    object a little faster does not fail the plan, nor does a link passing closer over an
-    object's top than the planner's `top_clearance`. Objects that meet push each other, and a
+    object a little faster does not fail the plan. Objects that meet push each other, and a
     push that would tip an object is judged by whether it topples it (`rollout_kernel`), not
     refused; and every object is movable (the Static RRT's static objects are its rule too)."""
     return dataclasses.replace(options, penetration_tolerance=max(
         options.penetration_tolerance, ROLLOUT_PENETRATION_TOLERANCE), max_turn=0.0,
-        top_clearance=0.0, tipping=False, tip_judgement=True, object_contact=True,
-        static_objects=frozenset())
+        tipping=False, tip_judgement=True, object_contact=True, static_objects=frozenset())
 
 
 def robustness(scene: Scene, states: Sequence[State], rollouts: int, seed: int,
