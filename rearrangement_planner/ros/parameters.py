@@ -89,7 +89,7 @@ _NODE_LAST: tuple[ParameterSpec, ...] = (
     ParameterSpec("auto_execute", False, "Publish every successful plan on joint_trajectory "
                   "right away (a fragile one only with execute_fragile)."),
     ParameterSpec("execute_fragile", False, "With auto_execute, publish a fragile plan too (one "
-                  "whose robustness stayed below min_robustness; its answer says FRAGILE)."),
+                  "whose robustness is below fragile_below; its answer says FRAGILE)."),
     ParameterSpec("plan_on_goal", False, "Start planning when a goal arrives on ~/goal."),
     ParameterSpec("execution_timeout", 0.0, "How long an action goal with execute waits for "
                   "joint_states to reach the sent trajectory's last point, s (EXECUTION_FAILED "

@@ -495,17 +495,17 @@ def test_a_cancel_ends_the_selection_not_only_the_candidate(panda, cancel_after,
 
 
 def test_a_fragile_plan_says_so_and_never_rounds_up_to_its_floor(easy):
-    """PlanOutput.fragile: solved, scored, below min_robustness; the note rounds the share
+    """PlanOutput.fragile: solved, scored, below fragile_below; the note rounds the share
     down, so that 999 of 1000 rollouts never reads as 100% below 100%."""
     from rearrangement_planner.planning import Outcome, PlanResult
     from rearrangement_planner.planning.requests.pipeline import PlanOutput
 
     solved = PlanResult(Outcome.SUCCEEDED, "reached", 0, states=(easy.initial_state(),))
-    almost = PlanOutput(easy, "pc-rrt", solved, robustness=0.999, min_robustness=1.0)
+    almost = PlanOutput(easy, "pc-rrt", solved, robustness=0.999, fragile_below=1.0)
     assert almost.fragile and "reached the goal in 99% of" in almost.fragile_note()
     assert almost.to_dict()["fragile"] is True
-    for robust in (PlanOutput(easy, "pc-rrt", solved, robustness=0.8, min_robustness=0.8),
+    for robust in (PlanOutput(easy, "pc-rrt", solved, robustness=0.3, fragile_below=0.3),
                    PlanOutput(easy, "pc-rrt", solved),                   # not scored
                    PlanOutput(easy, "pc-rrt", dataclasses.replace(
-                       solved, outcome=Outcome.TIMEOUT), robustness=0.1, min_robustness=1.0)):
+                       solved, outcome=Outcome.TIMEOUT), robustness=0.1, fragile_below=1.0)):
         assert not robust.fragile and robust.fragile_note() == ""

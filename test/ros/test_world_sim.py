@@ -470,19 +470,28 @@ def test_node_demo_exit_code_is_the_open_loop_outcome(tmp_path, monkeypatch, cap
     assert "mujoco physics" in out and "outcome: execution 1: " in out
     assert code == (0 if "outcome: execution 1: SUCCEEDED" in out else 1)
 
-    # make demo's request (the default scene, seed 1) gives a fragile plan (robustness 90 %):
-    # without --execute-fragile the node does not send it, and the demo ends at the answer
-    # rather than waiting for an execution that never comes. make demo sends it.
+    # make demo's request (the default scene, seed 1): its plan (robustness 95 %) is not
+    # fragile, so the node sends it without --execute-fragile, as make demo runs it.
     demo = ["--scene", "default", "--seed", "1", "--time-limit", "60", "--record-dir",
             str(tmp_path), "--engine", "quasistatic"]
+    node_demo.main(demo)
+    out = capsys.readouterr().out
+    assert "FRAGILE" not in out and "outcome: execution 1: " in out
+    make_demo = next(line for line in (BAGS.parent / "Makefile").read_text().splitlines()
+                     if "node_demo" in line).split("node_demo", 1)[1].split()
+    assert not node_demo.build_parser().parse_args(make_demo).execute_fragile
+
+    # A fragile plan (every candidate scored 0.25, below fragile_below): without
+    # --execute-fragile the node does not send it, and the demo ends at the answer rather
+    # than waiting for an execution that never comes.
+    from rearrangement_planner.planning.requests import pipeline
+
+    monkeypatch.setattr(pipeline.Candidates, "judge", lambda self, candidate, seed: 0.25)
     assert node_demo.main(demo) == 1
     captured = capsys.readouterr()
     assert "FRAGILE" in captured.out and "not executed" in captured.out
     assert "--execute-fragile sends it" in captured.err and "no outcome" not in captured.err
     assert "outcome: execution" not in captured.out
-    make_demo = next(line for line in (BAGS.parent / "Makefile").read_text().splitlines()
-                     if "node_demo" in line).split("node_demo", 1)[1].split()
-    assert node_demo.build_parser().parse_args(make_demo).execute_fragile
 
     for bad, named in ((["--time-scale", "0"], "--time-scale"),
                        (["--goal-margin", "0.5"], "--goal-margin"),

@@ -244,7 +244,7 @@ def test_replan_needs_check_execution_and_a_count(argv, capsys):
 def test_accept_best_answers_with_the_most_robust_candidate(tmp_path, capsys):
     """Seed 0's plan of easy_push does not reach the goal in every perturbed rollout (9 of
     10): the request fails with --no-accept-best; by default the most robust candidate (here
-    the only one) answers, and is reported fragile."""
+    the only one) answers. It is fragile only below fragile_below (0.3 by default)."""
     args = [str(scenes_dir() / "easy_push.yaml"), "--seed", "0", "--trees", "1", "--shortcut",
             "0", "--time-limit", "60", "--min-robustness", "1", "--rollouts", "10",
             "--candidates", "1", "--quiet"]
@@ -255,9 +255,18 @@ def test_accept_best_answers_with_the_most_robust_candidate(tmp_path, capsys):
     assert main([*args, "--accept-best", "--json", str(out)]) == 0
     accepted = json.loads(out.read_text())
     assert accepted["solved"] and accepted["robustness"] == refused["robustness"] < 1.0
-    # the answer is fragile, and says so (JSON, and a line on stderr even with --quiet)
-    assert accepted["fragile"] is True and accepted["min_robustness"] == 1.0
-    assert "rearrangement-plan: FRAGILE: it reached the goal in " in capsys.readouterr().err
+    # 0.9 is below min_robustness, but not fragile: said nowhere
+    assert accepted["fragile"] is False and accepted["fragile_below"] == 0.3
+    assert "FRAGILE" not in capsys.readouterr().err
+    # below fragile_below the answer is fragile, and says so (JSON, and a line on stderr even
+    # with --quiet); no extra candidates, so that the answer is the same plan
+    assert main([*args, "--set", "fragile_below=0.95", "--set", "fragile_candidates=0",
+                 "--json", str(out)]) == 0
+    fragile = json.loads(out.read_text())
+    assert fragile["robustness"] == accepted["robustness"]
+    assert fragile["fragile"] is True and fragile["fragile_below"] == 0.95
+    assert "rearrangement-plan: FRAGILE: it reached the goal in 90% of the perturbed rollouts, " \
+        "below fragile_below 95%" in capsys.readouterr().err
 
 
 def test_a_setting_the_planner_does_not_read_is_refused(capsys):

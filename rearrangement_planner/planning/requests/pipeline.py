@@ -139,8 +139,8 @@ class PlanOutput:
     """Seconds spent shortcutting."""
     robustness: float | None = None
     """Share of the perturbed rollouts the plan reached the goal in (None: not measured)."""
-    min_robustness: float = 0.0
-    """The request's min_robustness (0: robustness not asked for)."""
+    fragile_below: float = 0.0
+    """The request's `fragile_below` (0: robustness not asked for, never fragile)."""
     phases: Phases = dataclasses.field(default_factory=Phases)
 
     @property
@@ -149,11 +149,12 @@ class PlanOutput:
 
     @property
     def fragile(self) -> bool:
-        """A solved plan answered although its robustness stayed below min_robustness (robust
-        selection's `accept_best`): it reached the goal in too few perturbed worlds to trust
-        it open loop (docs/design.md, "Fragile plans")."""
+        """A solved plan whose robustness is below `fragile_below`: it reached the goal in too
+        few perturbed worlds to trust it open loop. The same bound makes robust selection search
+        `fragile_candidates` more for a fragile best, so a fragile answer is the best those
+        found (docs/design.md, "Fragile plans")."""
         return (self.solved and self.robustness is not None
-                and self.robustness < self.min_robustness)
+                and self.robustness < self.fragile_below)
 
     def fragile_note(self) -> str:
         """'' or the sentence that says the plan is fragile, for every answer a user reads."""
@@ -162,7 +163,7 @@ class PlanOutput:
         assert self.robustness is not None
         share = math.floor(100 * self.robustness)       # rounded down: never "100% < 100%"
         return (f"FRAGILE: it reached the goal in {share}% of the perturbed rollouts, below "
-                f"min_robustness {self.min_robustness:.0%}; executed open loop it may well "
+                f"fragile_below {self.fragile_below:.0%}; executed open loop it will likely "
                 f"miss")
 
     @property
@@ -192,7 +193,7 @@ class PlanOutput:
             "trajectory": trajectory_dict(self.trajectory) if self.trajectory else None,
             "shortcut_time_s": self.shortcut_time,
             "robustness": self.robustness,
-            "min_robustness": self.min_robustness,
+            "fragile_below": self.fragile_below,
             "fragile": self.fragile,
             "before_shortcut": (self.metrics_before_shortcut.to_dict()
                                 if self.metrics_before_shortcut else None),
@@ -252,9 +253,9 @@ def plan_scene(request: PlanRequest, cancel: threading.Event | None = None,
         candidate = candidates.shortcut(candidates.plan(request.seed), request.seed)
     result = candidate.result
     name = request.planner.name
-    floor = request.robust.min_robustness
+    floor = request.robust.fragile_below if request.robust.min_robustness > 0 else 0.0
     if not result.solved:
-        return PlanOutput(scene, name, result, robustness=score, min_robustness=floor,
+        return PlanOutput(scene, name, result, robustness=score, fragile_below=floor,
                           phases=phases)
     with phases.timed("timing"):
         trajectory = time_parameterize(scene.robot, result.arm_path, request.timing)

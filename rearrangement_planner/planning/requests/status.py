@@ -37,7 +37,7 @@ class PlannerStatus:
     elapsed: float = 0.0
     """Wall-clock time (s) since the plan started."""
     fragile: bool = False
-    """The last plan succeeded but is fragile: its robustness stayed below min_robustness
+    """The last plan succeeded but is fragile: its robustness is below fragile_below
     (`PlanOutput.fragile`)."""
 
     def __post_init__(self) -> None:

@@ -17,10 +17,9 @@ The planner plans for the goal radius minus its `goal_margin` (`--goal-margin`, 
 node's parameter), world_sim judges the scene's radius: open-loop execution never reproduces
 the planner's physics exactly, so a plan ending on the region's edge would miss it.
 
-A fragile plan (robustness below the node's min_robustness) is executed only with
+A fragile plan (robustness below the node's fragile_below) is executed only with
 `--execute-fragile`, as the node's parameter `execute_fragile` says; without it the demo ends
-at the answer. `make demo` passes it: its loop (`--replan 2`) is what mends a fragile plan's
-miss.
+at the answer.
 
 Exit code 0 when the goal object ends inside its goal region, 1 otherwise (also for a fragile
 plan not sent), 2 for bad arguments. ROS_DOMAIN_ID is taken from the environment; discovery
@@ -56,8 +55,8 @@ def build_parser() -> argparse.ArgumentParser:
                         help="world_sim runs the trajectory K times faster than real time "
                              "(default 10)")
     parser.add_argument("--execute-fragile", action="store_true",
-                        help="execute the plan even when it is fragile (its robustness stayed "
-                             "below min_robustness; the node's parameter execute_fragile)")
+                        help="execute the plan even when it is fragile (its robustness is "
+                             "below fragile_below; the node's parameter execute_fragile)")
     parser.add_argument("--goal-margin", type=float, default=None, metavar="M",
                         help="the planner's goal_margin: plan for the goal radius minus M "
                              "metres (default: the node's, config/planner.yaml)")
