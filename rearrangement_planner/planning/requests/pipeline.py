@@ -140,7 +140,7 @@ class PlanOutput:
     robustness: float | None = None
     """Share of the perturbed rollouts the plan reached the goal in (None: not measured)."""
     fragile_below: float = 0.0
-    """The request's `fragile_below` (0: robustness not asked for, never fragile)."""
+    """The request's `fragile_below` (a plan without `robustness` is never fragile)."""
     phases: Phases = dataclasses.field(default_factory=Phases)
 
     @property
@@ -253,7 +253,7 @@ def plan_scene(request: PlanRequest, cancel: threading.Event | None = None,
         candidate = candidates.shortcut(candidates.plan(request.seed), request.seed)
     result = candidate.result
     name = request.planner.name
-    floor = request.robust.fragile_below if request.robust.min_robustness > 0 else 0.0
+    floor = request.robust.fragile_below
     if not result.solved:
         return PlanOutput(scene, name, result, robustness=score, fragile_below=floor,
                           phases=phases)
