@@ -8,7 +8,7 @@ import math
 import numpy as np
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
-from rearrangement_planner.execution.open_loop import Command
+from rearrangement_planner.model.command import Command
 from rearrangement_planner.model.errors import InputError
 from rearrangement_planner.model.robot import RobotModel
 

@@ -1,5 +1,5 @@
 """The folder tree is the architecture (docs/design.md "Layering"): dependencies point one way,
-model -> physics -> planning -> execution -> io -> tools, with the ROS layer (`ros/`,
+model -> physics -> world3d -> planning -> execution -> io -> tools, with the ROS layer (`ros/`,
 `msg_adapters/`) on top; nothing outside `ros/` and `msg_adapters/` imports rclpy, ROS message
 packages or msg_adapters; no import cycles (counting imports inside functions and under
 TYPE_CHECKING); no private names imported across modules."""
@@ -13,7 +13,7 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 PACKAGE = "rearrangement_planner"
-LAYERS = ["model", "physics", "planning", "execution", "io", "tools", "ros"]
+LAYERS = ["model", "physics", "world3d", "planning", "execution", "io", "tools", "ros"]
 """A module may import from its own layer and the layers before it."""
 ROS_MODULES = ("rclpy", "builtin_interfaces", "geometry_msgs", "sensor_msgs", "std_msgs",
                "std_srvs", "trajectory_msgs", "visualization_msgs", "diagnostic_msgs",

@@ -22,12 +22,6 @@ from typing import Any
 
 import numpy as np
 
-from rearrangement_planner.execution.mujoco_check import (
-    ExecutionOptions,
-    ExecutionReport,
-    check_execution,
-    perturbed_worlds,
-)
 from rearrangement_planner.model.errors import SceneError
 from rearrangement_planner.model.perturbation import Perturbation
 from rearrangement_planner.model.scene import Scene
@@ -41,6 +35,12 @@ from rearrangement_planner.planning.requests.pipeline import PlanOutput, plan_sc
 from rearrangement_planner.planning.requests.request import PlanRequest
 from rearrangement_planner.planning.requests.retreat import retreat_path
 from rearrangement_planner.planning.requests.trajectory import time_parameterize
+from rearrangement_planner.world3d.execution import (
+    ExecutionReport,
+    check_execution,
+    perturbed_worlds,
+)
+from rearrangement_planner.world3d.mujoco_model import ExecutionOptions
 
 # Why an attempt ended (`Attempt.ended`)
 REACHED = "reached"              # the goal object is in its region, nothing toppled

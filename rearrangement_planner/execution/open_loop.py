@@ -18,6 +18,7 @@ from typing import Any, Protocol
 
 import numpy as np
 
+from rearrangement_planner.model.command import Command
 from rearrangement_planner.model.errors import InputError, SceneError
 from rearrangement_planner.model.scene import Scene
 from rearrangement_planner.model.state import State, wrap_angle
@@ -39,39 +40,6 @@ REJECTED = "REJECTED"                # not executed: the command is unusable (fi
 
 
 @dataclass(frozen=True)
-class Command:
-    """A checked controller command: `times` (N,) s, strictly increasing from 0, and
-    `positions` (N, n) rad in the robot's planning-joint order; linear interpolation between
-    the points (a joint trajectory controller given positions only)."""
-
-    times: np.ndarray
-    positions: np.ndarray
-
-    @property
-    def duration(self) -> float:
-        return float(self.times[-1])
-
-    def sample(self, t: float) -> np.ndarray:
-        """Positions at trajectory time t (s), clamped to the first/last point."""
-        if t <= 0.0:
-            return self.positions[0].copy()
-        if t >= self.duration:
-            return self.positions[-1].copy()
-        i = int(np.searchsorted(self.times, t, side="right")) - 1
-        alpha = (t - self.times[i]) / (self.times[i + 1] - self.times[i])
-        return (1.0 - alpha) * self.positions[i] + alpha * self.positions[i + 1]
-
-    def velocity(self, t: float) -> np.ndarray:
-        """The slope of the segment at time t (rad/s of trajectory time); zero outside."""
-        if t < 0.0 or t >= self.duration:
-            return np.zeros(self.positions.shape[1])
-        i = int(np.searchsorted(self.times, t, side="right")) - 1
-        return (self.positions[i + 1] - self.positions[i]) / (self.times[i + 1] - self.times[i])
-
-
-
-
-@dataclass(frozen=True)
 class InvalidStep:
     """An invalid physics step met during an execution."""
 
@@ -83,7 +51,7 @@ class InvalidStep:
 
 class Execution(Protocol):
     """What world_sim needs of an execution engine (`OpenLoopExecution` here, or
-    `mujoco_check.MujocoExecution`)."""
+    `mujoco_engine.MujocoExecution`)."""
 
     command: Command
     start: State

@@ -81,7 +81,7 @@ def plot_top_view(scene: Scene, object_paths: np.ndarray, ee_path: np.ndarray,
     With `start_states_only` only the start is drawn (objects filled at ``object_paths[0]``,
     the end-effector's first point), as for a scene preview or an unsolved problem. `title`
     defaults to the scene's name. `executed_paths` (T', M, 3), the object poses when the plan
-    was executed in another engine (`execution.mujoco_check`), are drawn beside the plan's:
+    was executed in another engine (`world3d.execution`), are drawn beside the plan's:
     dotted centre paths and dotted outlines at their end. The PNG format is used whatever the
     suffix; the folder of
     `out_path` must exist. Raises `PlotError` (a `ValueError`) naming the argument whose shape

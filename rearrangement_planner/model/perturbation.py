@@ -30,7 +30,7 @@ class Perturbation:
     fitted to the meshes, the arm tracks its trajectory to a few mm). The offset acts on the
     planner's physics only: the MuJoCo check always uses the real meshes, and moves the
     object's centre of mass over the drawn centre of friction instead
-    (`execution.mujoco_check.check_perturbed`)."""
+    (`world3d.execution.check_perturbed`)."""
 
     friction: float = 0.3
     mass: float = 0.2

@@ -480,7 +480,7 @@ before and after shortcutting (equal when not shortcut; empty when not solved). 
 the arm links that moved objects along the final path, ';'-separated (docs/design.md "Planners").
 non_goal_objects_moved: how many objects other than the goal object the path moves (> 1 mm).
 executed_ideal / executed_servo: 1 when the solved plan, executed open loop in MuJoCo
-(`execution.mujoco_check`, ideal / servo-driven arm), reaches the goal region with nothing
+(`world3d.execution`, ideal / servo-driven arm), reaches the goal region with nothing
 toppled, else 0 (empty when not solved); executed_goal_distance_m: the goal object's final
 distance there (ideal arm); executed_toppled: how many objects toppled in the servo arm's
 execution; executed_toppled_goal: 1 when the goal object is one of them.
@@ -680,11 +680,8 @@ def _executions(output, seed: int, perturbed_executions: int):
     or None when not solved."""
     if output.trajectory is None:
         return None
-    from rearrangement_planner.execution.mujoco_check import (
-        ExecutionOptions,
-        check_execution,
-        check_perturbed,
-    )
+    from rearrangement_planner.world3d.execution import check_execution, check_perturbed
+    from rearrangement_planner.world3d.mujoco_model import ExecutionOptions
 
     reports = {arm: check_execution(output.scene, output.trajectory, None,
                                     ExecutionOptions(arm=arm)) for arm in ("ideal", "servo")}
@@ -722,7 +719,7 @@ def _closed_loop(request, output, trial: Trial, executions) -> dict[str, str]:
         execute_closed_loop,
         perturbed_closed_loops,
     )
-    from rearrangement_planner.execution.mujoco_check import ExecutionOptions
+    from rearrangement_planner.world3d.mujoco_model import ExecutionOptions
 
     reports, perturbed = executions
     watched = trial.divergence_bound > 0      # then the first executions are watched too

@@ -37,7 +37,6 @@ def record_request(scene_path: Path, seed: int, candidates: int, time_limit: flo
     request with `settings`, one tree each), executed in MuJoCo: one record per candidate
     search, until `candidates` searches or `time_limit` s of searching, shortcutting and
     rollouts are spent."""
-    from rearrangement_planner.execution.mujoco_check import check_execution
     from rearrangement_planner.physics.step import Physics
     from rearrangement_planner.physics.validation import load_scene
     from rearrangement_planner.planning.requests.pipeline import Candidates, candidate_seed
@@ -45,6 +44,7 @@ def record_request(scene_path: Path, seed: int, candidates: int, time_limit: flo
     from rearrangement_planner.planning.requests.robustness import goal_travel
     from rearrangement_planner.planning.requests.trajectory import time_parameterize
     from rearrangement_planner.planning.requests.warmup import warm_up
+    from rearrangement_planner.world3d.execution import check_execution
 
     warm_up()               # compiling the core is not a search's time (as in `plan_scene`)
     scene = load_scene(scene_path)

@@ -203,7 +203,7 @@ def main(argv: list[str] | None = None) -> int:
     executed = None
     check_failed = False
     if args.check_execution and output.trajectory is not None:
-        from rearrangement_planner.execution.mujoco_check import ExecutionCheckError
+        from rearrangement_planner.world3d.mujoco_model import ExecutionCheckError
 
         try:
             record["execution"], executed = _check_execution(output, args)
@@ -268,11 +268,8 @@ def _check_output(option: str, path: Path | None) -> None:
 def _check_execution(output: PlanOutput, args: argparse.Namespace
                      ) -> tuple[dict[str, Any], np.ndarray]:
     """The MuJoCo execution check of the plan (JSON record) and the executed object paths."""
-    from rearrangement_planner.execution.mujoco_check import (
-        ExecutionOptions,
-        check_execution,
-        check_perturbed,
-    )
+    from rearrangement_planner.world3d.execution import check_execution, check_perturbed
+    from rearrangement_planner.world3d.mujoco_model import ExecutionOptions
 
     assert output.trajectory is not None
     record: dict[str, Any] = {}

@@ -15,13 +15,13 @@ from rearrangement_planner.execution.closed_loop import (
     REACHED,
     execute_closed_loop,
 )
-from rearrangement_planner.execution.mujoco_check import ExecutionOptions
 from rearrangement_planner.model.state import State
 from rearrangement_planner.physics.collision import CollisionWorld
 from rearrangement_planner.physics.validation import load_scene
 from rearrangement_planner.planning import PCRRTOptions, PlanRequest, plan_scene
 from rearrangement_planner.planning.requests import retreat
 from rearrangement_planner.planning.requests.retreat import RETREAT_CLEARANCE, retreat_path
+from rearrangement_planner.world3d.mujoco_model import ExecutionOptions
 
 BOX = {"name": "box", "shape": "box", "size": [0.06, 0.08, 0.12], "pose": [0.46, 0.0, 0.0],
        "mass": 0.4, "support_friction": 0.4, "pusher_friction": 0.3}

@@ -39,7 +39,8 @@ from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint  # noqa: E
 
 from msg_adapters import goal_to_pose_stamped, pose_array_to_objects  # noqa: E402
 from msg_adapters.command import command_from_msg  # noqa: E402
-from rearrangement_planner.execution.open_loop import Command, OpenLoopExecution  # noqa: E402
+from rearrangement_planner.execution.open_loop import OpenLoopExecution  # noqa: E402
+from rearrangement_planner.model.command import Command  # noqa: E402
 from rearrangement_planner.model.errors import InputError, RearrangementError  # noqa: E402
 from rearrangement_planner.physics.options import simulation_options  # noqa: E402
 from rearrangement_planner.physics.step import Physics  # noqa: E402

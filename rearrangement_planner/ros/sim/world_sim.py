@@ -75,7 +75,7 @@ from trajectory_msgs.msg import JointTrajectory
 
 from msg_adapters import objects_to_pose_array, pose_stamped_to_goal
 from msg_adapters.command import command_from_msg
-from rearrangement_planner.execution.mujoco_check import MujocoExecution
+from rearrangement_planner.execution.mujoco_engine import MujocoExecution
 from rearrangement_planner.execution.open_loop import (
     ABORTED,
     CANCELLED,

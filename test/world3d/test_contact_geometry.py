@@ -11,8 +11,8 @@ import mujoco
 import numpy as np
 import pytest
 
-from rearrangement_planner.execution.mujoco_check import arm_model
 from rearrangement_planner.planning.machinery.manifold import ik_on_manifold, lowest_point
+from rearrangement_planner.world3d.mujoco_model import arm_model
 
 LINKS = [f"panda_link{i}" for i in range(1, 6)]
 """Covered within 1.5 mm. The wrist (link6, link7) is box- and disc-like: capsules that covered

@@ -11,22 +11,25 @@ import numpy as np
 import pytest
 import yaml
 
-from rearrangement_planner.execution.mujoco_check import (
-    ExecutionCheckError,
-    ExecutionOptions,
-    _command,
-    _Execution,
-    build_model,
-    check_execution,
-    check_perturbed,
-)
-from rearrangement_planner.execution.open_loop import Command, OpenLoopExecution
+from rearrangement_planner.execution.open_loop import OpenLoopExecution
+from rearrangement_planner.model.command import Command
 from rearrangement_planner.model.perturbation import Perturbation
 from rearrangement_planner.physics.options import simulation_options
 from rearrangement_planner.physics.step import Physics
 from rearrangement_planner.physics.validation import load_scene, parse_scene
 from rearrangement_planner.planning import PCRRTOptions, PlanRequest, plan_scene
 from rearrangement_planner.planning.requests.trajectory import Trajectory
+from rearrangement_planner.world3d.execution import (
+    Execution,
+    check_execution,
+    check_perturbed,
+    controller_command,
+)
+from rearrangement_planner.world3d.mujoco_model import (
+    ExecutionCheckError,
+    ExecutionOptions,
+    build_model,
+)
 
 BOX = {"name": "box", "shape": "box", "size": [0.06, 0.08, 0.12], "pose": [0.46, 0.0, 0.0],
        "mass": 0.4, "support_friction": 0.4, "pusher_friction": 0.3}
@@ -141,7 +144,8 @@ def test_the_arm_meeting_an_obstacle_is_recorded_with_its_depth(panda, push_path
 def _deepest_push(scene, trajectory, options):
     """The deepest arm-box penetration (m) over the straight push in MuJoCo."""
     model = build_model(scene, options)
-    run = _Execution(model, scene, _command(trajectory, scene.robot.joint_names), None, options)
+    run = Execution(model, scene, controller_command(trajectory, scene.robot.joint_names), None,
+                    options)
     run.begin()
     box = model.body(scene.objects[0].name).id
     deepest, t = 0.0, 0.0
@@ -188,10 +192,10 @@ def test_the_servo_feed_forward_is_kv_over_kp_of_the_compiled_servos(straight_pu
     kv = tuple(20.0 + 5.0 * i for i in range(7))
     options = ExecutionOptions(arm="servo", kp=kp, kv=kv)
     command = Command(trajectory.times, trajectory.positions)
-    run = _Execution(build_model(scene, options), scene, command, None, options)
+    run = Execution(build_model(scene, options), scene, command, None, options)
     np.testing.assert_allclose(run.feedforward, np.array(kv) / np.array(kp))
     default = ExecutionOptions(arm="servo")
-    run = _Execution(build_model(scene, default), scene, command, None, default)
+    run = Execution(build_model(scene, default), scene, command, None, default)
     np.testing.assert_allclose(run.feedforward, [150 / 3000] * 4 + [40 / 1000] * 3)
 
 
@@ -203,7 +207,7 @@ def test_the_command_is_sampled_once_at_every_step_as_the_controller_plays_it(st
     scene, trajectory, _ = straight_push
     options = ExecutionOptions(arm="servo", settle=0.05, hold=0.05)
     command = Command(trajectory.times, trajectory.positions)
-    run = _Execution(build_model(scene, options), scene, command, None, options)
+    run = Execution(build_model(scene, options), scene, command, None, options)
     steps = len(run.slope)
     assert steps * options.timestep >= options.settle + command.duration + options.hold
     for k in range(0, steps, 7):
