@@ -1,7 +1,7 @@
 """One plan request end to end, shared by the CLI, the ROS node and the benchmarks: planner
 (raced trees) -> shortcutting -> the finishing push -> (robust selection among candidates) ->
-timed trajectory -> predicted object poses along it -> the result record of docs/design.md
-("CLI").
+timed trajectory -> judged in 3D and mended (`judging`) -> predicted object poses along it ->
+the result record of docs/design.md ("CLI").
 
     output = plan_scene(PlanRequest(scene, "pc-rrt", seed=0))
     output.result.outcome, output.trajectory, output.to_dict()
@@ -30,7 +30,16 @@ from rearrangement_planner.planning.machinery.interface import (
 )
 from rearrangement_planner.planning.machinery.termination import Termination
 from rearrangement_planner.planning.requests.finish import FINISH_TIME, finish
+from rearrangement_planner.planning.requests.judging import (
+    NO_JUDGE,
+    OTHER_SEED_OFFSET,
+    Judged,
+    JudgeSummary,
+    Judging,
+    mended,
+)
 from rearrangement_planner.planning.requests.parallel import plan_race, tree_seed, warm_up_race
+from rearrangement_planner.planning.requests.registry import PLANNERS
 from rearrangement_planner.planning.requests.request import PlanRequest
 from rearrangement_planner.planning.requests.robustness import (
     candidate_iterations,
@@ -92,9 +101,11 @@ class Phases:
     shortcut: float = 0.0
     rollouts: float = 0.0
     timing: float = 0.0
+    judge: float = 0.0
+    """The 3D judge's own executions (a mend's re-plan counts as search, shortcut, ...)."""
     warm_up: float = 0.0
     candidates: int = 0
-    """Searches made (robust selection makes one per candidate)."""
+    """Searches made (robust selection makes one per candidate, a mend's re-plan its own)."""
     searches: list[str] = dataclasses.field(default_factory=list)
     """Robust selection's candidates in order (`log_candidate`): what a rule bounding them
     differently would have kept and answered."""
@@ -115,9 +126,16 @@ class Phases:
         finally:
             setattr(self, phase, getattr(self, phase) + time.perf_counter() - start)
 
+    def add(self, other: Phases) -> None:
+        """Count a nested request's phases (a mend's re-plan, the other planner's candidate)
+        in these."""
+        for name in ("search", "shortcut", "rollouts", "timing", "judge"):
+            setattr(self, name, getattr(self, name) + getattr(other, name))
+        self.candidates += other.candidates
+
     def to_dict(self) -> dict[str, float]:
         return {f"{name}_s": round(getattr(self, name), 3)
-                for name in ("search", "shortcut", "rollouts", "timing", "warm_up")} | {
+                for name in ("search", "shortcut", "rollouts", "timing", "judge", "warm_up")} | {
             "candidates": self.candidates}
 
 
@@ -138,10 +156,16 @@ class PlanOutput:
     shortcut_time: float = 0.0
     """Seconds spent shortcutting."""
     robustness: float | None = None
-    """Share of the perturbed rollouts the plan reached the goal in (None: not measured)."""
+    """Share of the perturbed worlds the plan reached the goal in, with nothing tipped: the 3D
+    judge's when it judged the plan (`judged`), else the model's rollouts' (None: not
+    measured)."""
     fragile_below: float = 0.0
     """The request's `fragile_below` (a plan without `robustness` is never fragile)."""
     phases: Phases = dataclasses.field(default_factory=Phases)
+    judged: JudgeSummary | None = None
+    """What the 3D judge saw of the answer and the candidates it tried (None: not judged)."""
+    model_robustness: float | None = None
+    """The model's robustness of the first candidate, when the 3D judge gave `robustness`."""
 
     @property
     def solved(self) -> bool:
@@ -153,8 +177,11 @@ class PlanOutput:
         few perturbed worlds to trust it open loop. The same bound makes robust selection search
         `fragile_candidates` more for a fragile best, so a fragile answer is the best those
         found (docs/design.md, "Fragile plans")."""
-        return (self.solved and self.robustness is not None
-                and self.robustness < self.fragile_below)
+        if not self.solved:
+            return False
+        if self.judged is not None and not self.judged.reached:
+            return True
+        return self.robustness is not None and self.robustness < self.fragile_below
 
     def fragile_note(self) -> str:
         """'' or the sentence that says the plan is fragile, for every answer a user reads."""
@@ -162,7 +189,13 @@ class PlanOutput:
             return ""
         assert self.robustness is not None
         share = math.floor(100 * self.robustness)       # rounded down: never "100% < 100%"
-        return (f"FRAGILE: it reached the goal in {share}% of the perturbed rollouts, below "
+        if self.judged is not None and not self.judged.reached:
+            return (f"FRAGILE: executed in the 3D judge's nominal world it "
+                    f"{self.judged.failure}, and it reached the goal in {share}% of "
+                    f"{self.judged.worlds} perturbed worlds; executed open loop it will "
+                    f"likely miss")
+        worlds = "perturbed 3D worlds" if self.judged is not None else "perturbed rollouts"
+        return (f"FRAGILE: it reached the goal in {share}% of the {worlds}, below "
                 f"fragile_below {self.fragile_below:.0%}; executed open loop it will likely "
                 f"miss")
 
@@ -193,6 +226,8 @@ class PlanOutput:
             "trajectory": trajectory_dict(self.trajectory) if self.trajectory else None,
             "shortcut_time_s": self.shortcut_time,
             "robustness": self.robustness,
+            "model_robustness": self.model_robustness,
+            "judged": self.judged.to_dict() if self.judged is not None else None,
             "fragile_below": self.fragile_below,
             "fragile": self.fragile,
             "before_shortcut": (self.metrics_before_shortcut.to_dict()
@@ -243,6 +278,7 @@ def plan_scene(request: PlanRequest, cancel: threading.Event | None = None,
     phases = Phases()
     with phases.timed("warm_up"):
         warm_up_race(request.trees)
+    t0 = time.monotonic()
     scene = request.scene
     candidates = Candidates(request, Physics(scene, request.physics),
                             request.options.termination(cancel), progress, phases)
@@ -261,10 +297,69 @@ def plan_scene(request: PlanRequest, cancel: threading.Event | None = None,
         trajectory = time_parameterize(scene.robot, result.arm_path, request.timing)
         states = _states_at_points(result.states, trajectory)
     shortened = request.shortcut.shortcut_time > 0 and request.planner.shortcut
+    before = candidate.before if shortened else None
+    if request.judge.judge_worlds > 0:
+        judging = Judging(scene, request.judge, request.timing, candidates.stop, request.seed,
+                          cancel)
+        answer = judge_and_mend(judging, judging.judged(trajectory, states, name, result),
+                                request, cancel, progress, phases)
+        phases.judge += judging.seconds
+        final = answer.predicted_states()
+        result = dataclasses.replace(answer.result, states=final,
+                                     plan_time=time.monotonic() - t0 - candidate.shortcut_time)
+        return PlanOutput(scene, name, result, answer.trajectory, final,
+                          PathMetrics.of(scene, final), before, candidate.shortcut_time,
+                          answer.judgement.robustness, floor, phases,
+                          JudgeSummary.of(judging, answer), score)
     return PlanOutput(scene, name, result, trajectory, states,
-                      PathMetrics.of(scene, result.states),
-                      candidate.before if shortened else None, candidate.shortcut_time,
+                      PathMetrics.of(scene, result.states), before, candidate.shortcut_time,
                       score, floor, phases)
+
+
+OTHER_PLANNER = {"pc-rrt": "slice-rrt", "slice-rrt": "pc-rrt"}
+"""The planner a request's 3D judging draws a candidate from when its own are not accepted
+(`JudgeOptions.both_planners`)."""
+
+
+def judge_and_mend(judging: Judging, first: Judged, request: PlanRequest,
+                   cancel: threading.Event | None, progress: ProgressCallback | None,
+                   phases: Phases) -> Judged:
+    """The request's answer among its judged candidates (`judging` module doc): `first`,
+    mended; then the other planner's candidate, mended; the best judged."""
+    options = request.judge
+
+    def unjudged(sub: PlanRequest) -> PlanOutput | None:
+        seconds = judging.stop.remaining()
+        if seconds <= 0.001:
+            return None
+        sub = dataclasses.replace(sub, judge=NO_JUDGE, options=dataclasses.replace(
+            sub.options, time_limit=seconds))
+        output = plan_scene(sub, cancel, progress)
+        phases.add(output.phases)
+        return output if output.solved else None
+
+    def replan(scene: Scene, static: frozenset[str], seed: int):
+        physics = request.physics
+        if static and request.planner.steps_physics:
+            physics = dataclasses.replace(physics,
+                                          static_objects=physics.static_objects | static)
+        output = unjudged(dataclasses.replace(request, scene=scene, start=None, seed=seed,
+                                              physics=physics))
+        return None if output is None else (output.trajectory, output.trajectory_states)
+
+    best = mended(judging, first, replan)
+    other = OTHER_PLANNER.get(request.planner.name)
+    if (not best.accepted(options) and options.both_planners and other is not None
+            and judging.time_left()):
+        spec = PLANNERS[other]
+        output = unjudged(PlanRequest(
+            request.scene, spec, spec.options(None), request.physics, request.race,
+            request.shortcut, request.finish, request.timing, request.robust,
+            tree_seed(request.seed, OTHER_SEED_OFFSET), request.start))
+        if output is not None and output.trajectory is not None:
+            mended(judging, judging.judged(output.trajectory, output.trajectory_states, other,
+                                           output.result), replan)
+    return judging.answer()
 
 
 @dataclass(frozen=True)

@@ -26,6 +26,7 @@ from rearrangement_planner.model.state import State
 from rearrangement_planner.physics.options import PhysicsOptions
 from rearrangement_planner.planning.machinery.interface import PlannerOptions
 from rearrangement_planner.planning.requests.finish import NO_FINISH, FinishOptions
+from rearrangement_planner.planning.requests.judging import NO_JUDGE, JudgeOptions
 from rearrangement_planner.planning.requests.parallel import RaceOptions
 from rearrangement_planner.planning.requests.registry import (
     PLANNERS,
@@ -40,9 +41,9 @@ from rearrangement_planner.planning.requests.trajectory import TimingOptions
 DEFAULT_PLANNER = "pc-rrt"
 
 STAGES: tuple[type[Settings], ...] = (RaceOptions, ShortcutOptions, FinishOptions,
-                                      TimingOptions, RobustOptions)
+                                      TimingOptions, RobustOptions, JudgeOptions)
 """The settings of a request around its planner, in pipeline order: the race, shortcutting,
-the finishing push, trajectory timing, robust selection."""
+the finishing push, trajectory timing, robust selection, the 3D judge and its mends."""
 
 
 def request_settings() -> tuple[SettingSpec, ...]:
@@ -71,6 +72,8 @@ class PlanRequest:
     """All randomness of the request comes from it: the same request gives the same plan."""
     start: State | None = None
     """The start state; None = the scene's initial state."""
+    judge: JudgeOptions = field(default_factory=JudgeOptions)
+    """The answer judged in 3D and mended before it is given (`judging`)."""
 
     def __post_init__(self) -> None:
         planner = self.planner
@@ -97,9 +100,9 @@ class PlanRequest:
                    options: PlannerOptions | None = None, seed: int = 0,
                    **changes: Any) -> PlanRequest:
         """The planner alone through the pipeline: one tree, no shortcutting, no finishing
-        push, the first plan found (`changes` replace any other field)."""
+        push, the first plan found, not judged in 3D (`changes` replace any other field)."""
         fields: dict[str, Any] = dict(race=RaceOptions(trees=1), shortcut=NO_SHORTCUT,
-                                      finish=NO_FINISH, robust=FIRST_PLAN)
+                                      finish=NO_FINISH, robust=FIRST_PLAN, judge=NO_JUDGE)
         fields.update(changes)
         return cls(scene, planner, options, seed=seed, **fields)  # type: ignore[arg-type]
 
@@ -124,12 +127,13 @@ class PlanRequest:
         return cls(scene, spec, pick(spec.options_type),
                    pick(PhysicsOptions) if spec.steps_physics else PhysicsOptions(),
                    pick(RaceOptions), pick(ShortcutOptions), pick(FinishOptions),
-                   pick(TimingOptions), pick(RobustOptions), seed, start)
+                   pick(TimingOptions), pick(RobustOptions), seed, start,
+                   pick(JudgeOptions))
 
     def settings(self) -> dict[str, Any]:
         """Every setting the request reads, by name (the recording's metadata)."""
         parts: list[Settings] = [self.options]
         if self.planner.steps_physics:
             parts.append(self.physics)
-        parts += [self.race, self.shortcut, self.finish, self.timing, self.robust]
+        parts += [self.race, self.shortcut, self.finish, self.timing, self.robust, self.judge]
         return {s.name: getattr(part, s.name) for part in parts for s in part.describe()}

@@ -270,3 +270,41 @@ def _limit_corner_accelerations(steps: np.ndarray, rates: np.ndarray, options: T
     if worst > 1.0:
         rates /= math.sqrt(worst)
     return rates
+
+
+SPLICE_PAUSE = 0.5
+"""s the arm rests between two spliced trajectories: the objects come to rest, as the closed
+loop lets them before it observes (`retreat`, `judging.mend`)."""
+
+
+def cut(trajectory: Trajectory, point: int) -> Trajectory:
+    """The trajectory up to and including point `point`, the arm at rest there (its velocity
+    zeroed, so that a controller's spline stops at the point instead of running on)."""
+    if not 0 <= point < len(trajectory):
+        raise ValueError(f"point {point} is not one of the trajectory's {len(trajectory)}")
+    velocities = trajectory.velocities[:point + 1].copy()
+    velocities[-1] = 0.0
+    return Trajectory(trajectory.joint_names, trajectory.times[:point + 1],
+                      trajectory.positions[:point + 1], velocities)
+
+
+def splice(first: Trajectory, second: Trajectory, pause: float = SPLICE_PAUSE) -> Trajectory:
+    """`second` after `first`, the arm resting `pause` s (> 0) between them: `second` starts
+    where `first` ends (within 1 mrad per joint) and both end at rest. Its first point is
+    repeated at the end of the pause, so the times increase strictly wherever the trajectories
+    end."""
+    if first.joint_names != second.joint_names:
+        raise ValueError(f"cannot splice trajectories of joints {first.joint_names} and "
+                         f"{second.joint_names}")
+    if not pause > 0.0:
+        raise ValueError(f"the pause between spliced trajectories must be > 0 s, got {pause}")
+    gap = float(np.max(np.abs(second.positions[0] - first.positions[-1])))
+    if gap > 1e-3:
+        raise ValueError(f"the second trajectory starts {gap:.4f} rad from where the first ends")
+    if np.any(first.velocities[-1] != 0.0) or np.any(second.velocities[-1] != 0.0):
+        raise ValueError("spliced trajectories must end at rest")
+    start = first.duration + pause
+    return Trajectory(first.joint_names,
+                      np.concatenate([first.times, start + second.times]),
+                      np.vstack([first.positions, second.positions]),
+                      np.vstack([first.velocities, second.velocities]))
