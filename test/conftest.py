@@ -168,3 +168,36 @@ def _pushed(panda, push_path, objects, options=None):
     execution.run()
     assert execution.invalid is None
     return scene, trajectory, execution.state
+
+
+# -- the 3D judge, scripted ----------------------------------------------------------------
+
+
+@pytest.fixture
+def judge_says(monkeypatch):
+    """`judge_says(reached, share, tipped=())`: the request's 3D judge (`judging.judge`)
+    replaced by one that says the nominal world reached the goal (`reached`; else the objects
+    `tipped` fell, or it missed) and `share` of the perturbed worlds did; the objects stay
+    where the scene has them. Returns the list of the trajectories it was asked about."""
+    from rearrangement_planner.model.state import State
+    from rearrangement_planner.planning.requests import judging
+    from rearrangement_planner.world3d.judge import Judgement, WorldOutcome
+
+    asked: list = []
+
+    def script(reached: bool, share: float, tipped: tuple[str, ...] = ()):
+        def judge(scene, trajectory, worlds=(), **_):
+            asked.append(trajectory)
+            poses = np.repeat(scene.object_poses[None], len(trajectory), axis=0)
+            nominal = WorldOutcome(reached, 0.0 if reached else 0.3, tipped,
+                                   1.0 if tipped else None, 0.5 if tipped else None,
+                                   np.zeros(len(scene.objects)), poses,
+                                   State(trajectory.positions[-1], scene.object_poses))
+            worlds = tuple(dataclasses.replace(nominal, reached=k < round(share * len(worlds)))
+                           for k in range(len(worlds)))
+            return Judgement(nominal, worlds, 0.01)
+
+        monkeypatch.setattr(judging, "judge", judge)
+        return asked
+
+    return script

@@ -318,15 +318,21 @@ def planning_status(job: Job, progress: Progress | None, message: str) -> Planne
 def summary_line(plan_id: str, outcome: str, message: str, output: PlanOutput | None,
                  recording: str, rollouts: int) -> str:
     """The one-line answer of ~/plan (and the final ~/status message): "plan ID: OUTCOME in
-    T s, N iterations, mcap PATH", then "; why" unless it succeeded, then the robustness, and
-    for a fragile plan the sentence that says so (`PlanOutput.fragile_note`)."""
+    T s, N iterations, mcap PATH", then "; why" unless it succeeded, then the robustness (the
+    3D judge's, with what its nominal world saw, or the model's rollouts'), and for a fragile
+    plan the sentence that says so (`PlanOutput.fragile_note`)."""
     r = output.result if output is not None else None
     plan_time, iterations = (r.plan_time, r.iterations) if r else (0.0, 0)
     summary = (f"plan {plan_id}: {outcome} in {plan_time:.2f} s, {iterations} iterations, "
                f"mcap {recording}")
     if outcome != Outcome.SUCCEEDED.value:
         summary += f"; {message}"
-    if output is not None and output.robustness is not None:
+    if output is not None and output.judged is not None:
+        judged = output.judged
+        summary += (f"; robustness {output.robustness:.0%} of {judged.worlds} perturbed 3D "
+                    f"worlds (nominal: {'reached' if judged.reached else judged.failure}; "
+                    f"{judged.planner}, {judged.mends} mends)")
+    elif output is not None and output.robustness is not None:
         summary += f"; robustness {output.robustness:.0%} of {rollouts} perturbed rollouts"
     if output is not None and output.fragile:
         summary += f"; {output.fragile_note()}"

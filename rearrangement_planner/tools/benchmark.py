@@ -473,6 +473,10 @@ CSV_COLUMNS = (
     "perturbed_replan_reached", "closed_loop_endings",
     "search_s", "shortcuts_s", "rollouts_s", "timing_s", "warm_up_s", "candidates",
     "candidate_searches",
+    "executed_pybullet", "executed_pybullet_goal_distance_m", "executed_pybullet_toppled",
+    "executed_both", "perturbed_reached_pybullet", "perturbed_reached_both",
+    "judge_s", "model_robustness", "judged_nominal", "judged_planner", "judged_mends",
+    "judged_candidates",
 )
 """trials.csv: one row per trial. goal_distance_m: the goal object's final distance from the
 goal point (solved) or the least distance reached (not solved). *_before / *_after: of the path
@@ -513,6 +517,17 @@ search_s, shortcuts_s, rollouts_s, timing_s, warm_up_s: the request's wall time 
 robustness rollouts, trajectory timing, loading the compiled core); candidates: the searches
 it made. candidate_searches: robust selection's candidates in order, space-separated, each
 iterations:robustness:goal travel (m):search seconds (`pipeline.Phases.log_candidate`).
+executed_pybullet: 1 when the solved plan, executed open loop with the servo arm in PyBullet
+(`execution.pybullet_check`, an engine the planner does not use), reaches the goal with nothing
+toppled; executed_pybullet_goal_distance_m and executed_pybullet_toppled as in MuJoCo;
+executed_both: 1 when it reached in both engines (MuJoCo's servo arm and PyBullet), the
+headline's "reached". perturbed_reached_pybullet: of the same perturbed worlds executed in
+PyBullet, how many reached; perturbed_reached_both: how many reached in both engines.
+judge_s: the 3D judge's own wall time in the request (`pipeline.Phases.judge`);
+model_robustness: the quasistatic rollouts' robustness of the first candidate when the 3D
+judge gave `robustness`; judged_nominal: 1 when the answer reached in the judge's nominal 3D
+world; judged_planner: the planner that found the answer; judged_mends: the re-plans it
+splices; judged_candidates: every judged candidate, '|'-separated (`judging.Judging.log`).
 A CSV written before a column existed is read with that column empty."""
 
 PERTURBED_EXECUTIONS = 5
@@ -639,6 +654,13 @@ def run_trial(trial: Trial, settings: dict[str, Any]) -> dict:
     row.update(_executed(executions, scene.objects[scene.goal_index].name))
     row.update(_closed_loop(request, output, trial, executions))
     row["robustness"] = _num(output.robustness)
+    row["model_robustness"] = _num(output.model_robustness)
+    row["judge_s"] = _num(phases.judge, 3)
+    judged = output.judged
+    row.update(judged_nominal=str(int(judged.reached)) if judged else "",
+               judged_planner=judged.planner if judged else "",
+               judged_mends=str(judged.mends) if judged else "",
+               judged_candidates="|".join(judged.candidates) if judged else "")
     row["trajectory_s"] = _num(output.trajectory.duration if output.trajectory else None, 3)
     if result.solved and output.trajectory is not None:
         row[PLAN_KEY] = {"arm_path": np.array([s.q for s in result.states]),
@@ -675,18 +697,26 @@ def save_plan(folder: Path, row: dict, plan: dict[str, Any]) -> Path:
 
 
 def _executions(output, seed: int, perturbed_executions: int):
-    """The solved plan played open loop in MuJoCo, both arms, then `perturbed_executions` times
-    with the servo arm in perturbed worlds drawn from `seed`: ({arm: report}, PerturbedReport),
-    or None when not solved."""
+    """The solved plan played open loop in MuJoCo, both arms, and in PyBullet, then
+    `perturbed_executions` times with the servo arm in perturbed worlds drawn from `seed`, in
+    both engines: ({arm or 'pybullet': report}, MuJoCo's PerturbedReport, PyBullet's), or None
+    when not solved."""
     if output.trajectory is None:
         return None
+    from rearrangement_planner.execution.pybullet_check import (
+        check_execution_pybullet,
+        check_perturbed_pybullet,
+    )
     from rearrangement_planner.world3d.execution import check_execution, check_perturbed
     from rearrangement_planner.world3d.mujoco_model import ExecutionOptions
 
     reports = {arm: check_execution(output.scene, output.trajectory, None,
                                     ExecutionOptions(arm=arm)) for arm in ("ideal", "servo")}
-    return reports, check_perturbed(output.scene, output.trajectory, perturbed_executions, seed,
-                                    ExecutionOptions(arm="servo"))
+    reports["pybullet"] = check_execution_pybullet(output.scene, output.trajectory)
+    perturbed = check_perturbed(output.scene, output.trajectory, perturbed_executions, seed,
+                                ExecutionOptions(arm="servo"))
+    return reports, perturbed, check_perturbed_pybullet(output.scene, output.trajectory,
+                                                        perturbed_executions, seed)
 
 
 def _executed(executions, goal_name: str) -> dict[str, str]:
@@ -695,9 +725,21 @@ def _executed(executions, goal_name: str) -> dict[str, str]:
         return {"executed_ideal": "", "executed_servo": "", "executed_goal_distance_m": "",
                 "executed_toppled": "", "executed_toppled_goal": "",
                 "executed_object_contacts": "",
-                "perturbed_reached": "", "perturbed_trials": ""}
-    reports, perturbed = executions
-    return {"executed_ideal": str(int(reports["ideal"].reached)),
+                "perturbed_reached": "", "perturbed_trials": "", "executed_pybullet": "",
+                "executed_pybullet_goal_distance_m": "", "executed_pybullet_toppled": "",
+                "executed_both": "", "perturbed_reached_pybullet": "",
+                "perturbed_reached_both": ""}
+    reports, perturbed, bullet = executions
+    pybullet = reports["pybullet"]
+    both = sum(a.reached and b.reached
+               for a, b in zip(perturbed.reports, bullet.reports, strict=True))
+    return {"executed_pybullet": str(int(pybullet.reached)),
+            "executed_pybullet_goal_distance_m": _num(pybullet.goal_distance_m),
+            "executed_pybullet_toppled": str(len(pybullet.toppled)),
+            "executed_both": str(int(pybullet.reached and reports["servo"].reached)),
+            "perturbed_reached_pybullet": str(bullet.reached),
+            "perturbed_reached_both": str(both),
+            "executed_ideal": str(int(reports["ideal"].reached)),
             "executed_servo": str(int(reports["servo"].reached)),
             "executed_goal_distance_m": _num(reports["ideal"].goal_distance_m),
             "executed_toppled": str(len(reports["servo"].toppled)),
@@ -721,7 +763,7 @@ def _closed_loop(request, output, trial: Trial, executions) -> dict[str, str]:
     )
     from rearrangement_planner.world3d.mujoco_model import ExecutionOptions
 
-    reports, perturbed = executions
+    reports, perturbed, _ = executions
     watched = trial.divergence_bound > 0      # then the first executions are watched too
     options = ExecutionOptions(arm="servo", divergence_bound=trial.divergence_bound)
     loop = execute_closed_loop(request, trial.replan, options=options, first=output,
@@ -980,7 +1022,7 @@ def _rounded(value: float | None, digits: int = 4) -> float | None:
     return None if value is None or not math.isfinite(value) else round(float(value), digits)
 
 
-PHASES = ("search_s", "shortcuts_s", "rollouts_s", "timing_s", "warm_up_s")
+PHASES = ("search_s", "shortcuts_s", "rollouts_s", "timing_s", "judge_s", "warm_up_s")
 """The phase columns of trials.csv (`pipeline.Phases`)."""
 
 
@@ -988,7 +1030,7 @@ def time_breakdown(rows: Sequence[dict]) -> dict:
     """Where the requests' time went: each phase's total (s) and share of all phases, over
     the trials that recorded them (docs/benchmark.md, "Where the time goes")."""
     timed = [r for r in rows if r.get("search_s", "") != ""]
-    totals = {p: sum(float(r[p]) for r in timed) for p in PHASES}
+    totals = {p: sum(float(r.get(p) or 0.0) for r in timed) for p in PHASES}
     whole = sum(totals.values())
     return {"trials": len(timed),
             "candidates_mean": _rounded(float(np.mean([int(r["candidates"]) for r in timed])),
@@ -1064,21 +1106,31 @@ def _planner_summary(rows: Sequence[dict], planner: str, protocol: dict,
             link_counts[name] = link_counts.get(name, 0) + 1
         pushed += bool(links)
         whole_arm += any(name not in end_effector for name in links)
-    reached = sum(r["executed_servo"] == "1" for r in rows)
+    reached = sum(reached_open_loop(r) for r in rows)
     all_times = [float(r["plan_time_s"]) for r in rows]
     checked = [r for r in solved if r["executed_toppled"] != ""]
     summary: dict[str, Any] = {
         "trials": len(rows),
-        # the headline: requests whose plan, executed open loop with the servo arm in MuJoCo,
-        # puts the goal object in its region with nothing toppled
+        # the headline: requests whose plan, executed open loop with the servo arm in MuJoCo
+        # and in PyBullet, puts the goal object in its region with nothing toppled in both
         "end_to_end": {"requests": len(rows), "reached": reached,
-                       "share": _rounded(reached / len(rows)) if rows else None},
+                       "share": _rounded(reached / len(rows)) if rows else None,
+                       "reached_mujoco": sum(r["executed_servo"] == "1" for r in rows),
+                       "reached_pybullet": sum(r.get("executed_pybullet") == "1" for r in rows),
+                       "engines": ("mujoco+pybullet" if any(r.get("executed_both")
+                                                            for r in rows) else "mujoco")},
         "request_time_s": {"median": _rounded(_median(all_times), 3),
                            "p90": _rounded(_percentile(all_times, 90), 3)},
         "time_breakdown": time_breakdown(rows),
         "deadline_overrun_s": deadline_overrun(rows),
         "toppled": {"checked": len(checked),
-                    "plans_toppling": sum(int(r["executed_toppled"]) > 0 for r in checked),
+                    "plans_toppling": sum(int(r["executed_toppled"]) > 0
+                                          or int(r.get("executed_pybullet_toppled") or 0) > 0
+                                          for r in checked),
+                    "plans_toppling_mujoco": sum(int(r["executed_toppled"]) > 0
+                                                 for r in checked),
+                    "plans_toppling_pybullet": sum(
+                        int(r.get("executed_pybullet_toppled") or 0) > 0 for r in checked),
                     "objects": sum(int(r["executed_toppled"]) for r in checked),
                     # rows written before the column: unknown, not counted
                     "goal_object": sum(r.get("executed_toppled_goal") == "1" for r in checked)},
@@ -1098,6 +1150,7 @@ def _planner_summary(rows: Sequence[dict], planner: str, protocol: dict,
         "executed": _executed_summary(solved),
         "closed_loop": _closed_loop_summary(rows),
         "calibration": calibration(solved),
+        "judged": _judged_summary(rows),
         "non_goal_objects_moved_mean": _rounded(float(np.mean(
             [int(r["non_goal_objects_moved"]) for r in solved]))) if solved else None,
         "pushing_links": {
@@ -1123,8 +1176,10 @@ def calibration(rows: Sequence[dict]) -> dict[str, Any]:
     a constant 0.5 on a fair coin) and a reliability diagram: per fifth of the score range the
     plans' mean score, the share of their executions that reached the goal and how many plans
     and executions it holds. A calibrated score has the share within 0.15 of the mean score in
-    every bin."""
-    scored = [r for r in rows if r.get("robustness") and r.get("perturbed_trials")
+    every bin. An execution reached when it reached in every engine that executed it
+    (`perturbed_reached`)."""
+    scored = [{**r, "perturbed_reached": perturbed_reached(r)} for r in rows
+              if r.get("robustness") and r.get("perturbed_trials")
               and int(r["perturbed_trials"]) > 0]
     bins: list[dict[str, Any]] = []
     for b in range(CALIBRATION_BINS):
@@ -1192,12 +1247,49 @@ def _executed_summary(solved: Sequence[dict]) -> dict[str, Any]:
 
 
 def _perturbed_summary(checked: Sequence[dict]) -> dict[str, Any]:
-    """The perturbed executions of the checked plans: how many reached the goal."""
+    """The perturbed executions of the checked plans: how many reached the goal (in every
+    engine, `perturbed_reached`; and in each)."""
     done = [r for r in checked if r["perturbed_trials"]]
     trials = sum(int(r["perturbed_trials"]) for r in done)
-    reached = sum(int(r["perturbed_reached"]) for r in done)
+    reached = sum(int(perturbed_reached(r)) for r in done)
     return {"plans": len(done), "executions": trials, "reached": reached,
-            "share": _rounded(reached / trials) if trials else None}
+            "share": _rounded(reached / trials) if trials else None,
+            "reached_mujoco": sum(int(r["perturbed_reached"]) for r in done),
+            "reached_pybullet": sum(int(r.get("perturbed_reached_pybullet") or 0)
+                                    for r in done)}
+
+
+def reached_open_loop(row: dict) -> bool:
+    """A trial's plan reached the goal executed open loop with nothing toppled: in both
+    engines (MuJoCo's servo arm and PyBullet) where both executed it, else in MuJoCo (rows
+    from before the second engine)."""
+    if row.get("executed_both"):
+        return row["executed_both"] == "1"
+    return row["executed_servo"] == "1"
+
+
+def perturbed_reached(row: dict) -> str:
+    """A trial's perturbed executions that reached: in both engines where both executed
+    them, else in MuJoCo."""
+    both = row.get("perturbed_reached_both")
+    return both if both else row["perturbed_reached"]
+
+
+def _judged_summary(rows: Sequence[dict]) -> dict[str, Any] | None:
+    """The 3D judge within the requests (`judging`): the answers that reached in its nominal
+    world, how many were mended or found by the other planner, and the judge's own time.
+    None when no request was judged."""
+    judged = [r for r in rows if r.get("judged_nominal")]
+    if not judged:
+        return None
+    seconds = [float(r["judge_s"]) for r in judged if r.get("judge_s")]
+    return {"answers": len(judged),
+            "reached_nominal": sum(r["judged_nominal"] == "1" for r in judged),
+            "mended": sum(int(r["judged_mends"] or 0) > 0 for r in judged),
+            "by_planner": {p: sum(r["judged_planner"] == p for r in judged)
+                           for p in sorted({r["judged_planner"] for r in judged})},
+            "judge_s": {"median": _rounded(_median(seconds), 3),
+                        "p90": _rounded(_percentile(seconds, 90), 3)}}
 
 
 def _closed_loop_summary(rows: Sequence[dict]) -> dict[str, Any] | None:

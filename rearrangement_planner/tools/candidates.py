@@ -68,7 +68,7 @@ def record_request(scene_path: Path, seed: int, candidates: int, time_limit: flo
             candidate = search.shortcut(found, k_seed)
             states = candidate.result.states
             t0 = time.monotonic()
-            score = search.judge(candidate, k_seed)
+            score = search.score(candidate, k_seed)
             rollout_time = time.monotonic() - t0
             yaw = np.unwrap([s.objects[g, 2] for s in states])
             trajectory = time_parameterize(scene.robot, candidate.result.arm_path,

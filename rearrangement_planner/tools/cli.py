@@ -197,6 +197,14 @@ def main(argv: list[str] | None = None) -> int:
     if not args.quiet:
         print(f"\r{result.outcome.value}: {result.message} "
               f"({time.monotonic() - started:.1f} s)", file=sys.stderr)
+    if not args.quiet and output.judged is not None:
+        judged = output.judged
+        print(f"judged in 3D: {'reached' if judged.reached else judged.failure} in the "
+              f"nominal world, reached in {round(judged.robustness * judged.worlds)} of "
+              f"{judged.worlds} perturbed worlds (found by {judged.planner}, "
+              f"{judged.mends} mends, {judged.seconds:.1f} s of judging)", file=sys.stderr)
+    if output.unjudged:
+        print(f"rearrangement-plan: {output.unjudged}", file=sys.stderr)
     if output.fragile:      # said even with --quiet: the plan is not to be trusted open loop
         print(f"rearrangement-plan: {output.fragile_note()}", file=sys.stderr)
     record = output.to_dict()
@@ -267,7 +275,13 @@ def _check_output(option: str, path: Path | None) -> None:
 
 def _check_execution(output: PlanOutput, args: argparse.Namespace
                      ) -> tuple[dict[str, Any], np.ndarray]:
-    """The MuJoCo execution check of the plan (JSON record) and the executed object paths."""
+    """The execution check of the plan (JSON record) and the executed object paths: in MuJoCo
+    (ideal and servo arm) and in PyBullet (servo), an engine the planner does not use; the
+    plan reached (`reached`) when it reached in both with the servo arm."""
+    from rearrangement_planner.execution.pybullet_check import (
+        check_execution_pybullet,
+        check_perturbed_pybullet,
+    )
     from rearrangement_planner.world3d.execution import check_execution, check_perturbed
     from rearrangement_planner.world3d.mujoco_model import ExecutionOptions
 
@@ -286,12 +300,28 @@ def _check_execution(output: PlanOutput, args: argparse.Namespace
                   f"{report.goal_distance_m:.3f} m from the goal (radius "
                   f"{report.goal_radius_m:g} m); toppled: {list(report.toppled) or 'none'}",
                   file=sys.stderr)
+    bullet = check_execution_pybullet(output.scene, output.trajectory,
+                                      output.trajectory_states)
+    record["pybullet"] = bullet.to_dict()
+    record["reached"] = bool(bullet.reached and record["servo"]["reached"])
+    if not args.quiet:
+        print(f"executed in PyBullet (servo arm): goal object "
+              f"{'REACHED' if bullet.reached else 'MISSED'}, {bullet.goal_distance_m:.3f} m "
+              f"from the goal; toppled: {list(bullet.toppled) or 'none'}; reached in both "
+              f"engines: {'yes' if record['reached'] else 'no'}", file=sys.stderr)
     if args.trials:
-        perturbed = check_perturbed(output.scene, output.trajectory, args.trials, args.seed)
+        perturbed = check_perturbed(output.scene, output.trajectory, args.trials, args.seed,
+                                    ExecutionOptions(arm="servo"))
+        bullets = check_perturbed_pybullet(output.scene, output.trajectory, args.trials,
+                                           args.seed)
+        both = sum(a.reached and b.reached
+                   for a, b in zip(perturbed.reports, bullets.reports, strict=True))
         record["perturbed"] = perturbed.to_dict()
+        record["perturbed_pybullet"] = bullets.to_dict()
+        record["perturbed_both"] = both
         if not args.quiet:
-            print(f"perturbed executions: {perturbed.reached} of {perturbed.trials} reached",
-                  file=sys.stderr)
+            print(f"perturbed executions: {perturbed.reached} of {perturbed.trials} reached in "
+                  f"MuJoCo, {bullets.reached} in PyBullet, {both} in both", file=sys.stderr)
     return record, executed
 
 

@@ -108,24 +108,31 @@ def judge_options(timestep: float = JUDGE_TIMESTEP) -> ExecutionOptions:
                                                   2.0 * timestep))
 
 
+class JudgeCancelled(Exception):
+    """The judge's `cancel` was set while it ran (between two chunks)."""
+
+
 def judge(scene: Scene, trajectory: TimedPath, worlds: Sequence[Scene] = (),
           timestep: float = JUDGE_TIMESTEP, tilt_bound: float = TILT_BOUND,
-          threads: int = 2, nominal_decides: bool = False) -> Judgement:
+          threads: int = 2, nominal_decides: bool = False,
+          cancel: threading.Event | None = None) -> Judgement:
     """Execute `trajectory` with the servo arm in `scene` (the nominal world) and in each of
     `worlds` (perturbed copies of it, `execution.perturbed_worlds`), `threads` at once
     (module doc). With `nominal_decides`, a nominal world that fails stops the perturbed
     ones at their next chunk: the judgement is then incomplete (`Judgement.complete`), its
-    nominal outcome all it says."""
+    nominal outcome all it says. `cancel` set stops every world at its next chunk (a few
+    hundredths of a second) and raises JudgeCancelled."""
     started = time.perf_counter()
     options = judge_options(timestep)
     command = controller_command(trajectory, scene.robot.joint_names)
     runs = [_Run(world, command, options, tilt_bound) for world in (scene, *worlds)]
-    abort = threading.Event()
+    abort = cancel if cancel is not None else threading.Event()
+    decided = threading.Event()
 
     def play(run: _Run) -> WorldOutcome | None:
-        outcome = run.play(abort)
+        outcome = run.play(abort) if run is runs[0] else run.play(abort, decided)
         if run is runs[0] and nominal_decides and outcome is not None and not outcome.reached:
-            abort.set()
+            decided.set()
         return outcome
 
     if threads > 1 and len(runs) > 1:
@@ -135,6 +142,8 @@ def judge(scene: Scene, trajectory: TimedPath, worlds: Sequence[Scene] = (),
         outcomes = [play(run) for run in runs]
     sim_time = sum(run.steps for run in runs) * timestep
     nominal = outcomes[0]
+    if cancel is not None and cancel.is_set():
+        raise JudgeCancelled("cancelled while judging in 3D")
     assert nominal is not None
     done = tuple(o for o in outcomes[1:] if o is not None)
     return Judgement(nominal, done, time.perf_counter() - started, sim_time,
@@ -160,15 +169,13 @@ class _Run:
         self.object_qpos = np.array([j.qposadr[0] for j in joints], dtype=int)
         # The state vector: time, then qpos (mjSTATE_FULLPHYSICS starts with TIME, QPOS).
         self.times = command.times
-        self.point_steps = np.clip(np.ceil((command.times + options.settle)
-                                           / options.timestep - 1e-9).astype(int) - 1,
-                                   0, self.total - 1)
-        """The step after which each trajectory point's poses are read (as `Execution`
-        records them: the first step ending at or after the point's time)."""
+        self.point_steps = _point_steps(command.times, options, self.total)
+        """The step after which each trajectory point's poses are read."""
         self.steps = 0
 
-    def play(self, abort: threading.Event | None = None) -> WorldOutcome | None:
-        """The rollout to its end (or to a tipped object); None when `abort` is set first."""
+    def play(self, *aborts: threading.Event) -> WorldOutcome | None:
+        """The rollout to its end (or to a tipped object); None when one of `aborts` is set
+        first."""
         state, warm = self.start, None
         m = len(self.world.objects)
         min_up = np.ones(m)
@@ -178,7 +185,7 @@ class _Run:
         last = self.start[None, :]
         next_point = 0
         while self.steps < self.total:
-            if abort is not None and abort.is_set():
+            if any(abort.is_set() for abort in aborts):
                 return None
             count = min(CHUNK, self.total - self.steps)
             chunk, _ = rollout.rollout(self.model, self.data, state[None, :],
@@ -188,6 +195,13 @@ class _Run:
             warm = self.data.qacc_warmstart.copy()
             quats = chunk[:, 1 + self.object_qpos[:, None] + np.arange(3, 7)]   # (K, M, 4)
             up = 1.0 - 2.0 * (quats[..., 1] ** 2 + quats[..., 2] ** 2)         # z of z axis
+            over = np.flatnonzero((up < math.cos(self.tilt_bound)).any(axis=1))
+            if over.size:                                # the world ends at the first tip
+                count = int(over[0]) + 1
+                chunk, up = chunk[:count], up[:count]
+                tipped = tuple(self.world.objects[i].name
+                               for i in np.flatnonzero(up[-1] < math.cos(self.tilt_bound)))
+                tipped_at = self._time(self.steps + count - 1)
             np.minimum(min_up, up.min(axis=0), out=min_up)
             if tilt_from is None:
                 lifting = np.flatnonzero((up < math.cos(TILT_ONSET)).any(axis=1))
@@ -198,17 +212,10 @@ class _Run:
                 poses.append(_planar(chunk[self.point_steps[next_point] - self.steps],
                                      self.object_qpos))
                 next_point += 1
-            over = np.flatnonzero((up < math.cos(self.tilt_bound)).any(axis=1))
-            if over.size:
-                k = int(over[0])
-                tipped = tuple(self.world.objects[i].name
-                               for i in np.flatnonzero(up[k] < math.cos(self.tilt_bound)))
-                tipped_at = self._time(self.steps + k)
-                last = chunk[k:k + 1]
-                self.steps += k + 1
-                break
             last = chunk[-1:]
             self.steps += count
+            if tipped:
+                break
             state = chunk[-1]
         final_objects = _planar(last[0], self.object_qpos)
         goal = self.world.goal_index
@@ -225,6 +232,22 @@ class _Run:
         """The trajectory time at the end of step `step` (0-based; the first `settle` s come
         before the trajectory)."""
         return (step + 1) * self.options.timestep - self.options.settle
+
+
+def _point_steps(times: np.ndarray, options: ExecutionOptions, total: int) -> np.ndarray:
+    """For each trajectory time, the index of the rolled-out state whose poses `Execution`
+    records there: it records after the first step whose end time (computed as it computes
+    it) is at or after the point's, from the body poses MuJoCo computed at that step's start,
+    which are those of the state after the step before (rollout index n - 2 after n steps)."""
+    dt, settle = options.timestep, options.settle
+    guess = np.floor((times + settle) / dt).astype(int) - 2
+    steps = np.full(times.shape, total, dtype=int)
+    for offset in range(5):
+        n = guess + offset                         # steps taken; its end time as Execution has it
+        ends = ((n - 1) * dt - settle) + dt
+        found = (steps == total) & (n >= 1) & (ends >= times)
+        steps[found] = n[found]
+    return np.clip(steps - 2, 0, total - 1)
 
 
 def _planar(state: np.ndarray, object_qpos: np.ndarray) -> np.ndarray:

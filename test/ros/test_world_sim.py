@@ -428,7 +428,8 @@ def test_bad_parameters_are_named(session, reference):
 # --------------------------------------------------------------------------------------------
 
 
-def test_node_demo_exit_code_is_the_open_loop_outcome(tmp_path, monkeypatch, capsys):
+def test_node_demo_exit_code_is_the_open_loop_outcome(tmp_path, monkeypatch, capsys,
+                                                    judge_says):
     """The demo on the fast easy_push scene: exit 0 when the goal object ends in its region,
     1 when a perturbed world (pose noise) makes the same plan miss it, 0 again when the node
     closes the loop there (--replan), 2 for bad arguments."""
@@ -482,12 +483,10 @@ def test_node_demo_exit_code_is_the_open_loop_outcome(tmp_path, monkeypatch, cap
                      if "node_demo" in line).split("node_demo", 1)[1].split()
     assert not node_demo.build_parser().parse_args(make_demo).execute_fragile
 
-    # A fragile plan (every candidate scored 0.25, below fragile_below): without
-    # --execute-fragile the node does not send it, and the demo ends at the answer rather
-    # than waiting for an execution that never comes.
-    from rearrangement_planner.planning.requests import pipeline
-
-    monkeypatch.setattr(pipeline.Candidates, "judge", lambda self, candidate, seed: 0.25)
+    # A fragile plan (every candidate judged to reach in a quarter of the perturbed 3D
+    # worlds, below fragile_below): without --execute-fragile the node does not send it, and
+    # the demo ends at the answer rather than waiting for an execution that never comes.
+    judge_says(reached=True, share=0.25)
     assert node_demo.main(demo) == 1
     captured = capsys.readouterr()
     assert "FRAGILE" in captured.out and "not executed" in captured.out

@@ -24,7 +24,7 @@ from rearrangement_planner.tools.benchmark import CSV_COLUMNS
 
 SCENE_DIR = benchmark.scene_set_dir()
 TIMING = ("plan_time_s", "shortcut_time_s", "trial_wall_s", "search_s", "shortcuts_s",
-          "rollouts_s", "timing_s", "warm_up_s", "candidate_searches")
+          "rollouts_s", "timing_s", "judge_s", "warm_up_s", "candidate_searches")
 """Columns that hold wall times (each candidate's search seconds in candidate_searches)."""
 
 # --------------------------------------------------------------------------------------------
@@ -296,10 +296,14 @@ def test_summary_success_at_budget_shortcut_means_and_pushing_links():
                               # objects touched where one toppled (this table's rows)
                               "plans_with_object_contact": 1,
                               "perturbed": {"plans": 3, "executions": 3, "reached": 2,
-                                            "share": round(2 / 3, 4)}}
-    # the headline: 2 of the 4 requests reached the goal executed with the servo arm
-    assert pc["end_to_end"] == {"requests": 4, "reached": 2, "share": 0.5}
-    assert pc["toppled"] == {"checked": 3, "plans_toppling": 1, "objects": 2, "goal_object": 1}
+                                            "share": round(2 / 3, 4), "reached_mujoco": 2,
+                                            "reached_pybullet": 0}}
+    # the headline: 2 of the 4 requests reached the goal executed with the servo arm (rows
+    # without the second engine's columns: MuJoCo alone)
+    assert pc["end_to_end"] == {"requests": 4, "reached": 2, "share": 0.5, "reached_mujoco": 2,
+                                "reached_pybullet": 0, "engines": "mujoco"}
+    assert pc["toppled"] == {"checked": 3, "plans_toppling": 1, "plans_toppling_mujoco": 1,
+                             "plans_toppling_pybullet": 0, "objects": 2, "goal_object": 1}
     # plan times of all requests (2, 5, 8, 60 s) and of the solved ones (2, 5, 8 s)
     assert pc["request_time_s"] == {"median": 6.5, "p90": 44.4}
     assert pc["plan_time_s"]["p90"] == 7.4
@@ -397,9 +401,11 @@ def test_summary_does_not_claim_the_60_s_target_from_a_shorter_budget():
 TINY = ["--scenes", "n1_s0", "n1_s1", "--planners", "pc-rrt", "static-rrt", "--seeds", "0",
         "--time-limit", "30", "--set", "max_iterations=1700", "--set", "shortcut_time=3",
         "--set", "shortcut_attempts=3", "--set", "min_robustness=0", "--set", "trees=1",
-        "--set", "finish_radius=0", "--workers", "1", "--perturbed", "1"]
-"""Two scenes and two planners, first plans from one tree, shortcut and not finished (the
-shipped request's robust selection, raced trees and finishing push have tests of their own;
+        "--set", "finish_radius=0", "--set", "judge_worlds=2", "--set", "both_planners=false",
+        "--set", "mends=1", "--workers", "1", "--perturbed", "1"]
+"""Two scenes and two planners, first plans from one tree, shortcut and not finished, judged in
+2 perturbed 3D worlds with one mend (the shipped request's robust selection, raced trees,
+finishing push and 3D judging have tests of their own;
 the finish may lengthen a shortcut path). Searches end on iterations, not on the clock, so a
 rerun gives the same plan on a loaded machine (n1_s0 solves in 1,611 iterations, about 2.6 s
 here; n1_s1 does not within 1,700)."""
@@ -468,13 +474,40 @@ def test_the_executed_columns_say_whether_the_goal_object_toppled():
     """executed_toppled counts the servo arm's toppled objects; executed_toppled_goal is 1 only
     when the goal object is one of them."""
     reports = {arm: SimpleNamespace(reached=False, goal_distance_m=0.3, toppled=("clutter_2",),
-                                    object_contacts=()) for arm in ("ideal", "servo")}
-    executions = (reports, SimpleNamespace(reached=0, trials=0))
+                                    object_contacts=()) for arm in ("ideal", "servo", "pybullet")}
+    executions = (reports, SimpleNamespace(reached=0, trials=0, reports=()),
+                  SimpleNamespace(reached=0, trials=0, reports=()))
     other = benchmark._executed(executions, "target")
     goal = benchmark._executed(executions, "clutter_2")
     assert other["executed_toppled"] == goal["executed_toppled"] == "1"
+    assert other["executed_pybullet_toppled"] == "1"
     assert (other["executed_toppled_goal"], goal["executed_toppled_goal"]) == ("0", "1")
     assert benchmark._executed(None, "target")["executed_toppled_goal"] == ""
+
+
+def test_reached_means_reached_in_both_engines():
+    """A plan counts as reached only where MuJoCo's servo arm and PyBullet both reach: the
+    headline, the perturbed executions and the calibration count what both engines agree on."""
+    def report(reached):
+        return SimpleNamespace(reached=reached, goal_distance_m=0.01, toppled=(),
+                               object_contacts=())
+
+    def perturbed(*reached):
+        return SimpleNamespace(reached=sum(reached), trials=len(reached),
+                               reports=tuple(report(r) for r in reached))
+
+    mujoco_only = ({"ideal": report(True), "servo": report(True), "pybullet": report(False)},
+                   perturbed(True, True, False), perturbed(False, True, True))
+    columns = benchmark._executed(mujoco_only, "target")
+    assert (columns["executed_servo"], columns["executed_pybullet"],
+            columns["executed_both"]) == ("1", "0", "0")
+    assert (columns["perturbed_reached"], columns["perturbed_reached_pybullet"],
+            columns["perturbed_reached_both"]) == ("2", "2", "1")
+    row = {**columns, "perturbed_trials": "3"}
+    assert not benchmark.reached_open_loop(row) and benchmark.perturbed_reached(row) == "1"
+    both = benchmark._executed(({"ideal": report(False), "servo": report(True),
+                                 "pybullet": report(True)}, perturbed(), perturbed()), "target")
+    assert benchmark.reached_open_loop(both)
 
 
 def test_goal_push_sums_the_goal_objects_travel_and_turn():
@@ -513,7 +546,14 @@ def test_tiny_protocol_writes_csv_json_and_plots_and_resumes(tmp_path, capsys):
             assert r["executed_object_contacts"] == "0"     # one object touches none
             # one object: what toppled, if anything, is the goal object
             assert r["executed_toppled_goal"] == r["executed_toppled"]
-            assert r["robustness"] == ""                    # first plans are not scored
+            # first plans are not scored by the model; the 3D judge scores the answer
+            assert r["model_robustness"] == "" and r["robustness"] in ("0.0", "0.5", "1.0")
+            assert r["judged_nominal"] in ("0", "1") and r["judged_planner"] == r["planner"]
+            assert float(r["judge_s"]) > 0 and r["judged_candidates"].startswith(r["planner"])
+            assert r["executed_pybullet"] in ("0", "1") and r["perturbed_reached_both"] \
+                in ("0", "1")
+            assert r["executed_both"] == str(int(r["executed_servo"] == "1"
+                                                 and r["executed_pybullet"] == "1"))
             # the plan is kept beside the CSV, to be replayed later
             plan = np.load(out / "plans" / f"{r['scene']}__{r['planner']}__0.npz")
             assert plan["positions"].shape[1] == 7 and len(plan["times"]) \
@@ -532,7 +572,9 @@ def test_tiny_protocol_writes_csv_json_and_plots_and_resumes(tmp_path, capsys):
     for planner in summary["planners"].values():
         perturbed = planner["executed"]["perturbed"]
         assert perturbed["executions"] == planner["solved"] == perturbed["plans"]
-        assert planner["calibration"]["plans"] == 0      # no scores without robust selection
+        # every solved plan has the 3D judge's score
+        assert planner["calibration"]["plans"] == planner["solved"]
+        assert planner["judged"]["answers"] == planner["solved"]
     # calibrate: the run's plans scored again, against their perturbed executions
     capsys.readouterr()
     assert bench.main(["calibrate", "--out", str(out), "--rollouts", "3",

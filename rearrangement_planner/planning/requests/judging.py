@@ -77,6 +77,11 @@ class JudgeOptions(Settings):
     both_planners: bool = setting(True)
     """Draw a candidate from the other of PC-RRT and the slice-based RRT when the request's
     own planner's are not accepted in 3D (they reach different requests)."""
+    search_iterations: int = setting(5000, low=1, high=10**9)
+    """Each mend's re-plan and the other planner's candidate searches at most this many
+    iterations (and the request's time left): its first plan, not scored by the model, as
+    the 3D judge scores what it becomes. Counted in iterations, so the answer does not depend
+    on the machine's speed."""
     tilt_bound: float = setting(round(math.radians(10.0), 4), low=0.01, high=1.5)
     """rad: an object tilted further than this at any moment of a judged execution fails it,
     though it may fall back upright."""
@@ -92,6 +97,8 @@ OTHER_SEED_OFFSET = 3000
 MEND_SEED_OFFSET = 4000
 CUT_MARGIN = 0.5
 """s: a plan that tipped an object is cut this long before the object began to tilt."""
+DIVERGENCE = 0.02
+"""m: a plan that missed is cut where an object first strays this far from its prediction."""
 MIN_TIME = 0.5
 """s of the request's budget below which no further mend or candidate is started."""
 
@@ -158,7 +165,7 @@ class Judging:
                result: PlanResult, mends: int = 0,
                static: frozenset[str] = frozenset()) -> Judged:
         verdict = judge(self.scene, trajectory, self.worlds, tilt_bound=self.options.tilt_bound,
-                        nominal_decides=True)
+                        nominal_decides=True, cancel=self.cancel)
         self.seconds += verdict.wall_time_s
         candidate = Judged(trajectory, states, verdict, planner, result, mends, static)
         self.tried.append(candidate)
@@ -176,13 +183,14 @@ class Judging:
         if best.judgement.complete:
             return best
         verdict = judge(self.scene, best.trajectory, self.worlds,
-                        tilt_bound=self.options.tilt_bound)
+                        tilt_bound=self.options.tilt_bound, cancel=self.cancel)
         self.seconds += verdict.wall_time_s
         return dataclasses.replace(best, judgement=verdict)
 
     def nominal_only(self, trajectory: Trajectory) -> Judgement:
         """`trajectory` executed in the nominal world alone (a mend's way to its cut)."""
-        verdict = judge(self.scene, trajectory, (), tilt_bound=self.options.tilt_bound)
+        verdict = judge(self.scene, trajectory, (), tilt_bound=self.options.tilt_bound,
+                        cancel=self.cancel)
         self.seconds += verdict.wall_time_s
         return verdict
 
@@ -204,60 +212,80 @@ def failure(verdict: Judgement, scene: Scene) -> str:
     return f"missed the goal by {nominal.goal_distance_m - scene.goal.radius:.3f} m"
 
 
-def cut_point(trajectory: Trajectory, judgement: Judgement) -> int:
-    """Where a mend stops the plan: its last point after a miss; after a tip, the last point
-    CUT_MARGIN s before an object began to tilt (0: the plan tips one at once)."""
+def cut_point(trajectory: Trajectory, judgement: Judgement,
+              states: tuple[State, ...] = ()) -> int:
+    """Where a mend stops the plan: after a tip, the last point CUT_MARGIN s before an object
+    began to tilt (0: the plan tips one at once); after a miss, the first point where an object
+    is DIVERGENCE from where the plan's `states` predict it in the nominal 3D world (the
+    plan's end when none is)."""
     nominal = judgement.nominal
-    if not nominal.tipped:
-        return len(trajectory) - 1
-    began = nominal.tilt_from_s if nominal.tilt_from_s is not None else nominal.tipped_at_s
-    assert began is not None
-    return max(0, int(np.searchsorted(trajectory.times, began - CUT_MARGIN, side="right")) - 1)
+    if nominal.tipped:
+        began = nominal.tilt_from_s if nominal.tilt_from_s is not None else nominal.tipped_at_s
+        assert began is not None
+        return max(0, int(np.searchsorted(trajectory.times, began - CUT_MARGIN,
+                                          side="right")) - 1)
+    if DIVERGENCE > 0 and len(states) == len(trajectory) == len(nominal.poses):
+        predicted = np.array([s.objects[:, :2] for s in states])
+        errors = np.linalg.norm(nominal.poses[:, :, :2] - predicted, axis=2).max(axis=1)
+        strayed = np.flatnonzero(errors > DIVERGENCE)
+        if strayed.size:
+            return int(strayed[0])
+    return len(trajectory) - 1
 
 
-Replan = Callable[[Scene, frozenset[str], int], "tuple[Trajectory, tuple[State, ...]] | None"]
+Replan = Callable[[Scene, frozenset[str], int], "tuple[Trajectory, tuple[State, ...]] | str"]
 """How a mend plans on: `replan(scene, static, seed)` -> (trajectory, states) of the
 request's own planner from `scene`'s start, with the objects in `static` as obstacles, within
-the request's time, unjudged; None when it finds no plan."""
+the request's time, unjudged; or why it found no plan."""
 
 
 def mend(judging: Judging, candidate: Judged, replan: Replan) -> Judged | None:
     """The candidate stopped where its nominal 3D execution left the plan, backed out, and
-    planned on from the 3D state there (module doc, 1.), judged; None when no retreat is
-    clear, the 3D state is not a valid start, or the re-plan finds nothing."""
+    planned on from the 3D state there (module doc, 1.), judged; None when it tips an object
+    at once, no retreat is clear, the 3D state is not a valid start, or the re-plan finds
+    nothing (the log says which)."""
+    made = _mend(judging, candidate, replan)
+    if isinstance(made, str):
+        judging.log.append(f"{candidate.planner}{'+mend' * (candidate.mends + 1)}: not made, "
+                           f"{made}")
+        return None
+    return made
+
+
+def _mend(judging: Judging, candidate: Judged, replan: Replan) -> Judged | str:
+    """`mend`'s work: the mended candidate, or why there is none."""
     scene, trajectory = judging.scene, candidate.trajectory
     nominal = candidate.judgement.nominal
-    point = cut_point(trajectory, candidate.judgement)
+    point = cut_point(trajectory, candidate.judgement, candidate.states)
     if point == 0:
-        return None
+        return "the plan tips an object from its start"
     head = trajectory if point == len(trajectory) - 1 else cut(trajectory, point)
     states = candidate.states[:point + 1]
     after = nominal.final if head is trajectory else judging.nominal_only(head).nominal.final
-    path = head.positions
-    moves = retreat_path(scene.with_start(after.q, after.objects), after, path)
+    moves = retreat_path(scene.with_start(after.q, after.objects), after, head.positions)
     if moves is None:
-        return None
+        return "no retreat out of contact is clear"
     if len(moves) > 1:
         back = time_parameterize(scene.robot, moves, judging.timing)
         head = splice(head, back)
         states = states + tuple(State(q, after.objects) for q in back.positions)
         ran = judging.nominal_only(head).nominal
         if ran.tipped:
-            return None
+            return f"the retreat tipped {', '.join(ran.tipped)}"
         after = ran.final
     static = candidate.static | frozenset(n for n in nominal.tipped
                                           if n != scene.objects[scene.goal_index].name)
     apart = separate_objects(scene, after.objects)
     if apart is None:
-        return None
+        return "the objects overlap where 3D left them"
     try:            # the arm at rest where it was commanded, the objects where 3D left them
         start = scene.with_start(head.positions[-1], apart)
         check_scene(start)
-    except SceneError:
-        return None
+    except SceneError as exc:
+        return f"the 3D state is no start: {exc}"
     planned = replan(start, static, tree_seed(judging.seed, MEND_SEED_OFFSET + len(judging.tried)))
-    if planned is None:
-        return None
+    if isinstance(planned, str):
+        return f"the re-plan: {planned}"
     tail, tail_states = planned
     return judging.judged(splice(head, tail), states + tail_states, candidate.planner,
                           candidate.result, candidate.mends + 1, static)
@@ -304,8 +332,8 @@ class JudgeSummary:
     def of(cls, judging: Judging, answer: Judged) -> JudgeSummary:
         nominal, verdict = answer.judgement.nominal, answer.judgement
         return cls(nominal.reached, failure(verdict, judging.scene), verdict.robustness,
-                   len(verdict.perturbed), answer.planner, answer.mends, tuple(judging.log), judging.seconds,
-                   math.degrees(float(nominal.max_tilt.max(initial=0.0))))
+                   len(verdict.perturbed), answer.planner, answer.mends, tuple(judging.log),
+                   judging.seconds, math.degrees(float(nominal.max_tilt.max(initial=0.0))))
 
     def to_dict(self) -> dict:
         return {"reached": self.reached, "failure": self.failure,

@@ -42,6 +42,7 @@ from rearrangement_planner.planning.requests.parallel import plan_race, tree_see
 from rearrangement_planner.planning.requests.registry import PLANNERS
 from rearrangement_planner.planning.requests.request import PlanRequest
 from rearrangement_planner.planning.requests.robustness import (
+    FIRST_PLAN,
     candidate_iterations,
     candidate_rank,
     goal_travel,
@@ -53,6 +54,8 @@ from rearrangement_planner.planning.requests.trajectory import (
     Trajectory,
     time_parameterize,
 )
+from rearrangement_planner.world3d.judge import JudgeCancelled
+from rearrangement_planner.world3d.mujoco_model import ExecutionCheckError
 
 CANDIDATE_SEED_OFFSET = 1000
 """Candidate k > 0 of a robust search plans with `tree_seed(seed, CANDIDATE_SEED_OFFSET + k)`
@@ -166,6 +169,8 @@ class PlanOutput:
     """What the 3D judge saw of the answer and the candidates it tried (None: not judged)."""
     model_robustness: float | None = None
     """The model's robustness of the first candidate, when the 3D judge gave `robustness`."""
+    unjudged: str = ""
+    """Why a request that asked for the 3D judge was answered without it ('' otherwise)."""
 
     @property
     def solved(self) -> bool:
@@ -228,6 +233,7 @@ class PlanOutput:
             "robustness": self.robustness,
             "model_robustness": self.model_robustness,
             "judged": self.judged.to_dict() if self.judged is not None else None,
+            "unjudged": self.unjudged,
             "fragile_below": self.fragile_below,
             "fragile": self.fragile,
             "before_shortcut": (self.metrics_before_shortcut.to_dict()
@@ -298,22 +304,45 @@ def plan_scene(request: PlanRequest, cancel: threading.Event | None = None,
         states = _states_at_points(result.states, trajectory)
     shortened = request.shortcut.shortcut_time > 0 and request.planner.shortcut
     before = candidate.before if shortened else None
+    unjudged = ""
     if request.judge.judge_worlds > 0:
-        judging = Judging(scene, request.judge, request.timing, candidates.stop, request.seed,
-                          cancel)
-        answer = judge_and_mend(judging, judging.judged(trajectory, states, name, result),
-                                request, cancel, progress, phases)
-        phases.judge += judging.seconds
-        final = answer.predicted_states()
-        result = dataclasses.replace(answer.result, states=final,
-                                     plan_time=time.monotonic() - t0 - candidate.shortcut_time)
-        return PlanOutput(scene, name, result, answer.trajectory, final,
-                          PathMetrics.of(scene, final), before, candidate.shortcut_time,
-                          answer.judgement.robustness, floor, phases,
-                          JudgeSummary.of(judging, answer), score)
+        try:
+            judging = Judging(scene, request.judge, request.timing, candidates.stop,
+                              request.seed, cancel)
+            answer = judge_and_mend(judging, judging.judged(trajectory, states, name, result),
+                                    request, cancel, progress, phases)
+            if cancel is not None and cancel.is_set():     # a mend's search saw it first
+                raise JudgeCancelled("cancelled while judging in 3D")
+        except ExecutionCheckError as exc:    # no 3D model of this arm: the model's answer
+            unjudged = f"not judged in 3D: {exc}"
+        except JudgeCancelled:
+            cancelled = PlanResult(Outcome.CANCELLED, "cancelled while judging in 3D",
+                                   request.seed, plan_time=time.monotonic() - t0)
+            return PlanOutput(scene, name, cancelled, fragile_below=floor, phases=phases)
+        else:
+            return _judged_output(request, judging, answer, candidate, score, phases, t0)
     return PlanOutput(scene, name, result, trajectory, states,
                       PathMetrics.of(scene, result.states), before, candidate.shortcut_time,
-                      score, floor, phases)
+                      score, floor, phases, unjudged=unjudged)
+
+
+def _judged_output(request: PlanRequest, judging: Judging, answer: Judged, candidate: Candidate,
+                   score: float | None, phases: Phases, t0: float) -> PlanOutput:
+    """The request's output from its judged answer (`judge_and_mend`): the answer's trajectory,
+    the object poses its nominal 3D execution gave, its 3D robustness; the plan time all the
+    request took but the first candidate's shortcutting (as without the judge), its seed the
+    request's (which reproduces the whole request)."""
+    scene = request.scene
+    phases.judge += judging.seconds
+    final = answer.predicted_states()
+    result = dataclasses.replace(answer.result, states=final, seed=request.seed,
+                                 plan_time=time.monotonic() - t0 - candidate.shortcut_time)
+    shortened = request.shortcut.shortcut_time > 0 and request.planner.shortcut
+    return PlanOutput(scene, request.planner.name, result, answer.trajectory, final,
+                      PathMetrics.of(scene, final), candidate.before if shortened else None,
+                      candidate.shortcut_time, answer.judgement.robustness,
+                      request.robust.fragile_below, phases, JudgeSummary.of(judging, answer),
+                      score)
 
 
 OTHER_PLANNER = {"pc-rrt": "slice-rrt", "slice-rrt": "pc-rrt"}
@@ -328,15 +357,24 @@ def judge_and_mend(judging: Judging, first: Judged, request: PlanRequest,
     mended; then the other planner's candidate, mended; the best judged."""
     options = request.judge
 
-    def unjudged(sub: PlanRequest) -> PlanOutput | None:
+    def unjudged(sub: PlanRequest) -> PlanOutput | str:
+        """`sub`'s first plan, shortcut and finished but neither scored nor judged (the judge
+        scores what it becomes), within `search_iterations` and the request's time left,
+        shortcutting included; or why there is none."""
         seconds = judging.stop.remaining()
         if seconds <= 0.001:
-            return None
-        sub = dataclasses.replace(sub, judge=NO_JUDGE, options=dataclasses.replace(
-            sub.options, time_limit=seconds))
+            return "no time left"
+        iterations = min(sub.options.max_iterations, options.search_iterations)
+        sub = dataclasses.replace(
+            sub, judge=NO_JUDGE, robust=FIRST_PLAN,
+            options=dataclasses.replace(sub.options, time_limit=seconds,
+                                        max_iterations=iterations),
+            shortcut=dataclasses.replace(sub.shortcut, shortcut_time=min(
+                sub.shortcut.shortcut_time, seconds)))
         output = plan_scene(sub, cancel, progress)
         phases.add(output.phases)
-        return output if output.solved else None
+        result = output.result
+        return output if output.solved else f"{result.outcome.value}: {result.message}"
 
     def replan(scene: Scene, static: frozenset[str], seed: int):
         physics = request.physics
@@ -345,7 +383,10 @@ def judge_and_mend(judging: Judging, first: Judged, request: PlanRequest,
                                           static_objects=physics.static_objects | static)
         output = unjudged(dataclasses.replace(request, scene=scene, start=None, seed=seed,
                                               physics=physics))
-        return None if output is None else (output.trajectory, output.trajectory_states)
+        if isinstance(output, str):
+            return output
+        assert output.trajectory is not None
+        return output.trajectory, output.trajectory_states
 
     best = mended(judging, first, replan)
     other = OTHER_PLANNER.get(request.planner.name)
@@ -356,7 +397,10 @@ def judge_and_mend(judging: Judging, first: Judged, request: PlanRequest,
             request.scene, spec, spec.options(None), request.physics, request.race,
             request.shortcut, request.finish, request.timing, request.robust,
             tree_seed(request.seed, OTHER_SEED_OFFSET), request.start))
-        if output is not None and output.trajectory is not None:
+        if isinstance(output, str):
+            judging.log.append(f"{other}: not found, {output}")
+        else:
+            assert output.trajectory is not None
             mended(judging, judging.judged(output.trajectory, output.trajectory_states, other,
                                            output.result), replan)
     return judging.answer()
@@ -438,7 +482,7 @@ class Candidates:
                                 self.stop.extended(FINISH_TIME))
         return Candidate(dataclasses.replace(result, states=states), before, elapsed)
 
-    def judge(self, candidate: Candidate, seed: int) -> float:
+    def score(self, candidate: Candidate, seed: int) -> float:
         """The candidate's robustness: the share of `request.robust.rollouts` perturbed
         rollouts, drawn from `seed`, in which it reaches the goal in the planner's physics."""
         request = self.request
@@ -498,7 +542,7 @@ def robust_search(candidates: Candidates) -> tuple[Candidate, float | None]:
         if best is None:
             searches = candidates.bounded(candidate_iterations(robust, last.iterations))
         candidate = candidates.shortcut(last, k_seed)
-        score = candidates.judge(candidate, k_seed)
+        score = candidates.score(candidate, k_seed)
         travel = goal_travel(request.scene, candidate.result.states)
         candidates.phases.log_candidate(last, searched_s, score, travel)
         if score >= robust.min_robustness:
