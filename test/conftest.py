@@ -186,13 +186,15 @@ def judge_says(monkeypatch):
     asked: list = []
 
     def script(reached: bool, share: float, tipped: tuple[str, ...] = ()):
-        def judge(scene, trajectory, worlds=(), **_):
+        def judge(scene, trajectory, worlds=(), nominal_decides=False, **_):
             asked.append(trajectory)
             poses = np.repeat(scene.object_poses[None], len(trajectory), axis=0)
             nominal = WorldOutcome(reached, 0.0 if reached else 0.3, tipped,
                                    1.0 if tipped else None, 0.5 if tipped else None,
                                    np.zeros(len(scene.objects)), poses,
                                    State(trajectory.positions[-1], scene.object_poses))
+            if nominal_decides and not reached:          # the perturbed worlds stopped
+                return Judgement(nominal, (), 0.01, complete=not worlds)
             worlds = tuple(dataclasses.replace(nominal, reached=k < round(share * len(worlds)))
                            for k in range(len(worlds)))
             return Judgement(nominal, worlds, 0.01)
