@@ -27,7 +27,7 @@ from std_msgs.msg import Header
 from trajectory_msgs.msg import JointTrajectory
 
 from rearrangement_planner.io import messages
-from rearrangement_planner.model.errors import InputError
+from rearrangement_planner.model.errors import InputError, ObjectTilted
 from rearrangement_planner.planning.requests.trajectory import Trajectory
 
 from .plain import from_plain, time_to_plain
@@ -142,7 +142,8 @@ def pose_array_to_objects(msg: PoseArray, object_ids: Sequence[str], planning_fr
     """The planar object poses (M, 3) (x, y, yaw) in the planning frame (m, rad, yaw in
     (-pi, pi]); the i-th pose of `msg` belongs to `object_ids[i]` (docs/design.md). The poses' z is
     ignored (objects stand on the table); an object tilted more than `max_tilt` (rad) from
-    upright is rejected, because the planner models only upright prisms (docs/design.md).
+    upright is rejected (`ObjectTilted`), because the planner models only upright prisms
+    (docs/design.md).
     """
     _check_frame(msg.header.frame_id, planning_frame, "object_poses.header.frame_id",
                  "object poses")
@@ -178,9 +179,7 @@ def pose_array_to_objects(msg: PoseArray, object_ids: Sequence[str], planning_fr
         # object's z axis and the frame's z axis.
         tilt = 2.0 * math.atan2(math.hypot(x, y), math.hypot(z, w))
         if tilt > max_tilt:
-            raise InputError(f"{field}.orientation",
-                             f"of object '{object_id}' is tilted by {tilt:.3f} rad (more than "
-                             f"{max_tilt:g} rad); objects must stand upright on the table")
+            raise ObjectTilted(f"{field}.orientation", object_id, tilt, max_tilt)
         # Yaw = heading of the object's x axis projected on the table: atan2(R10, R00) of the
         # rotation matrix of a unit quaternion (the z of a ZYX Euler decomposition, as tf2).
         yaw = math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))

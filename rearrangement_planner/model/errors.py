@@ -28,3 +28,14 @@ class InputError(RearrangementError):
         self.field = field
         self.problem = problem
         super().__init__(f"{field}: {problem}" if field else problem)
+
+
+class ObjectTilted(InputError):
+    """An object seen tilted from upright further than the bound the reader was given: the
+    planner models upright prisms only, and an object that tilts has begun to tip (the
+    closed loop's watch stops the arm on it)."""
+
+    def __init__(self, field: str, object_id: str, tilt: float, bound: float):
+        self.object_id, self.tilt, self.bound = object_id, tilt, bound
+        super().__init__(field, f"of object '{object_id}' is tilted by {tilt:.3f} rad (more "
+                                f"than {bound:g} rad); objects must stand upright on the table")

@@ -659,6 +659,15 @@ def _check_on_table(table: Table, obstacles: list[Obstacle], goal: Goal) -> None
             _fail(f"obstacles[{i}].pose", f"obstacle '{box.name}' at ({box.pose[0]:.3g}, "
                                           f"{box.pose[1]:.3g}) is off the table; its centre "
                                           f"must lie on the table top ({table.describe()})")
+    check_goal_radius(table, goal)
+
+
+def check_goal_radius(table: Table, goal: Goal) -> None:
+    """SceneError unless the goal radius is within BOUNDS["goal.radius"] and at most the
+    table's larger side: what loading a scene checks, for a goal given later (a node's
+    parameter, an action goal), so that no later step (a raced tree's worker re-reading the
+    scene) meets it first."""
+    _bounded(goal.radius, "goal.radius", "goal.radius")
     largest = float(max(table.size))
     if goal.radius > largest:
         _fail("goal.radius", f"{goal.radius:g} m is larger than the table ({largest:g} m); the "

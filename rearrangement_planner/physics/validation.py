@@ -21,6 +21,7 @@ from rearrangement_planner.model.robot import RobotModel
 from rearrangement_planner.model.scene import (
     TOUCH_TOLERANCE,
     Scene,
+    check_goal_radius,
     read_scene,
     scene_from_dict,
 )
@@ -62,6 +63,7 @@ def _check_placement(scene: Scene) -> None:
                              f"object '{obj.name}' at ({obj.pose[0]:.3f}, {obj.pose[1]:.3f}) is "
                              f"off the table; its centre must lie on the table top "
                              f"({table.describe()})")
+    check_goal_radius(table, scene.goal)
     names = list(scene.object_names)
     if scene.goal.object not in names:
         raise SceneError("goal.object",

@@ -160,8 +160,21 @@ def recorded_action(job: Any, stamp: Time) -> list[tuple]:
     return entries
 
 
+RESULT_CHARS = 4000
+"""A result's message is cut to this many characters: a message quotes what was wrong with
+the goal, and a goal may hold a 100 kB string (the closed loop's longest answers, a line per
+attempt, stay within 1,500)."""
+
+
+def cut_text(message: str, limit: int) -> str:
+    """`message`, cut to `limit` characters with a note of how many more there were."""
+    if len(message) <= limit:
+        return message
+    return f"{message[:limit]} ... ({len(message) - limit} more characters)"
+
+
 def plain_result(code: int, message: str) -> PlanRearrangement.Result:
-    result = PlanRearrangement.Result(message=message)
+    result = PlanRearrangement.Result(message=cut_text(message, RESULT_CHARS))
     result.error_code.val = code
     return result
 

@@ -52,7 +52,7 @@ from msg_adapters import (
     pose_stamped_to_goal,
     trajectory_to_msg,
 )
-from rearrangement_planner.model.errors import RearrangementError
+from rearrangement_planner.model.errors import ObjectTilted, RearrangementError
 from rearrangement_planner.model.resources import NODE_NAME
 from rearrangement_planner.planning.machinery.interface import Outcome, Progress
 from rearrangement_planner.planning.requests.parallel import start_workers
@@ -61,6 +61,7 @@ from rearrangement_planner.planning.requests.warmup import warm_up
 from rearrangement_planner.ros.action import (
     DIVERGED,
     PlanActionServer,
+    cut_text,
     execute,
     recorded_action,
 )
@@ -122,6 +123,7 @@ class PlannerNode(Node):
         self._joint: Input | None = None
         self._objects: Input | None = None
         self._objects_rejected: tuple[float, str] | None = None
+        self._objects_tilted: tuple[float, ObjectTilted] | None = None
         self._goal: Input | None = None
         self._job: Job | None = None
         self._progress: Progress | None = None
@@ -232,6 +234,8 @@ class PlannerNode(Node):
             self.report(f"rejected object_poses: {_describe(exc)}", "object_poses")
             with self._lock:
                 self._objects_rejected = (received, _describe(exc))
+                if isinstance(exc, ObjectTilted):
+                    self._objects_tilted = (received, exc)
             return
         with self._lock:
             self._objects = Input(objects, msg, received)
@@ -396,6 +400,11 @@ class PlannerNode(Node):
         with self._lock:
             return self._objects_rejected
 
+    def _tilted(self) -> tuple[float, ObjectTilted] | None:
+        """When an object was last seen tilted (its message rejected), and which."""
+        with self._lock:
+            return self._objects_tilted
+
     def _plan(self, job: Job, params: dict[str, Any]) -> tuple:
         """`run_plan` from the latest inputs with the node's `params`."""
         topics = {"joint_states": self._joint_sub.topic_name,
@@ -419,8 +428,9 @@ def _execute_goal(node: PlannerNode, job: Job, msg: JointTrajectory, planned: tu
     attempts, bound = job.params["replan_attempts"], job.params["divergence_bound"]
 
     def send(command: JointTrajectory, watched: Any) -> tuple[str, str]:
-        watch = (DivergenceWatch(watched, bound, lambda: node._latest()["object_poses"])
-                 if watched is not None and attempts > 0 and bound > 0 else None)
+        watch = (DivergenceWatch(watched, bound, lambda: node._latest()["object_poses"],
+                                 node._tilted)
+                 if watched is not None and attempts > 0 else None)
         return execute(job, command, job.params["execution_timeout"], node.send,
                        node._joint_input, watch)
 
@@ -443,9 +453,7 @@ def _execute_goal(node: PlannerNode, job: Job, msg: JointTrajectory, planned: tu
 
 
 def _cut(message: str) -> str:
-    if len(message) <= REPORT_CHARS:
-        return message
-    return f"{message[:REPORT_CHARS]} ... ({len(message) - REPORT_CHARS} more characters)"
+    return cut_text(message, REPORT_CHARS)
 
 
 def _describe(exc: Exception) -> str:

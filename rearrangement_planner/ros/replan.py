@@ -11,13 +11,15 @@ and the loop ends NO_OBSERVATION with the rejection's reason. A pose that stops 
 object the arm hides, a perception that stalls) is never taken for a pose that moved: the
 loop waits up to OBSERVE_TIMEOUT s and then ends, and never re-plans from stale poses.
 
-Watching during execution (`DivergenceWatch`, parameter divergence_bound): the plan predicts
-every object's pose at every trajectory point. While a trajectory runs, the arm's joint state
-says which point it has reached (the nearest one from the last matched on, so time scaling
-and controller lag do not matter), and fresh object poses (received within FRESH s) are compared
-with that point's prediction; an object farther than the bound stops the arm (empty
-JointTrajectory) and the loop observes and re-plans from there. Stale poses are not compared:
-an object the arm hides is not an object that strayed.
+Watching during execution (`DivergenceWatch`, parameters divergence_bound and
+max_object_tilt): the plan predicts every object's pose at every trajectory point. While a
+trajectory runs, the arm's joint state says which point it has reached (the nearest one from
+the last matched on, so time scaling and controller lag do not matter), and fresh object poses
+(received within FRESH s) are compared with that point's prediction; an object farther than
+the bound stops the arm (empty JointTrajectory) and the loop observes and re-plans from there.
+Stale poses are not compared: an object the arm hides is not an object that strayed. An object
+seen tilted past max_object_tilt has begun to tip: that stops the arm too, before it falls,
+whatever divergence_bound says.
 """
 
 from __future__ import annotations
@@ -31,6 +33,7 @@ from typing import Any
 import numpy as np
 
 from msg_adapters import trajectory_to_msg
+from rearrangement_planner.model.errors import ObjectTilted
 from rearrangement_planner.model.scene import Scene
 from rearrangement_planner.model.state import State
 from rearrangement_planner.planning.machinery.interface import Outcome
@@ -48,19 +51,23 @@ FRESH = 0.5
 
 
 class DivergenceWatch:
-    """`action.execute`'s watch for one plan (module doc): `watch(q)` is None while every
-    object stays within `bound` m of a pose the plan predicts for it around the arm's progress,
-    else the sentence that says which strayed. "Around": at any trajectory point the arm has
-    passed since FRESH s before the object poses were received (the poses and the joint state
-    arrive on different topics, each with its own delay)."""
+    """`action.execute`'s watch for one plan (module doc): `watch(q)` is None while no object
+    has been seen tilted since the watch began (`tilted()`: (time.monotonic(), ObjectTilted) of
+    the last object pose message rejected for a tilt, or None) and every object stays within
+    `bound` m of a pose the plan predicts for it around the arm's progress (bound 0: not
+    compared), else the sentence that says which began to tip or strayed. "Around": at any
+    trajectory point the arm has passed since FRESH s before the object poses were received
+    (the poses and the joint state arrive on different topics, each with its own delay)."""
 
     def __init__(self, output: PlanOutput, bound: float,
-                 objects: Callable[[], Any]):
+                 objects: Callable[[], Any],
+                 tilted: Callable[[], tuple[float, ObjectTilted] | None] = lambda: None):
         assert output.trajectory is not None
         self.path = output.trajectory.positions
         self.predicted = np.array([s.objects for s in output.trajectory_states])
         self.names = output.scene.object_names
-        self.bound, self.objects = bound, objects
+        self.bound, self.objects, self.tilted = bound, objects, tilted
+        self.began = time.monotonic()
         self.passed: list[tuple[float, int]] = [(-math.inf, 0)]
         """(time.monotonic(), point) of every match."""
 
@@ -68,6 +75,14 @@ class DivergenceWatch:
         point = self.passed[-1][1]
         point += int(np.argmin(np.max(np.abs(self.path[point:] - q), axis=1)))
         self.passed.append((time.monotonic(), point))
+        tilted = self.tilted()
+        if tilted is not None and tilted[0] > self.began:
+            seen = tilted[1]
+            return (f"'{seen.object_id}' began to tip: seen tilted {seen.tilt:.3f} rad "
+                    f"(max_object_tilt {seen.bound:g} rad) by trajectory point {point} of "
+                    f"{len(self.path)}")
+        if self.bound <= 0.0:
+            return None
         seen = self.objects()
         if seen is None or time.monotonic() - seen.received > FRESH:
             return None

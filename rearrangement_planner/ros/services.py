@@ -59,6 +59,15 @@ class TriggerServices:
 
     def _on_execute(self, request: Trigger.Request, response: Trigger.Response
                     ) -> Trigger.Response:
+        running, _ = self._node.running()
+        if running is not None:
+            # The arm may be executing that job's plan (or about to): the last plan, whose
+            # first point is its start at t = 0, would command it back there mid-motion.
+            response.success = False
+            response.message = (f"refused: plan {running.plan_id} is running (planning or "
+                                f"executing); ~/execute sends the last plan only when the node "
+                                f"is idle")
+            return response
         last = self._node.last_trajectory()
         if last is None:
             response.success = False

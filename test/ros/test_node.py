@@ -63,6 +63,7 @@ from rearrangement_planner.planning.machinery.propagation import replay  # noqa:
 from rearrangement_planner.planning.requests.request import request_settings  # noqa: E402
 from rearrangement_planner.ros import plan_request as plan_request_module  # noqa: E402
 from rearrangement_planner.ros import replan  # noqa: E402
+from rearrangement_planner.ros.action import RESULT_CHARS  # noqa: E402
 from rearrangement_planner.ros.client import action_client  # noqa: E402
 from rearrangement_planner.ros.node import (  # noqa: E402
     EXECUTOR_THREADS,
@@ -106,6 +107,8 @@ class Client:
         self.world: list[PoseArray | None] = []
         """A scripted world: each command with points sets the published object poses to the
         next entry (None: they stop arriving)."""
+        self.on_stop: PoseArray | None = None
+        """The object poses the next stop (an empty command) publishes."""
         n.create_subscription(PlannerStatusMsg, f"{NS}/status", self._on_status, 50)
         n.create_subscription(DiagnosticArray, "/diagnostics", self._on_diagnostics, 50)
         n.create_subscription(JointTrajectory, "/joint_trajectory", self._on_command, 10)
@@ -144,11 +147,13 @@ class Client:
                                               position=list(point.positions))
             if self.world and msg.points:
                 self.objects = self.world.pop(0)
+            if not msg.points and self.on_stop is not None:
+                self.objects, self.on_stop = self.on_stop, None
 
     def reset_world(self) -> None:
         """No controller, no scripted world: the good joint state and object poses again."""
         with self.lock:
-            self.controller, self.stall, self.world = False, 0, []
+            self.controller, self.stall, self.world, self.on_stop = False, 0, [], None
             self.joint_state = self.good_joint_state
             self.objects = self.good_objects
 
@@ -924,6 +929,31 @@ def test_action_executes_and_waits_for_the_arm(ros):
             client.joint_state = client.good_joint_state
 
 
+def test_execute_is_refused_while_a_goal_runs(ros):
+    """~/execute sends the last plan, whose first point is its start at t = 0: while a goal's
+    plan executes, that would command the arm back to its start mid-motion. It is refused,
+    and the goal runs on."""
+    client = ros["client"]
+    client.wait_inputs_flowing()
+    client.set(execution_timeout=3.0)
+    try:
+        with client.lock:
+            client.commands.clear()                   # no controller: the arm never arrives
+        handle = client.send_goal(PlanRearrangement.Goal(settings=ROBUST, execute=True))
+        assert handle.accepted
+        assert wait_until(lambda: client.commands, 30.0)       # the goal's plan was sent
+        response = client.call("execute")
+        assert not response.success and "refused: plan" in response.message
+        assert "is running" in response.message
+        future = handle.get_result_async()
+        assert wait_until(future.done, 30.0)
+        assert future.result().result.error_code.val == ErrorCode.EXECUTION_FAILED
+        with client.lock:
+            assert len(client.commands) == 1          # ~/execute sent nothing
+    finally:
+        client.set(execution_timeout=0.0)
+
+
 def _objects_at(x: float, y: float) -> PoseArray:
     return objects_to_pose_array(np.array([[x, y, 0.0]]), FRAME)
 
@@ -985,6 +1015,33 @@ def test_action_stops_the_arm_when_an_object_strays_and_replans(ros):
             # jumps to the goal at once, which the watch may see before the arm's jump)
             assert [len(c.points) > 0 for c in client.commands][:3] == [True, False, True]
     finally:
+        client.reset_world()
+
+
+def test_action_stops_the_arm_when_an_object_begins_to_tip_and_replans(ros):
+    """The arm stalls halfway through the first plan while the object is seen tilted 0.3 rad,
+    past max_object_tilt (the watch's divergence bound is off: the tilt alone stops it): the
+    node stops the arm before the object falls, observes it upright again, plans again from
+    there and executes; then the object is seen in the goal."""
+    client, scene = ros["client"], ros["scene"]
+    client.wait_inputs_flowing()
+    client.set(divergence_bound=0.0)
+    try:
+        with client.lock:
+            client.controller, client.stall = True, 1
+            client.commands.clear()
+            client.world = [_tilted(_objects_at(0.52, 0.03)), _objects_at(*scene.goal.position)]
+            client.on_stop = _objects_at(0.52, 0.03)
+        status, result = client.run_goal(PlanRearrangement.Goal(
+            settings=ROBUST, execute=True, replan_attempts=1))
+        assert status == GoalStatus.STATUS_SUCCEEDED, result.message
+        assert (f"attempt 1 ({result.plan_id}): stopped the arm: 'target' began to tip: seen "
+                f"tilted 0.300 rad (max_object_tilt 0.05 rad)" in result.message), result.message
+        assert result.message.endswith("goal reached after 1 re-plans")
+        with client.lock:
+            assert [len(c.points) > 0 for c in client.commands][:3] == [True, False, True]
+    finally:
+        client.set(divergence_bound=0.05)
         client.reset_world()
 
 
@@ -1069,10 +1126,16 @@ def test_action_refuses_a_second_goal_and_cancels_through_the_protocol(ros):
     (PlanRearrangement.Goal(settings=["max_iterations=1", *ROBUST]), ErrorCode.PLANNING_FAILED,
      "no plan within max_iterations 1"),
     (PlanRearrangement.Goal(goal_object="nope"), ErrorCode.GOAL_INVALID, "no object named 'nope'"),
+    (PlanRearrangement.Goal(goal_radius=5.0, settings=["trees=2"]), ErrorCode.GOAL_INVALID,
+     "goal.radius: 5 m is larger than the table"),
+    (PlanRearrangement.Goal(goal_radius=1e-300, settings=["trees=2"]), ErrorCode.GOAL_INVALID,
+     "goal.radius: must be between 0.001 and 5 m"),
     (PlanRearrangement.Goal(settings=["k_actions=0"]), ErrorCode.INVALID_INPUT,
      "goal.settings[0]: k_actions must be in"),
     (PlanRearrangement.Goal(settings=["warp=9"]), ErrorCode.INVALID_INPUT, "goal.settings[0]"),
     (PlanRearrangement.Goal(planner="a-star"), ErrorCode.INVALID_INPUT, "goal.planner"),
+    (PlanRearrangement.Goal(settings=["x" * 100_000]), ErrorCode.INVALID_INPUT,
+     "more characters)"),
     (PlanRearrangement.Goal(time_limit=-1.0), ErrorCode.INVALID_INPUT, "goal.time_limit"),
     (PlanRearrangement.Goal(replan_attempts=21), ErrorCode.INVALID_INPUT,
      "goal.replan_attempts"),
@@ -1081,14 +1144,16 @@ def test_action_refuses_a_second_goal_and_cancels_through_the_protocol(ros):
      ErrorCode.START_STATE_INVALID, "start invalid"),
     (PlanRearrangement.Goal(start_joint_state=JointState(name=["panda_joint1"], position=[0.0])),
      ErrorCode.INVALID_INPUT, "goal.start_joint_states"),
-], ids=["timed-out", "planning-failed", "goal-invalid", "setting-range", "setting-unknown",
+], ids=["timed-out", "planning-failed", "goal-invalid", "radius-too-large", "radius-too-small",
+        "setting-range", "setting-unknown", "setting-huge",
         "planner-unknown", "time-limit", "replan", "start-invalid", "start-joints"])
 def test_action_error_codes(ros, goal, code, words):
     client = ros["client"]
     client.wait_inputs_flowing()
     status, result = client.run_goal(goal)
     assert status == GoalStatus.STATUS_ABORTED
-    assert result.error_code.val == code and words in result.message, result.message
+    assert result.error_code.val == code and words in result.message, result.message[:500]
+    assert len(result.message) <= RESULT_CHARS + 40        # the message is bounded
     assert ros["planner"]._worker.is_alive()
 
 
