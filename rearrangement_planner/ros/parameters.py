@@ -91,6 +91,10 @@ _NODE_LAST: tuple[ParameterSpec, ...] = (
     ParameterSpec("execute_fragile", False, "With auto_execute, publish a fragile plan too (one "
                   "whose robustness is below fragile_below; its answer says FRAGILE)."),
     ParameterSpec("plan_on_goal", False, "Start planning when a goal arrives on ~/goal."),
+    ParameterSpec("max_trees", 4, "The most raced trees one request may ask for (its trees "
+                  "setting): each tree past the first is a worker process of about 230 MB "
+                  "that stays for the node's life. A request asking for more is refused "
+                  "(INVALID_INPUT).", 1, 64),
     ParameterSpec("execution_timeout", 0.0, "How long an action goal with execute waits for "
                   "joint_states to reach the sent trajectory's last point, s (EXECUTION_FAILED "
                   "after); 0 = the trajectory's duration plus 10 s.", 0.0, 86400.0),

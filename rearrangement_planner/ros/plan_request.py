@@ -55,6 +55,10 @@ def node_request(params: dict[str, Any], scene: Scene,
     where the setting at fault came from: `origins[name]` (an action goal's field) or the
     parameter; the error's type carries the setting's name (`SettingError`)."""
     values = {s.name: params[s.name] for s in request_settings()}
+    if values["trees"] > params["max_trees"]:
+        where = (origins or {}).get("trees", "parameter trees")
+        raise InputError(where, f"trees {values['trees']} is more than the node's max_trees "
+                                f"{params['max_trees']} (a worker process each)")
     try:
         return PlanRequest.from_settings(scene, params["planner"], values,
                                          seed=int(params["seed"]))
@@ -165,7 +169,13 @@ def goal_inputs(goal: Any, params: dict[str, Any], scene: Scene,
     params = goal_parameters(goal, params)
     latest = dict(latest)
     now = time.monotonic()
-    if goal.start_joint_state.name and not replan:
+    start = goal.start_joint_state
+    if not start.name and (len(start.position) or len(start.velocity) or len(start.effort)):
+        raise InputError("goal.start_joint_state.name",
+                         f"is empty while the state gives {len(start.position)} positions; "
+                         f"name every joint, or leave the whole start_joint_state empty to "
+                         f"start from the latest joint_states")
+    if start.name and not replan:
         try:
             q = joint_state_to_configuration(goal.start_joint_state, scene.robot.joint_names)
         except InputError as exc:

@@ -23,3 +23,19 @@ def plan(easy, physics):
     result = PCRRT(easy, PCRRTOptions(time_limit=60.0), physics).plan(seed=1)
     assert result.solved
     return result
+
+
+@pytest.fixture
+def easy_push_request(panda):
+    """`easy_push_request(**settings)`: the request of easy_push (seed 1, one tree, one
+    candidate) judged in 4 worlds, `settings` changed."""
+    from rearrangement_planner.planning import PlanRequest
+
+    scene = load_scene("easy_push", robot=panda)
+
+    def make(**settings) -> PlanRequest:
+        values = {"judge_worlds": 4, "trees": 1, "min_robustness": 0.5, "rollouts": 5,
+                  "candidates": 1, **settings}
+        return PlanRequest.from_settings(scene, "pc-rrt", values, seed=1)
+
+    return make

@@ -137,19 +137,6 @@ def test_judge_options_are_checked():
     assert dataclasses.replace(JudgeOptions(), judge_worlds=0).judge_worlds == 0
 
 
-@pytest.fixture
-def easy_push_request(panda):
-    """`easy_push_request(**judge)`: easy_push (seed 1, one tree) judged in 4 worlds."""
-    scene = load_scene("easy_push", robot=panda)
-
-    def make(**judge) -> PlanRequest:
-        values = {"judge_worlds": 4, "trees": 1, "min_robustness": 0.5, "rollouts": 5,
-                  "candidates": 1, **judge}
-        return PlanRequest.from_settings(scene, "pc-rrt", values, seed=1)
-
-    return make
-
-
 def test_trajectory_type_is_the_planners(easy_push_request):
     output = plan_scene(easy_push_request())
     assert isinstance(output.trajectory, Trajectory)

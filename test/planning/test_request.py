@@ -4,11 +4,20 @@ setting a planner does not read refused."""
 
 from __future__ import annotations
 
+import time
+
 import pytest
 
 from rearrangement_planner.physics.options import PhysicsOptions
 from rearrangement_planner.physics.validation import load_scene
-from rearrangement_planner.planning import PLANNERS, DARRTOptions, PCRRTOptions, PlanRequest
+from rearrangement_planner.planning import (
+    PLANNERS,
+    DARRTOptions,
+    PCRRTOptions,
+    PlanRequest,
+    plan_scene,
+)
+from rearrangement_planner.planning.machinery.interface import Outcome
 from rearrangement_planner.planning.requests.parallel import RaceOptions
 from rearrangement_planner.planning.requests.request import request_settings
 from rearrangement_planner.planning.requests.robustness import FIRST_PLAN, RobustOptions
@@ -72,3 +81,22 @@ def test_from_settings_sets_every_stage_and_checks_ranges(scene):
         PlanRequest.from_settings(scene, "pc-rrt", {"trees": 0})
     with pytest.raises(ValueError, match="seed must be a non-negative integer"):
         PlanRequest(scene, seed=-1)
+
+
+def test_the_time_limit_bounds_the_request_shortcutting_included(easy_push_request):
+    """With 600 s of shortcutting asked for and no attempt bound, a request of a 3 s time limit
+    answers within it (the finishing push may take a moment more)."""
+    request = easy_push_request(judge_worlds=0, shortcut_time=600.0, shortcut_attempts=0,
+                                time_limit=3.0)
+    started = time.monotonic()
+    output = plan_scene(request)
+    assert output.solved and time.monotonic() - started < 3.0 + 2.0
+
+
+def test_a_cancel_while_shortcutting_is_never_answered_as_a_plan(easy_push_request,
+                                                                cancel_after):
+    request = easy_push_request(judge_worlds=0, shortcut_time=600.0, shortcut_attempts=0,
+                                time_limit=30.0)
+    output, running, took = cancel_after(lambda cancel: plan_scene(request, cancel=cancel), 2.0)
+    assert running and took < 1.0
+    assert output.result.outcome is Outcome.CANCELLED and output.trajectory is None

@@ -1136,6 +1136,8 @@ def test_action_refuses_a_second_goal_and_cancels_through_the_protocol(ros):
     (PlanRearrangement.Goal(planner="a-star"), ErrorCode.INVALID_INPUT, "goal.planner"),
     (PlanRearrangement.Goal(settings=["x" * 100_000]), ErrorCode.INVALID_INPUT,
      "more characters)"),
+    (PlanRearrangement.Goal(settings=["trees=64"]), ErrorCode.INVALID_INPUT,
+     "goal.settings[0]: trees 64 is more than the node's max_trees 4"),
     (PlanRearrangement.Goal(time_limit=-1.0), ErrorCode.INVALID_INPUT, "goal.time_limit"),
     (PlanRearrangement.Goal(replan_attempts=21), ErrorCode.INVALID_INPUT,
      "goal.replan_attempts"),
@@ -1144,9 +1146,12 @@ def test_action_refuses_a_second_goal_and_cancels_through_the_protocol(ros):
      ErrorCode.START_STATE_INVALID, "start invalid"),
     (PlanRearrangement.Goal(start_joint_state=JointState(name=["panda_joint1"], position=[0.0])),
      ErrorCode.INVALID_INPUT, "goal.start_joint_states"),
+    (PlanRearrangement.Goal(start_joint_state=JointState(position=[float("nan")] * 7)),
+     ErrorCode.INVALID_INPUT, "goal.start_joint_state.name: is empty while the state gives 7"),
 ], ids=["timed-out", "planning-failed", "goal-invalid", "radius-too-large", "radius-too-small",
-        "setting-range", "setting-unknown", "setting-huge",
-        "planner-unknown", "time-limit", "replan", "start-invalid", "start-joints"])
+        "setting-range", "setting-unknown", "setting-huge", "too-many-trees",
+        "planner-unknown", "time-limit", "replan", "start-invalid", "start-joints",
+        "start-unnamed"])
 def test_action_error_codes(ros, goal, code, words):
     client = ros["client"]
     client.wait_inputs_flowing()

@@ -296,6 +296,11 @@ def plan_scene(request: PlanRequest, cancel: threading.Event | None = None,
     result = candidate.result
     name = request.planner.name
     floor = request.robust.fragile_below
+    if result.solved and cancel is not None and cancel.is_set():
+        # cancelled while shortcutting or scoring: a cancel that was accepted never ends in
+        # a plan answered as found
+        result = PlanResult(Outcome.CANCELLED, "cancelled", request.seed,
+                            plan_time=time.monotonic() - t0)
     if not result.solved:
         return PlanOutput(scene, name, result, robustness=score, fragile_below=floor,
                           phases=phases)
@@ -427,7 +432,8 @@ class Candidates:
     """The scene's physics with the request's options (the planner's own is built from it)."""
     stop: Termination
     """The request's budget (its time limit, max_iterations and the user's cancel): every
-    candidate's search ends with it, and shortcutting at most shortcut_time after it."""
+    candidate's search and shortcutting end with it (the finishing push up to FINISH_TIME
+    after it)."""
     progress: ProgressCallback | None = None
     phases: Phases = dataclasses.field(default_factory=Phases)
 
@@ -453,8 +459,8 @@ class Candidates:
                                                                   max_iterations=bound))
 
     def shortcut(self, result: PlanResult, seed: int) -> Candidate:
-        """A solved `result` shortcut for up to shortcut_time s (ending at most that long
-        after the request's budget) or shortcut_attempts attempts (whichever ends first; an
+        """A solved `result` shortcut for up to shortcut_time s (ending with the request's
+        budget at the latest) or shortcut_attempts attempts (whichever ends first; an
         attempt bound that ends first makes it reproducible), then finished (`finish.finish`:
         the goal object pushed on to the goal point); as it is when the planner's paths are
         not shortcut."""
@@ -470,7 +476,8 @@ class Candidates:
         states, elapsed = result.states, 0.0
         seconds = request.shortcut.shortcut_time
         if seconds > 0 and len(states) > 2:
-            stop = self.stop.extended(seconds, request.shortcut.shortcut_attempts or None)
+            # within the request's time limit: a plan found late is shortcut less
+            stop = self.stop.split(seconds, request.shortcut.shortcut_attempts or None)
             with self.phases.timed("shortcut"):
                 short = shortcut(physics, states, stop, seed=seed,
                                  goal_radius=request.options.goal_radius(request.scene))

@@ -43,7 +43,8 @@ class ShortcutOptions(Settings):
     """How long a found path is shortcut (a plan request's; `pipeline.plan_scene`)."""
 
     shortcut_time: float = setting(10.0, low=0.0, high=600.0)
-    """Longest path shortcutting after a plan is found, s; 0 = none."""
+    """Longest path shortcutting after a plan is found, s, within the request's time_limit (a
+    plan found late is shortcut less); 0 = none."""
     shortcut_attempts: int = setting(40, low=0, high=100000)
     """Most shortcut attempts (about 50 ms each); when this bound ends shortcutting before
     shortcut_time, the shortened path is reproducible. 0 = until shortcut_time."""
