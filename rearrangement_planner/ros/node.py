@@ -396,15 +396,6 @@ class PlannerNode(Node):
             return {"joint_states": self._joint, "object_poses": self._objects,
                     "goal": self._goal}
 
-    def _rejected(self) -> tuple[float, str] | None:
-        with self._lock:
-            return self._objects_rejected
-
-    def _tilted(self) -> tuple[float, ObjectTilted] | None:
-        """When an object was last seen tilted (its message rejected), and which."""
-        with self._lock:
-            return self._objects_tilted
-
     def _plan(self, job: Job, params: dict[str, Any]) -> tuple:
         """`run_plan` from the latest inputs with the node's `params`."""
         topics = {"joint_states": self._joint_sub.topic_name,
@@ -427,9 +418,17 @@ def _execute_goal(node: PlannerNode, job: Job, msg: JointTrajectory, planned: tu
     job.phase = "executing"
     attempts, bound = job.params["replan_attempts"], job.params["divergence_bound"]
 
+    # One attribute read each (atomic): the last object pose message rejected, and the last
+    # rejected because an object was seen tilted (when, and which).
+    def rejected() -> tuple[float, str] | None:
+        return node._objects_rejected
+
+    def tilted() -> tuple[float, ObjectTilted] | None:
+        return node._objects_tilted
+
     def send(command: JointTrajectory, watched: Any) -> tuple[str, str]:
         watch = (DivergenceWatch(watched, bound, lambda: node._latest()["object_poses"],
-                                 node._tilted)
+                                 tilted)
                  if watched is not None and attempts > 0 else None)
         return execute(job, command, job.params["execution_timeout"], node.send,
                        node._joint_input, watch)
@@ -444,7 +443,7 @@ def _execute_goal(node: PlannerNode, job: Job, msg: JointTrajectory, planned: tu
         if failure is not None:
             node.report(failure)
 
-    io = LoopIO(node._latest, node._rejected, send, lambda _: node._plan(job, params),
+    io = LoopIO(node._latest, rejected, send, lambda _: node._plan(job, params),
                 record_attempt)
     last = close_the_loop(job, io, scene, output, inputs, attempts, time.monotonic(),
                           message if outcome == DIVERGED else "")

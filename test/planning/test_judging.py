@@ -140,3 +140,15 @@ def test_judge_options_are_checked():
 def test_trajectory_type_is_the_planners(easy_push_request):
     output = plan_scene(easy_push_request())
     assert isinstance(output.trajectory, Trajectory)
+
+
+def test_an_arm_the_other_planner_cannot_plan_for_is_judged_without_it(judge_says):
+    """The slice-based RRT's learned oracle ships for the Panda alone: a request for the
+    xArm7 that is not accepted says why no candidate came from it, and answers its own."""
+    judge_says(reached=True, share=0.5)
+    scene = load_scene("default_xarm7")
+    output = plan_scene(PlanRequest.from_settings(
+        scene, "pc-rrt", {"judge_worlds": 2, "trees": 1, "min_robustness": 0.0}, seed=0))
+    assert output.solved and output.judged.planner == "pc-rrt"
+    assert output.judged.candidates[-1].startswith(
+        "slice-rrt: not found, oracle: no learned oracle for robot 'xarm7'")

@@ -398,10 +398,14 @@ def judge_and_mend(judging: Judging, first: Judged, request: PlanRequest,
     if (not best.accepted(options) and options.both_planners and other is not None
             and judging.time_left()):
         spec = PLANNERS[other]
-        output = unjudged(PlanRequest(
-            request.scene, spec, spec.options(None), request.physics, request.race,
-            request.shortcut, request.finish, request.timing, request.robust,
-            tree_seed(request.seed, OTHER_SEED_OFFSET), request.start))
+        try:
+            drawn: PlanRequest | str = PlanRequest(
+                request.scene, spec, spec.options(None), request.physics, request.race,
+                request.shortcut, request.finish, request.timing, request.robust,
+                tree_seed(request.seed, OTHER_SEED_OFFSET), request.start)
+        except ValueError as exc:        # e.g. no learned oracle for this arm
+            drawn = str(exc)
+        output = unjudged(drawn) if isinstance(drawn, PlanRequest) else drawn
         if isinstance(output, str):
             judging.log.append(f"{other}: not found, {output}")
         else:
