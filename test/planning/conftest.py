@@ -27,15 +27,15 @@ def plan(easy, physics):
 
 @pytest.fixture
 def easy_push_request(panda):
-    """`easy_push_request(**settings)`: the request of easy_push (seed 1, one tree, one
+    """`easy_push_request(seed=1, **settings)`: the request of easy_push (one tree, one
     candidate) judged in 4 worlds, `settings` changed."""
     from rearrangement_planner.planning import PlanRequest
 
     scene = load_scene("easy_push", robot=panda)
 
-    def make(**settings) -> PlanRequest:
+    def make(seed: int = 1, **settings) -> PlanRequest:
         values = {"judge_worlds": 4, "trees": 1, "min_robustness": 0.5, "rollouts": 5,
                   "candidates": 1, **settings}
-        return PlanRequest.from_settings(scene, "pc-rrt", values, seed=1)
+        return PlanRequest.from_settings(scene, "pc-rrt", values, seed=seed)
 
     return make

@@ -152,3 +152,30 @@ def test_an_arm_the_other_planner_cannot_plan_for_is_judged_without_it(judge_say
     assert output.solved and output.judged.planner == "pc-rrt"
     assert output.judged.candidates[-1].startswith(
         "slice-rrt: not found, oracle: no learned oracle for robot 'xarm7'")
+
+
+def test_robust_selections_other_candidates_are_judged_before_any_new_search(
+        easy_push_request, judge_says):
+    """The model's best is not accepted: its second candidate, found already, is judged next
+    (a judge's time, no search), and answers when it is accepted."""
+    from rearrangement_planner.planning.requests import judging
+
+    judge_says(reached=True, share=0.5)
+    scripted = judging.judge
+    calls: list = []
+
+    def second_accepted(scene, trajectory, worlds=(), **kwargs):
+        calls.append(trajectory)
+        verdict = scripted(scene, trajectory, worlds, **kwargs)
+        if len(calls) == 2:
+            verdict = dataclasses.replace(verdict, perturbed=tuple(
+                dataclasses.replace(w, reached=True) for w in verdict.perturbed))
+        return verdict
+
+    judging.judge = second_accepted          # the fixture's monkeypatch restores it
+    # seed 0's first plan reaches in 9 of 10 rollouts: robust selection searches a second
+    output = plan_scene(easy_push_request(seed=0, min_robustness=1.0, rollouts=10,
+                                          candidates=2, candidate_effort=0.0))
+    assert [c.split(":")[0] for c in output.judged.candidates] == ["pc-rrt", "pc-rrt"]
+    assert output.robustness == 1.0 and output.trajectory is calls[1]
+    assert not np.array_equal(calls[0].positions[-1], calls[1].positions[-1])

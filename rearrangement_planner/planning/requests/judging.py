@@ -77,7 +77,7 @@ class JudgeOptions(Settings):
     both_planners: bool = setting(True)
     """Draw a candidate from the other of PC-RRT and the slice-based RRT when the request's
     own planner's are not accepted in 3D (they reach different requests)."""
-    search_iterations: int = setting(5000, low=1, high=10**9)
+    search_iterations: int = setting(10000, low=1, high=10**9)
     """Each mend's re-plan and the other planner's candidate searches at most this many
     iterations (and the request's time left): its first plan, not scored by the model, as
     the 3D judge scores what it becomes. Counted in iterations, so the answer does not depend

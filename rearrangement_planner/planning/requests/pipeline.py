@@ -13,7 +13,7 @@ import dataclasses
 import math
 import threading
 import time
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
 
@@ -315,7 +315,8 @@ def plan_scene(request: PlanRequest, cancel: threading.Event | None = None,
             judging = Judging(scene, request.judge, request.timing, candidates.stop,
                               request.seed, cancel)
             answer = judge_and_mend(judging, judging.judged(trajectory, states, name, result),
-                                    request, cancel, progress, phases)
+                                    request, cancel, progress, phases,
+                                    candidates.ranked(candidate))
             if cancel is not None and cancel.is_set():     # a mend's search saw it first
                 raise JudgeCancelled("cancelled while judging in 3D")
         except ExecutionCheckError as exc:    # no 3D model of this arm: the model's answer
@@ -357,9 +358,11 @@ OTHER_PLANNER = {"pc-rrt": "slice-rrt", "slice-rrt": "pc-rrt"}
 
 def judge_and_mend(judging: Judging, first: Judged, request: PlanRequest,
                    cancel: threading.Event | None, progress: ProgressCallback | None,
-                   phases: Phases) -> Judged:
-    """The request's answer among its judged candidates (`judging` module doc): `first`,
-    mended; then the other planner's candidate, mended; the best judged."""
+                   phases: Phases, others: Sequence[Candidate] = ()) -> Judged:
+    """The request's answer among its judged candidates (`judging` module doc): `first`; the
+    model's `others` (robust selection's other candidates, already found: judging them costs
+    no search), best first; the best of those, mended; then the other planner's candidate,
+    mended; the best judged."""
     options = request.judge
 
     def unjudged(sub: PlanRequest) -> PlanOutput | str:
@@ -393,7 +396,14 @@ def judge_and_mend(judging: Judging, first: Judged, request: PlanRequest,
         assert output.trajectory is not None
         return output.trajectory, output.trajectory_states
 
-    best = mended(judging, first, replan)
+    for candidate in others:
+        if judging.best.accepted(options) or not judging.time_left():
+            break
+        trajectory = time_parameterize(request.scene.robot, candidate.result.arm_path,
+                                       request.timing)
+        judging.judged(trajectory, _states_at_points(candidate.result.states, trajectory),
+                       request.planner.name, candidate.result)
+    best = mended(judging, judging.best, replan)
     other = OTHER_PLANNER.get(request.planner.name)
     if (not best.accepted(options) and options.both_planners and other is not None
             and judging.time_left()):
@@ -440,6 +450,14 @@ class Candidates:
     after it)."""
     progress: ProgressCallback | None = None
     phases: Phases = dataclasses.field(default_factory=Phases)
+    found: list[tuple[float, Candidate]] = dataclasses.field(default_factory=list)
+    """Every solved candidate robust selection scored, with its rank (best first after
+    `ranked`): what the 3D judge looks at next when the answer is not accepted."""
+
+    def ranked(self, answered: Candidate) -> list[Candidate]:
+        """The scored candidates but `answered`, the model's best first."""
+        return [c for _, c in sorted(self.found, key=lambda f: -f[0])
+                if c.result.states is not answered.result.states]
 
     def plan(self, seed: int) -> PlanResult:
         """The request's search with `seed`, within `stop`."""
@@ -556,9 +574,10 @@ def robust_search(candidates: Candidates) -> tuple[Candidate, float | None]:
         score = candidates.score(candidate, k_seed)
         travel = goal_travel(request.scene, candidate.result.states)
         candidates.phases.log_candidate(last, searched_s, score, travel)
+        rank = candidate_rank(score, travel, robust.travel_penalty)
+        candidates.found.append((rank, candidate))
         if score >= robust.min_robustness:
             return _answer(candidate, t0, seed), score
-        rank = candidate_rank(score, travel, robust.travel_penalty)
         if best is None or rank > best[2]:
             best = (candidate, score, rank)
         most_robust = max(most_robust, score)
