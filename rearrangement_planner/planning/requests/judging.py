@@ -67,7 +67,7 @@ class JudgeOptions(Settings):
     (object poses 5 mm / 2 deg, friction x0.7-1.3, mass x0.8-1.2, centres of mass): the
     answer's robustness is the share it reaches the goal in, with nothing tipped. 0 = no 3D
     judge: the answer is the model's, its robustness the quasistatic rollouts'."""
-    judge_accept: float = setting(0.75, low=0.0, high=1.0)
+    judge_accept: float = setting(0.6, low=0.0, high=1.0)
     """A judged candidate that reaches the goal in the nominal 3D world and in at least this
     share of the perturbed ones is answered at once; until one does, the request mends and
     draws from the other planner while its time lasts."""
