@@ -364,38 +364,7 @@ def judge_and_mend(judging: Judging, first: Judged, request: PlanRequest,
     no search), best first; the best of those, mended; then the other planner's candidate,
     mended; the best judged."""
     options = request.judge
-
-    def unjudged(sub: PlanRequest) -> PlanOutput | str:
-        """`sub`'s first plan, shortcut and finished but neither scored nor judged (the judge
-        scores what it becomes), within `search_iterations` and the request's time left,
-        shortcutting included; or why there is none."""
-        seconds = judging.stop.remaining()
-        if seconds <= 0.001:
-            return "no time left"
-        iterations = min(sub.options.max_iterations, options.search_iterations)
-        sub = dataclasses.replace(
-            sub, judge=NO_JUDGE, robust=FIRST_PLAN,
-            options=dataclasses.replace(sub.options, time_limit=seconds,
-                                        max_iterations=iterations),
-            shortcut=dataclasses.replace(sub.shortcut, shortcut_time=min(
-                sub.shortcut.shortcut_time, seconds)))
-        output = plan_scene(sub, cancel, progress)
-        phases.add(output.phases)
-        result = output.result
-        return output if output.solved else f"{result.outcome.value}: {result.message}"
-
-    def replan(scene: Scene, static: frozenset[str], seed: int):
-        physics = request.physics
-        if static and request.planner.steps_physics:
-            physics = dataclasses.replace(physics,
-                                          static_objects=physics.static_objects | static)
-        output = unjudged(dataclasses.replace(request, scene=scene, start=None, seed=seed,
-                                              physics=physics))
-        if isinstance(output, str):
-            return output
-        assert output.trajectory is not None
-        return output.trajectory, output.trajectory_states
-
+    drafts = _Drafts(request, judging, cancel, progress, phases)
     for candidate in others:
         if judging.best.accepted(options) or not judging.time_left():
             break
@@ -403,26 +372,77 @@ def judge_and_mend(judging: Judging, first: Judged, request: PlanRequest,
                                        request.timing)
         judging.judged(trajectory, _states_at_points(candidate.result.states, trajectory),
                        request.planner.name, candidate.result)
-    best = mended(judging, judging.best, replan)
+    best = mended(judging, judging.best, drafts.replan)
     other = OTHER_PLANNER.get(request.planner.name)
     if (not best.accepted(options) and options.both_planners and other is not None
             and judging.time_left()):
-        spec = PLANNERS[other]
-        try:
-            drawn: PlanRequest | str = PlanRequest(
-                request.scene, spec, spec.options(None), request.physics, request.race,
-                request.shortcut, request.finish, request.timing, request.robust,
-                tree_seed(request.seed, OTHER_SEED_OFFSET), request.start)
-        except ValueError as exc:        # e.g. no learned oracle for this arm
-            drawn = str(exc)
-        output = unjudged(drawn) if isinstance(drawn, PlanRequest) else drawn
+        output = drafts.other(other)
         if isinstance(output, str):
             judging.log.append(f"{other}: not found, {output}")
         else:
             assert output.trajectory is not None
             mended(judging, judging.judged(output.trajectory, output.trajectory_states, other,
-                                           output.result), replan)
+                                           output.result), drafts.replan)
     return judging.answer()
+
+
+@dataclass(frozen=True)
+class _Drafts:
+    """The unjudged searches of a request's judging: a mend's re-plan and the other planner's
+    candidate, each its first plan, shortcut and finished but neither scored nor judged (the
+    judge scores what it becomes), within `search_iterations` and the request's time left,
+    shortcutting included."""
+
+    request: PlanRequest
+    judging: Judging
+    cancel: threading.Event | None
+    progress: ProgressCallback | None
+    phases: Phases
+
+    def plan(self, sub: PlanRequest) -> PlanOutput | str:
+        """`sub`'s first plan (class doc), or why there is none."""
+        seconds = self.judging.stop.remaining()
+        if seconds <= 0.001:
+            return "no time left"
+        iterations = min(sub.options.max_iterations, self.request.judge.search_iterations)
+        sub = dataclasses.replace(
+            sub, judge=NO_JUDGE, robust=FIRST_PLAN,
+            options=dataclasses.replace(sub.options, time_limit=seconds,
+                                        max_iterations=iterations),
+            shortcut=dataclasses.replace(sub.shortcut, shortcut_time=min(
+                sub.shortcut.shortcut_time, seconds)))
+        output = plan_scene(sub, self.cancel, self.progress)
+        self.phases.add(output.phases)
+        result = output.result
+        return output if output.solved else f"{result.outcome.value}: {result.message}"
+
+    def replan(self, scene: Scene, static: frozenset[str], seed: int
+               ) -> tuple[Trajectory, tuple[State, ...]] | str:
+        """A mend's re-plan (`judging.Replan`): the request's planner from `scene`'s start,
+        the objects in `static` as obstacles."""
+        request, physics = self.request, self.request.physics
+        if static and request.planner.steps_physics:
+            physics = dataclasses.replace(physics,
+                                          static_objects=physics.static_objects | static)
+        output = self.plan(dataclasses.replace(request, scene=scene, start=None, seed=seed,
+                                               physics=physics))
+        if isinstance(output, str):
+            return output
+        assert output.trajectory is not None
+        return output.trajectory, output.trajectory_states
+
+    def other(self, name: str) -> PlanOutput | str:
+        """The other planner's candidate: planner `name` with its default options and the
+        request's shared settings, from a seed of its own."""
+        request, spec = self.request, PLANNERS[name]
+        try:
+            sub = PlanRequest(request.scene, spec, spec.options(None), request.physics,
+                              request.race, request.shortcut, request.finish, request.timing,
+                              request.robust, tree_seed(request.seed, OTHER_SEED_OFFSET),
+                              request.start)
+        except ValueError as exc:        # e.g. no learned oracle for this arm
+            return str(exc)
+        return self.plan(sub)
 
 
 @dataclass(frozen=True)
