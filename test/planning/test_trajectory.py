@@ -99,6 +99,25 @@ def test_duplicates_are_removed(panda):
     assert np.array_equal(remove_duplicates(doubled), path)
 
 
+def test_waypoints_nanoradians_apart_are_a_microsecond_apart(panda):
+    """Waypoints 1e-10 rad apart (above the duplicate tolerance; three in a row, so that the
+    middle segment's rates are bounded by tiny steps alone and it would take under a
+    nanosecond) are timed at least MIN_SEGMENT apart, so the controller command's
+    time_from_start, in whole nanoseconds, strictly increases (a closed-loop re-plan once
+    ended INTERNAL on points 0.5 ns apart)."""
+    from rearrangement_planner.io.messages import joint_trajectory
+    from rearrangement_planner.planning.requests.trajectory import MIN_SEGMENT
+
+    path = dense_path(panda, 5, actions=1, steps=10)
+    nudged = np.insert(path, 6, [path[5] + 1e-10 * (i + 1) for i in range(3)], axis=0)
+    traj = time_parameterize(panda, nudged)
+    assert len(traj) == len(nudged)
+    assert np.min(np.diff(traj.times)) >= 0.999 * MIN_SEGMENT       # up to rounding
+    times = [p["time_from_start"] for p in joint_trajectory(traj)["points"]]
+    assert all(b["sec"] * 10**9 + b["nanosec"] > a["sec"] * 10**9 + a["nanosec"]
+               for a, b in zip(times, times[1:]))
+
+
 def test_sample_hits_waypoints_at_their_times(panda):
     traj = time_parameterize(panda, dense_path(panda, 5, actions=2, steps=10))
     for t, q in zip(traj.times, traj.positions, strict=True):

@@ -46,6 +46,11 @@ from rearrangement_planner.model.settings import Settings, internal, setting
 # Consecutive waypoints closer than this (max over joints, rad) are duplicates: exact repeats,
 # or repeats up to rounding, whose segment would take ~0 s and break strictly increasing times.
 DUPLICATE_TOLERANCE = 1e-12
+MIN_SEGMENT = 1e-6
+"""s: the shortest segment a trajectory has. Two waypoints a few nanoradians apart (a step
+that rounding left, a re-plan's first step) would otherwise be timed a fraction of a
+nanosecond apart, and a JointTrajectory's time_from_start, in whole nanoseconds, could not
+strictly increase (a re-plan of the closed loop ended INTERNAL so, issue 79)."""
 
 
 def _readonly(a: np.ndarray) -> np.ndarray:
@@ -178,7 +183,7 @@ def time_parameterize(
             peak = min(segment_limits[k],
                        math.sqrt(_segment_acceleration_limit(steps[k], options, robot.nq)))
             durations[k] = 2.0 / peak
-    times = np.concatenate([[0.0], np.cumsum(durations)])
+    times = np.concatenate([[0.0], np.cumsum(np.maximum(durations, MIN_SEGMENT))])
 
     velocities = np.zeros_like(positions)
     tangents = 0.5 * (steps[:-1] + steps[1:])  # interior waypoints 1 .. N-2
