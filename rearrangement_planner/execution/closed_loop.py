@@ -142,7 +142,8 @@ def execute_closed_loop(request: PlanRequest, replans: int, world: Scene | None 
             attempts[-1] = dataclasses.replace(attempts[-1], ended=NO_RETREAT, detail=problem)
             break
         try:
-            scene = request.scene.with_start(observed.q, _apart(request.scene, observed))
+            scene = request.scene.with_start(request.scene.robot.clamped(observed.q),
+                                             _apart(request.scene, observed))
             check_scene(scene)
         except SceneError as exc:
             attempts[-1] = dataclasses.replace(attempts[-1], ended=OBSERVED_INVALID,

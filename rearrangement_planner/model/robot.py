@@ -47,6 +47,10 @@ def rpy_matrix(roll: float, pitch: float, yaw: float) -> np.ndarray:
     return pin.rpy.rpyToMatrix(roll, pitch, yaw)
 
 
+LIMIT_TOLERANCE = 1e-3
+"""rad: a measured joint position this far past a limit is the limit (`RobotModel.clamped`)."""
+
+
 @dataclass(frozen=True)
 class ContactShape:
     """A convex contact shape rigidly attached to `link`.
@@ -354,8 +358,19 @@ class RobotModel:
         return self.model.getFrameId(name)
 
     def within_limits(self, q: np.ndarray, tol: float = 0.0) -> bool:
+        """Every joint within its limits widened by `tol` rad (narrowed when negative)."""
         q = np.asarray(q, dtype=float)
         return bool(((q >= self.lower - tol) & (q <= self.upper + tol)).all())
+
+    def clamped(self, q: np.ndarray, tol: float = LIMIT_TOLERANCE) -> np.ndarray:
+        """`q` with every joint at most `tol` rad past a limit moved onto it; a joint farther
+        out is left as it is (a start check then names it). A controller reports positions a
+        hair past a limit (encoder noise, tracking error at a limit): they are the limit."""
+        q = np.array(q, dtype=float)
+        low = (q < self.lower) & (q >= self.lower - tol)
+        high = (q > self.upper) & (q <= self.upper + tol)
+        q[low], q[high] = self.lower[low], self.upper[high]
+        return q
 
     @property
     def tool_reach(self) -> float:

@@ -227,7 +227,8 @@ def observed_apart(scene: Scene, inputs: dict[str, Input | None]) -> dict[str, I
 def planning_scene(configured_scene: Scene, inputs: dict[str, Input | None],
                    params: dict[str, Any]) -> Scene:
     """The configured scene with the received start state and goal, checked (the scene is not
-    re-parsed: only the state and goal change)."""
+    re-parsed: only the state and goal change). A joint at most LIMIT_TOLERANCE past a limit
+    starts at the limit (`RobotModel.clamped`)."""
     joints, objects, received = (inputs["joint_states"], inputs["object_poses"],
                                  inputs["goal"])
     assert joints is not None and objects is not None    # `fresh_inputs` raised otherwise
@@ -235,8 +236,8 @@ def planning_scene(configured_scene: Scene, inputs: dict[str, Input | None],
     goal = Goal(params["goal_object"] or configured.object,
                 received.value if received is not None else configured.position,
                 params["goal_radius"] if params["goal_radius"] > 0 else configured.radius)
-    scene = dataclasses.replace(configured_scene.with_start(joints.value, objects.value),
-                                goal=goal)
+    start = configured_scene.robot.clamped(joints.value)     # a hair past a limit: the limit
+    scene = dataclasses.replace(configured_scene.with_start(start, objects.value), goal=goal)
     try:
         check_scene(scene)
     except SceneError as exc:

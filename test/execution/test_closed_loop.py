@@ -78,6 +78,21 @@ def test_a_blocked_way_back_pushes_off_the_objects_instead(pushed, pushed_box):
                <= start + retreat.DEEPER_TOLERANCE for q in moves)
 
 
+def test_pushing_off_keeps_a_margin_inside_the_joint_limits(pushed, pushed_box, monkeypatch):
+    """The blocked way back again: pushing off stays LIMIT_MARGIN inside every joint limit,
+    so that the re-plan after it does not start on a limit; with a margin no configuration of
+    that move keeps (a radian: the elbow starts 0.87 rad inside its limit) there is none."""
+    _, trajectory, end = pushed_box
+    blocked, _, _ = pushed([BOX, {**BOX, "name": "behind", "pose": [0.3, 0.4, 0.0]}])
+    objects = np.vstack([end.objects, [[0.435, 0.0, 0.0]]])
+    world, robot = CollisionWorld(blocked), blocked.robot
+    moves = retreat._push_off(world, robot, State(end.q, objects), RETREAT_CLEARANCE)
+    assert moves is not None
+    assert all(robot.within_limits(q, tol=-retreat.LIMIT_MARGIN) for q in moves[1:])
+    monkeypatch.setattr(retreat, "LIMIT_MARGIN", 1.0)
+    assert retreat._push_off(world, robot, State(end.q, objects), RETREAT_CLEARANCE) is None
+
+
 def test_no_retreat_when_nothing_gets_clear(pushed_box):
     """Clear by a metre: neither the way back nor pushing off gets there."""
     scene, trajectory, end = pushed_box

@@ -60,6 +60,21 @@ def test_joint_limits_are_the_published_ones(panda):
     assert panda.joint_names == tuple(f"panda_joint{i}" for i in range(1, 8))
 
 
+def test_a_position_a_hair_past_a_limit_is_the_limit(panda):
+    """A controller reports a joint 0.5 mrad past its limit: that is the limit. 5 mrad past
+    is left as it is, for the start check to name."""
+    q = np.array(panda.home, dtype=float)
+    q[4] = panda.lower[4] - 0.0005
+    q[6] = panda.upper[6] + 0.0009
+    clamped = panda.clamped(q)
+    assert clamped[4] == panda.lower[4] and clamped[6] == panda.upper[6]
+    assert panda.within_limits(clamped) and not panda.within_limits(q)
+    np.testing.assert_array_equal(np.delete(clamped, [4, 6]), np.delete(q, [4, 6]))
+    q[4] = panda.lower[4] - 0.005
+    assert panda.clamped(q)[4] == q[4]
+    assert not panda.within_limits(panda.upper - 0.01, tol=-0.02)
+
+
 def test_fk_at_zero_matches_published_offsets(panda):
     q = np.zeros(7)
     # Stretched-up arm: flange at (a7, 0, d1 + d3 + d5 - d_flange) = (0.088, 0, 0.926).

@@ -6,8 +6,8 @@ in contact is refused (`physics.validation.check_scene`), so the closed loop (do
    step moves every contact point within `clearance` away from its object and up, by damped
    least squares on the contact points' Jacobians (a differential-IK retreat).
 The objects stay where they were observed: each move is checked like a transit move (within
-the joint limits, no static collision, no deeper into any object than the arm starts, give or
-take DEEPER_TOLERANCE), not simulated as a push.
+the joint limits, LIMIT_MARGIN inside them off the path, no static collision, no deeper into
+any object than the arm starts, give or take DEEPER_TOLERANCE), not simulated as a push.
 
     path = retreat_path(scene, observed, plan_positions)   # (K, nq) or None
 """
@@ -29,6 +29,10 @@ RETREAT_RESOLUTION = 0.02
 TOUCH = 2e-3
 """m: an arm this near an object touches it (MuJoCo's and a perception's poses are not
 exact); one farther re-plans from where it stands when the way back is not clear."""
+LIMIT_MARGIN = 0.02
+"""rad: a move off the objects (`_push_off`) stays this far inside every joint limit, so that
+the re-plan that follows does not start on a limit (a controller reports positions a hair
+past it)."""
 DEEPER_TOLERANCE = 5e-3
 """m: how much deeper than at its start the arm may reach into an object along the retreat
 (it starts in contact; the check is that it does not push further)."""
@@ -104,7 +108,8 @@ def _push_off(world: CollisionWorld, robot: Any, observed: State,
         step *= min(1.0, RETREAT_RESOLUTION / max(float(np.max(np.abs(step))), 1e-12))
         q = q + step
         shapes = robot.shape_poses(q)
-        if (not robot.within_limits(q) or world.arm_static_collision(shapes) is not None
+        if (not robot.within_limits(q, tol=-LIMIT_MARGIN)
+                or world.arm_static_collision(shapes) is not None
                 or world.arm_object_penetration(shapes, objects)
                 > start_depth + DEEPER_TOLERANCE):
             return None
