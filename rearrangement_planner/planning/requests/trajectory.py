@@ -50,7 +50,7 @@ MIN_SEGMENT = 1e-6
 """s: the shortest segment a trajectory has. Two waypoints a few nanoradians apart (a step
 that rounding left, a re-plan's first step) would otherwise be timed a fraction of a
 nanosecond apart, and a JointTrajectory's time_from_start, in whole nanoseconds, could not
-strictly increase (a re-plan of the closed loop ended INTERNAL so, issue 79)."""
+strictly increase (a re-plan of the closed loop once ended INTERNAL so)."""
 
 
 def _readonly(a: np.ndarray) -> np.ndarray:
