@@ -31,9 +31,10 @@ from rearrangement_planner.physics.validation import (
     check_scene,
     separate_objects,
 )
+from rearrangement_planner.planning.machinery.interface import Outcome
 from rearrangement_planner.planning.requests.pipeline import PlanOutput, plan_scene
 from rearrangement_planner.planning.requests.request import PlanRequest
-from rearrangement_planner.planning.requests.retreat import retreat_path
+from rearrangement_planner.planning.requests.retreat import RETREAT_CLEARANCE, retreat_path
 from rearrangement_planner.planning.requests.trajectory import time_parameterize
 from rearrangement_planner.world3d.execution import (
     ExecutionReport,
@@ -49,6 +50,15 @@ MISSED = "missed"                # the goal object is outside its region, uprigh
 NOT_SOLVED = "not_solved"        # the plan failed; nothing was executed
 NO_RETREAT = "no_retreat"        # no way back out of contact along the executed path
 OBSERVED_INVALID = "observed_invalid"  # the observed scene is not a valid planning problem
+
+CLOSING = 2
+"""Re-plans past `replans` while each attempt closes in (`execute_closed_loop`), as the node's
+parameter replan_closing."""
+CLOSING_IN = 0.01
+"""m: an attempt that leaves the goal object this much nearer its goal than the one before
+closes in."""
+FARTHER = 3 * RETREAT_CLEARANCE
+"""m: how clear the second retreat leaves the arm after a re-plan was refused its start."""
 
 
 @dataclass(frozen=True)
@@ -113,10 +123,12 @@ def execute_closed_loop(request: PlanRequest, replans: int, world: Scene | None 
                         options: ExecutionOptions | None = None,
                         first: PlanOutput | None = None,
                         plan: Callable[[PlanRequest], PlanOutput] = plan_scene,
-                        executed: ExecutionReport | None = None) -> ClosedLoop:
+                        executed: ExecutionReport | None = None,
+                        closing: int = CLOSING) -> ClosedLoop:
     """Plan `request` (or take `first`, its plan), execute it in `world` (default: the
     request's scene) with the servo arm (or take `executed`, that execution of `first`), and
-    re-plan from the observed state up to `replans` times while the goal is missed with
+    re-plan from the observed state up to `replans` times, and up to `closing` more while each
+    attempt leaves the goal object CLOSING_IN nearer its goal, while the goal is missed with
     nothing toppled (module doc). `options.divergence_bound` > 0 watches each execution of a
     plan (`ExecutionOptions`): a stopped one is observed and re-planned like a miss."""
     options = options or ExecutionOptions(arm="servo")
@@ -133,26 +145,55 @@ def execute_closed_loop(request: PlanRequest, replans: int, world: Scene | None 
         ended = (REACHED if report.reached else TOPPLED if report.toppled else MISSED)
         attempts.append(Attempt(output, report, retreat_s, ended,
                                 f"stopped: {report.stopped}" if report.stopped else ""))
-        if ended != MISSED or len(attempts) > replans:
+        if ended != MISSED or not _replans_left(attempts, replans, closing):
             break
-        observed, retreat_s, problem = _retreat(request.scene, world, report,
-                                                output.trajectory.positions, request.timing,
-                                                options)
+        following = _following(request, world, report.final_state(),
+                               output.trajectory.positions, options, plan)
+        if isinstance(following[0], str):
+            attempts[-1] = dataclasses.replace(attempts[-1], ended=following[0],
+                                               detail=str(following[1]))
+            break
+        request, world, output, retreat_s = following    # type: ignore[assignment]
+    return ClosedLoop(tuple(attempts))
+
+
+def _replans_left(attempts: list[Attempt], replans: int, closing: int) -> bool:
+    """Another re-plan: within `replans`, or within `closing` more while the last attempt left
+    the goal object CLOSING_IN nearer its goal than the one before."""
+    made = len(attempts) - 1
+    if made < replans:
+        return True
+    distances = [a.execution.goal_distance_m for a in attempts[-2:] if a.execution is not None]
+    nearer = len(distances) == 2 and distances[0] - distances[1] >= CLOSING_IN
+    return nearer and made < replans + closing
+
+
+def _following(request: PlanRequest, world: Scene, state: State, path: Any,
+               options: ExecutionOptions, plan: Callable[[PlanRequest], PlanOutput]
+               ) -> tuple[PlanRequest, Scene, PlanOutput, float] | tuple[str, str]:
+    """The next attempt after an execution that left the arm and objects at `state` (its arm
+    `path`): the retreat executed in `world`, the request from the observed state and its plan;
+    a plan refused its start there gets a second retreat, FARTHER, and one more plan. Or
+    (ended, why) when there is no retreat or the observed state is no start."""
+    retreat_s = 0.0
+    for clearance in (RETREAT_CLEARANCE, FARTHER):
+        observed, seconds, problem = _retreat(request.scene, world, state, path,
+                                              request.timing, options, clearance)
         if observed is None:
-            attempts[-1] = dataclasses.replace(attempts[-1], ended=NO_RETREAT, detail=problem)
-            break
+            return NO_RETREAT, problem
+        retreat_s += seconds
         try:
             scene = request.scene.with_start(request.scene.robot.clamped(observed.q),
                                              _apart(request.scene, observed))
             check_scene(scene)
         except SceneError as exc:
-            attempts[-1] = dataclasses.replace(attempts[-1], ended=OBSERVED_INVALID,
-                                               detail=str(exc))
+            return OBSERVED_INVALID, str(exc)
+        world, state = world.with_start(observed.q, observed.objects), observed
+        following = dataclasses.replace(request, scene=scene, start=None)
+        output = plan(following)
+        if output.result.outcome is not Outcome.START_INVALID:
             break
-        world = world.with_start(observed.q, observed.objects)
-        request = dataclasses.replace(request, scene=scene, start=None)
-        output = plan(request)
-    return ClosedLoop(tuple(attempts))
+    return following, world, output, retreat_s
 
 
 def perturbed_closed_loops(request: PlanRequest, first: PlanOutput, trials: int, seed: int,
@@ -177,12 +218,14 @@ def _apart(scene: Scene, observed: State) -> np.ndarray:
     return apart
 
 
-def _retreat(scene: Scene, world: Scene, report: ExecutionReport, path: Any, timing: Any,
-             options: ExecutionOptions) -> tuple[State | None, float, str]:
-    """The retreat after `report`'s execution, planned in the model at the observed poses and
-    executed in `world`: (the state observed after it, its duration, ""), or (None, 0, why)."""
-    observed = report.final_state()
-    moves = retreat_path(scene.with_start(observed.q, observed.objects), observed, path)
+def _retreat(scene: Scene, world: Scene, observed: State, path: Any, timing: Any,
+             options: ExecutionOptions, clearance: float = RETREAT_CLEARANCE
+             ) -> tuple[State | None, float, str]:
+    """The retreat from `observed` (where an execution left the arm and the objects) until the
+    arm stands `clearance` m clear, planned in the model at the observed poses and executed in
+    `world`: (the state observed after it, its duration, ""), or (None, 0, why)."""
+    moves = retreat_path(scene.with_start(observed.q, observed.objects), observed, path,
+                         clearance)
     if moves is None:
         return None, 0.0, "no retreat out of contact is clear of the objects"
     if len(moves) == 1:

@@ -446,7 +446,8 @@ def _execute_goal(node: PlannerNode, job: Job, msg: JointTrajectory, planned: tu
     io = LoopIO(node._latest, rejected, send, lambda _: node._plan(job, params),
                 record_attempt)
     last = close_the_loop(job, io, scene, output, inputs, attempts, time.monotonic(),
-                          message if outcome == DIVERGED else "")
+                          message if outcome == DIVERGED else "",
+                          job.params["replan_closing"])
     job.output = last[3]
     return last
 

@@ -17,6 +17,7 @@ from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescri
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 
+from rearrangement_planner.execution.closed_loop import CLOSING
 from rearrangement_planner.model.settings import SettingSpec
 from rearrangement_planner.planning.requests.registry import PLANNER_NAMES
 from rearrangement_planner.planning.requests.request import DEFAULT_PLANNER, request_settings
@@ -103,6 +104,9 @@ _NODE_LAST: tuple[ParameterSpec, ...] = (
                   "region, retreat out of contact, plan again from the observed state and "
                   "execute, up to this many times (a goal's replan_attempts >= 0 overrides); "
                   "0 = plan and execute once.", 0, 20),
+    ParameterSpec("replan_closing", CLOSING, "With replan_attempts > 0: up to this many re-plans "
+                  "more while each attempt leaves the goal object at least 1 cm nearer its "
+                  "goal than the one before; 0 = never past replan_attempts.", 0, 20),
     ParameterSpec("divergence_bound", 0.05, "With replan_attempts > 0: while a plan runs, an "
                   "object observed farther than this from the pose the plan predicts at the "
                   "arm's progress stops the arm (empty trajectory) and the node re-plans from "

@@ -33,12 +33,13 @@ from typing import Any
 import numpy as np
 
 from msg_adapters import trajectory_to_msg
+from rearrangement_planner.execution.closed_loop import CLOSING_IN, FARTHER
 from rearrangement_planner.model.errors import ObjectTilted
 from rearrangement_planner.model.scene import Scene
 from rearrangement_planner.model.state import State
 from rearrangement_planner.planning.machinery.interface import Outcome
 from rearrangement_planner.planning.requests.pipeline import PlanOutput
-from rearrangement_planner.planning.requests.retreat import retreat_path
+from rearrangement_planner.planning.requests.retreat import RETREAT_CLEARANCE, retreat_path
 from rearrangement_planner.planning.requests.trajectory import time_parameterize
 from rearrangement_planner.ros.action import DIVERGED, GOAL_NOT_REACHED, NO_OBSERVATION
 
@@ -48,6 +49,7 @@ OBSERVE_TIMEOUT = 5.0
 """s the loop waits for those poses after OBSERVE_SETTLE."""
 FRESH = 0.5
 """s: object poses older than this are not compared with the prediction."""
+
 
 
 class DivergenceWatch:
@@ -122,26 +124,30 @@ class LoopIO:
 
 def close_the_loop(job: Any, io: LoopIO, scene: Scene, output: PlanOutput,
                    inputs: dict[str, Any], attempts: int, executed_at: float,
-                   stopped: str = "") -> tuple[str, str, Scene, PlanOutput | None,
-                                               dict[str, Any]]:
+                   stopped: str = "", closing: int = 0) -> tuple[str, str, Scene,
+                                                                 PlanOutput | None,
+                                                                 dict[str, Any]]:
     """Observe after the executed `output` (executed at time.monotonic() `executed_at`;
-    `stopped`: why its watch stopped it) and re-plan up to `attempts` times (module doc).
-    Returns the last (outcome, message, scene, output, inputs); every attempt's line is in
-    `job.attempts`."""
+    `stopped`: why its watch stopped it) and re-plan up to `attempts` times, and up to
+    `closing` more while each attempt leaves the goal object CLOSING_IN nearer its goal than
+    the one before (module doc). Returns the last (outcome, message, scene, output, inputs);
+    every attempt's line is in `job.attempts`."""
     job.attempts = [Attempt(job.plan_id, stopped + "; " if stopped else "")]
-    for k in range(1, attempts + 2):
+    distances: list[float] = []
+    for k in range(1, attempts + closing + 2):
         job.phase = "observing"
         observed, problem = _observe(job, io, executed_at)
         if observed is None:
             return problem[0], problem[1], scene, output, inputs
         distance = scene.goal.distance(observed[scene.goal_index, :2])
-        reached = distance <= scene.goal.radius
+        distances.append(distance)
         job.attempts[-1].observed += (f"'{scene.goal.object}' observed {distance:.3f} m from "
                                       f"the goal (radius {scene.goal.radius:g} m)")
-        if reached:
+        if distance <= scene.goal.radius:
             return (Outcome.SUCCEEDED.value, _lines(job) + f"; goal reached after {k - 1} "
                                                              f"re-plans", scene, output, inputs)
-        if k > attempts:
+        nearer = len(distances) > 1 and distances[-2] - distances[-1] >= CLOSING_IN
+        if k > attempts and not (nearer and k <= attempts + closing):
             break
         io.record(output, inputs, f"{job.plan_id}-attempt{k}")
         ended, why = _retreat(job, io, scene, observed, output)
@@ -149,6 +155,12 @@ def close_the_loop(job: Any, io: LoopIO, scene: Scene, output: PlanOutput,
             return ended, _lines(job) + f"; {why}", scene, output, inputs
         job.attempt, job.phase = k + 1, "planning"
         outcome, message, scene, new, inputs = io.plan(k + 1)
+        if outcome == Outcome.START_INVALID.value:
+            # refused where the retreat left the arm (no approach onto the pushing plane from
+            # there, say): back out farther along the way it came, and plan once more
+            ended, why = _retreat(job, io, scene, observed, output, FARTHER)
+            if not why:
+                outcome, message, scene, new, inputs = io.plan(k + 1)
         job.attempts.append(Attempt(f"{job.plan_id}-attempt{k + 1}"))
         if new is None or new.trajectory is None:
             job.attempts[-1].observed = f"re-plan {outcome}: {message}"
@@ -162,8 +174,8 @@ def close_the_loop(job: Any, io: LoopIO, scene: Scene, output: PlanOutput,
         elif outcome != Outcome.SUCCEEDED.value:
             return outcome, _lines(job) + f"; {message}", scene, output, inputs
         executed_at = time.monotonic()
-    return (GOAL_NOT_REACHED, _lines(job) + f"; not reached after {attempts} re-plans", scene,
-            output, inputs)
+    return (GOAL_NOT_REACHED, _lines(job) + f"; not reached after {len(distances) - 1} "
+                                            f"re-plans", scene, output, inputs)
 
 
 def _observe(job: Any, io: LoopIO, executed_at: float
@@ -186,15 +198,15 @@ def _observe(job: Any, io: LoopIO, executed_at: float
 
 
 def _retreat(job: Any, io: LoopIO, scene: Scene, observed: np.ndarray,
-             output: PlanOutput) -> tuple[str, str]:
-    """Back the arm out of contact (`planning.requests.retreat`; sent and waited for): ('', '')
-    when it
-    is clear, else the outcome and why the loop cannot go on."""
+             output: PlanOutput, clearance: float = RETREAT_CLEARANCE) -> tuple[str, str]:
+    """Back the arm out of contact until it stands `clearance` m clear of every object
+    (`planning.requests.retreat`; sent and waited for): ('', '') when it is clear, else the
+    outcome and why the loop cannot go on."""
     assert output.trajectory is not None
     executed = output.trajectory.positions
     joints = io.latest()["joint_states"]
     q = joints.value if joints is not None else executed[-1]
-    path = retreat_path(scene.with_start(q, observed), State(q, observed), executed)
+    path = retreat_path(scene.with_start(q, observed), State(q, observed), executed, clearance)
     if path is None:
         return GOAL_NOT_REACHED, "no retreat out of contact is clear of the objects"
     if len(path) == 1:

@@ -151,3 +151,48 @@ def test_a_failed_plan_ends_the_loop_with_nothing_executed(easy_push):
         request.options, max_iterations=1))
     (attempt,) = execute_closed_loop(hopeless, 2, world).attempts
     assert attempt.ended == NOT_SOLVED and attempt.execution is None
+
+
+def test_a_replan_refused_its_start_gets_a_farther_retreat_in_mujoco(easy_push, monkeypatch):
+    """The re-plan after the miss is refused its start (scripted: START_INVALID once): the arm
+    backs out farther (closed_loop.FARTHER) and the loop plans once more, and reaches."""
+    from rearrangement_planner.execution import closed_loop
+    from rearrangement_planner.planning.machinery.interface import Outcome, PlanResult
+
+    request, world, plan = easy_push
+    refused: list = []
+
+    def plan_once_refused(sub):
+        if not refused:
+            refused.append(sub)
+            return dataclasses.replace(plan, result=PlanResult(
+                Outcome.START_INVALID, "no collision-free straight approach", 0),
+                trajectory=None, trajectory_states=())
+        return plan_scene(sub)
+
+    clearances: list = []
+    real = closed_loop._retreat
+
+    def retreat(*args):
+        clearances.append(args[-1])
+        return real(*args)
+
+    monkeypatch.setattr(closed_loop, "_retreat", retreat)
+    loop = execute_closed_loop(request, 1, world, first=plan, plan=plan_once_refused)
+    assert clearances == [RETREAT_CLEARANCE, closed_loop.FARTHER]
+    assert loop.reached and loop.replans == 1
+
+
+def test_the_loop_goes_past_its_replans_only_while_it_closes_in():
+    from types import SimpleNamespace
+
+    from rearrangement_planner.execution.closed_loop import CLOSING_IN, _replans_left
+
+    def attempts(*distances):
+        return [SimpleNamespace(execution=SimpleNamespace(goal_distance_m=d)) for d in distances]
+
+    assert _replans_left(attempts(0.3), 1, 2)                       # within replans
+    assert not _replans_left(attempts(0.3, 0.29 + 1e-9), 1, 2)       # not 1 cm nearer
+    assert _replans_left(attempts(0.3, 0.3 - CLOSING_IN), 1, 2)      # nearer: one more
+    assert not _replans_left(attempts(0.3, 0.2, 0.1, 0.05), 1, 2)    # closing used up
+    assert not _replans_left(attempts(0.3, 0.2), 1, 0)               # closing 0: never past

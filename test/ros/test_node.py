@@ -993,6 +993,37 @@ def test_action_closes_the_loop_until_the_goal_is_observed_reached(ros):
         client.reset_world()
 
 
+def test_the_loop_replans_past_its_attempts_while_it_closes_in(ros):
+    """replan_attempts 1, replan_closing 2: the first execution leaves the object 13 cm from
+    the goal, the second 11.5 cm (1.5 cm nearer): past its one re-plan the loop goes on, and
+    the third execution reaches. With replan_closing 0 it stops after the one re-plan."""
+    client, scene = ros["client"], ros["scene"]
+    client.wait_inputs_flowing()
+    goal = np.asarray(scene.goal.position)
+    away = (np.array([0.52, -0.23]) - goal) / np.linalg.norm(np.array([0.52, -0.23]) - goal)
+
+    def at(distance):
+        return _objects_at(*(goal + distance * away))
+
+    client.set(divergence_bound=0.0)
+    try:
+        for closing, code in ((2, ErrorCode.SUCCESS), (0, ErrorCode.GOAL_NOT_REACHED)):
+            client.set(replan_closing=closing)
+            with client.lock:
+                client.controller = True
+                client.world = [at(0.13), at(0.115), at(0.0)]
+            _, result = client.run_goal(PlanRearrangement.Goal(
+                settings=ROBUST, execute=True, replan_attempts=1))
+            assert result.error_code.val == code, result.message
+            assert "observed 0.115 m from the goal" in result.message
+            client.reset_world()
+            client.wait_inputs_flowing()
+        assert "the goal (radius 0.08 m); not reached after 1 re-plans" in result.message
+    finally:
+        client.set(divergence_bound=0.05, replan_closing=2)
+        client.reset_world()
+
+
 def test_action_stops_the_arm_when_an_object_strays_and_replans(ros):
     """The arm stalls halfway through the first plan while the object is seen 7 cm off its
     predicted pose (divergence_bound 0.05 m): the node stops the arm with an empty trajectory,
