@@ -65,6 +65,7 @@ from rearrangement_planner.ros.action import (
     execute,
     recorded_action,
 )
+from rearrangement_planner.ros.latest import Latest, LazyInput
 from rearrangement_planner.ros.outputs import Outputs
 from rearrangement_planner.ros.parameters import PARAMETERS, declare_parameters, read_parameters
 from rearrangement_planner.ros.plan_request import (
@@ -120,8 +121,6 @@ class PlannerNode(Node):
                                        self.get_parameter("robot_description").value)
         self._robot = self._scene.robot
         self._lock = threading.Lock()
-        self._joint: Input | None = None
-        self._objects: Input | None = None
         self._objects_rejected: tuple[float, str] | None = None
         self._objects_tilted: tuple[float, ObjectTilted] | None = None
         self._goal: Input | None = None
@@ -138,12 +137,16 @@ class PlannerNode(Node):
         plan = ReentrantCallbackGroup()
         control = MutuallyExclusiveCallbackGroup()
         self._out = Outputs(self)
-        self._joint_sub = self.create_subscription(
-            JointState, "joint_states", self._on_joint_state, qos_profile_sensor_data,
-            callback_group=inputs)
-        self._objects_sub = self.create_subscription(
-            PoseArray, "~/object_poses", self._on_object_poses, qos_profile_sensor_data,
-            callback_group=inputs)
+        self._joints = LazyInput(
+            Latest(self.context, f"{NODE_NAME}_joint_states", JointState,
+                   self.resolve_topic_name("joint_states"), qos_profile_sensor_data),
+            lambda msg: joint_state_to_configuration(msg, self._robot.joint_names),
+            lambda exc, _: self.report(f"rejected joint_states: {_describe(exc)}",
+                                       "joint_states"))
+        self._objects = LazyInput(
+            Latest(self.context, f"{NODE_NAME}_object_poses", PoseArray,
+                   self.resolve_topic_name("~/object_poses"), qos_profile_sensor_data),
+            self._object_poses, self._objects_refused)
         self._goal_sub = self.create_subscription(
             PoseStamped, "~/goal", self._on_goal, 10, callback_group=inputs)
         self._plan_action = PlanActionServer(self, plan)
@@ -174,6 +177,8 @@ class PlannerNode(Node):
     def destroy_node(self) -> None:
         self.stop()
         self._plan_action.destroy()
+        self._joints.latest.destroy()
+        self._objects.latest.destroy()
         super().destroy_node()
 
     # -- small helpers --------------------------------------------------------------------------
@@ -193,9 +198,7 @@ class PlannerNode(Node):
     def last_inputs(self) -> dict[str, Any]:
         """The last accepted message of each input ('joint_states', 'object_poses', 'goal';
         None before the first): what the next plan starts from."""
-        with self._lock:
-            latest = {"joint_states": self._joint, "object_poses": self._objects,
-                      "goal": self._goal}
+        latest = self._latest()
         return {k: (v.msg if v is not None else None) for k, v in latest.items()}
 
     def report(self, message: str, source: str = "") -> None:
@@ -214,31 +217,17 @@ class PlannerNode(Node):
 
     # -- inputs ---------------------------------------------------------------------------------
 
-    def _on_joint_state(self, msg: JointState) -> None:
-        received = time.monotonic()
-        try:
-            q = joint_state_to_configuration(msg, self._robot.joint_names)
-        except Exception as exc:  # noqa: BLE001 - bad input never stops the node
-            self.report(f"rejected joint_states: {_describe(exc)}", "joint_states")
-            return
-        with self._lock:
-            self._joint = Input(q, msg, received)
-
-    def _on_object_poses(self, msg: PoseArray) -> None:
-        received = time.monotonic()
+    def _object_poses(self, msg: PoseArray) -> Any:
         params = {name: self.get_parameter(name).value
                   for name in ("object_ids", "planning_frame", "max_object_tilt")}
-        try:
-            objects = objects_from_msg(msg, params, self._scene)
-        except Exception as exc:  # noqa: BLE001
-            self.report(f"rejected object_poses: {_describe(exc)}", "object_poses")
-            with self._lock:
-                self._objects_rejected = (received, _describe(exc))
-                if isinstance(exc, ObjectTilted):
-                    self._objects_tilted = (received, exc)
-            return
+        return objects_from_msg(msg, params, self._scene)
+
+    def _objects_refused(self, exc: Exception, received: float) -> None:
+        self.report(f"rejected object_poses: {_describe(exc)}", "object_poses")
         with self._lock:
-            self._objects = Input(objects, msg, received)
+            self._objects_rejected = (received, _describe(exc))
+            if isinstance(exc, ObjectTilted):
+                self._objects_tilted = (received, exc)
 
     def _on_goal(self, msg: PoseStamped) -> None:
         received = time.monotonic()
@@ -277,6 +266,9 @@ class PlannerNode(Node):
         return job
 
     def _on_status_timer(self) -> None:
+        """The progress while planning; and at this rate, the newest inputs converted, so that
+        one that is unusable is reported (`report`) while the node waits."""
+        self._latest()
         with self._lock:
             job = self._job
             if job is not None and job.started is not None:
@@ -387,19 +379,17 @@ class PlannerNode(Node):
         """Send `msg` to the arm's controller (joint_trajectory)."""
         self._out.publish(self._out.command, msg)
 
-    def _joint_input(self) -> Input | None:
-        with self._lock:
-            return self._joint
-
     def _latest(self) -> dict[str, Input | None]:
+        """The last good input of each topic, the joint state and object poses converted from
+        their newest messages now (`latest.LazyInput`: nothing runs per message)."""
+        joints, objects = self._joints.get(), self._objects.get()
         with self._lock:
-            return {"joint_states": self._joint, "object_poses": self._objects,
-                    "goal": self._goal}
+            return {"joint_states": joints, "object_poses": objects, "goal": self._goal}
 
     def _plan(self, job: Job, params: dict[str, Any]) -> tuple:
         """`run_plan` from the latest inputs with the node's `params`."""
-        topics = {"joint_states": self._joint_sub.topic_name,
-                  "object_poses": self._objects_sub.topic_name}
+        topics = {"joint_states": self._joints.latest.topic_name,
+                  "object_poses": self._objects.latest.topic_name}
         return run_plan(job, params, self._scene, self._latest(), topics, self._on_progress,
                         self.get_logger())
 
@@ -431,7 +421,7 @@ def _execute_goal(node: PlannerNode, job: Job, msg: JointTrajectory, planned: tu
                                  tilted)
                  if watched is not None and attempts > 0 else None)
         return execute(job, command, job.params["execution_timeout"], node.send,
-                       node._joint_input, watch)
+                       node._joints.get, watch)
 
     outcome, message = send(msg, output)
     if outcome not in (Outcome.SUCCEEDED.value, DIVERGED) or attempts == 0:

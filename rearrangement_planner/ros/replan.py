@@ -77,16 +77,14 @@ class DivergenceWatch:
         point = self.passed[-1][1]
         point += int(np.argmin(np.max(np.abs(self.path[point:] - q), axis=1)))
         self.passed.append((time.monotonic(), point))
+        seen = self.objects()           # the newest poses, converted (or refused) now
         tilted = self.tilted()
         if tilted is not None and tilted[0] > self.began:
-            seen = tilted[1]
-            return (f"'{seen.object_id}' began to tip: seen tilted {seen.tilt:.3f} rad "
-                    f"(max_object_tilt {seen.bound:g} rad) by trajectory point {point} of "
+            tilt = tilted[1]
+            return (f"'{tilt.object_id}' began to tip: seen tilted {tilt.tilt:.3f} rad "
+                    f"(max_object_tilt {tilt.bound:g} rad) by trajectory point {point} of "
                     f"{len(self.path)}")
-        if self.bound <= 0.0:
-            return None
-        seen = self.objects()
-        if seen is None or time.monotonic() - seen.received > FRESH:
+        if self.bound <= 0.0 or seen is None or time.monotonic() - seen.received > FRESH:
             return None
         since = max((p for t, p in self.passed if t <= seen.received - FRESH), default=0)
         window = self.predicted[since:point + 1, :, :2]               # (K, M, 2)

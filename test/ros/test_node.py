@@ -621,14 +621,14 @@ def test_bad_inputs_are_reported_and_the_node_keeps_serving(ros):
         client.objects = objects_to_pose_array(off, FRAME)
         # Wait for the planner to hold them (a fixed 0.3 s once was not enough on a busy run).
         planner = ros["planner"]
-        assert wait_until(lambda: planner._objects is not None
-                          and planner._objects.value[0, 0] == 2.0, 10.0)
+        assert wait_until(lambda: planner._objects.get() is not None
+                          and planner._objects.get().value[0, 0] == 2.0, 10.0)
         response = client.call("plan")
         assert not response.success
         assert parse_summary(response.message)[1] == "START_INVALID"
         assert "objects[0].pose" in response.message
         client.objects = client.good_objects
-        assert wait_until(lambda: planner._objects.value[0, 0] != 2.0, 10.0)
+        assert wait_until(lambda: planner._objects.get().value[0, 0] != 2.0, 10.0)
 
         # An invalid parameter combination is named.
         client.set(min_duration=3.0)
