@@ -1,6 +1,6 @@
 """A topic's newest message, taken when the node needs it rather than as it arrives.
 
-A Panda's joint_state_broadcaster publishes at up to 1 kHz. Taken by an executor, each message
+An arm's joint_state_broadcaster publishes at up to 1 kHz. Taken by an executor, each message
 costs the node a wake-up of rclpy's executor loop, about a millisecond of Python (a wait set
 rebuilt over every entity of the node): three quarters of a core while the node only waits for
 a goal, taken from the planner that runs in the same process (docs/benchmark.md, "The node at a
