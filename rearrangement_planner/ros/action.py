@@ -18,6 +18,7 @@ from geometry_msgs.msg import PoseArray
 from rclpy.action import ActionServer, CancelResponse, GoalResponse
 from rclpy.action.server import ServerGoalHandle
 from rclpy.callback_groups import CallbackGroup
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from trajectory_msgs.msg import JointTrajectory
 
 from msg_adapters import goal_to_pose_stamped, objects_to_pose_array
@@ -160,6 +161,13 @@ def recorded_action(job: Any, stamp: Time) -> list[tuple]:
     return entries
 
 
+REQUEST_DEPTH = 1000
+REQUESTS = QoSProfile(depth=REQUEST_DEPTH, reliability=ReliabilityPolicy.RELIABLE,
+                      durability=DurabilityPolicy.VOLATILE, history=HistoryPolicy.KEEP_LAST)
+"""The action's goal, cancel and result services keep this many requests each: with the
+default 10, a burst of 20 goals (or 60 cancels) sent at once lost requests that were then never
+answered, accepted or refused."""
+
 RESULT_CHARS = 4000
 """A result's message is cut to this many characters: a message quotes what was wrong with
 the goal, and a goal may hold a 100 kB string (the closed loop's longest answers, a line per
@@ -254,9 +262,14 @@ class PlanActionServer:
         self._node = node
         self._lock = threading.Lock()
         self._reserved: Any = None
+        self.answering = 0
+        """Goals whose execute callback has not returned (their result not yet given)."""
         self._server = ActionServer(node, PlanRearrangement, "~/plan_rearrangement",
                                     self._on_execute, goal_callback=self._on_goal,
-                                    cancel_callback=self._on_cancel, callback_group=group)
+                                    cancel_callback=self._on_cancel, callback_group=group,
+                                    goal_service_qos_profile=REQUESTS,
+                                    result_service_qos_profile=REQUESTS,
+                                    cancel_service_qos_profile=REQUESTS)
 
     def destroy(self) -> None:
         self._server.destroy()
@@ -279,6 +292,15 @@ class PlanActionServer:
 
     def _on_execute(self, handle: ServerGoalHandle) -> PlanRearrangement.Result:
         """Run the reserved job, with feedback at FEEDBACK_RATE, and answer its result."""
+        with self._lock:
+            self.answering += 1
+        try:
+            return self._answer(handle)
+        finally:
+            with self._lock:
+                self.answering -= 1
+
+    def _answer(self, handle: ServerGoalHandle) -> PlanRearrangement.Result:
         with self._lock:
             job, self._reserved = self._reserved, None
         if job is None or job.goal is not handle.request:      # cannot happen: one at a time

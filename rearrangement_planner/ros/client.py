@@ -54,7 +54,8 @@ def action_client(node: Any, action_type: Any, name: str) -> Any:
     `node_demo`: the node planned and executed, and the demo waited for an answer it had
     dropped. rclpy fixed it in #1308 (Jazzy backport #1519), which the pinned wheel predates.
     The fix is the same: one lock held while a request is sent and registered, and while the
-    executor takes responses."""
+    executor takes responses. Its services keep as many requests and responses as the server's
+    (`action.REQUESTS`), so that a burst is answered whole."""
     from rclpy.action import ActionClient
 
     class _Client(ActionClient):
@@ -78,7 +79,10 @@ def action_client(node: Any, action_type: Any, name: str) -> Any:
             with self._sending:
                 return super()._get_result_async(goal_handle)
 
-    return _Client(node, action_type, name)
+    from rearrangement_planner.ros.action import REQUESTS
+
+    return _Client(node, action_type, name, goal_service_qos_profile=REQUESTS,
+                   result_service_qos_profile=REQUESTS, cancel_service_qos_profile=REQUESTS)
 
 
 class PlannerClient:

@@ -471,11 +471,31 @@ def main(args: list[str] | None = None) -> int:
     finally:
         if node is not None:
             node.stop()
+            _send_last_results(executor, node)
         executor.shutdown()
         if node is not None:
             node.destroy_node()
         rclpy.try_shutdown()
     return 0
+
+
+SHUTDOWN_GRACE = 3.0
+"""s the node spins on at shutdown so that a goal its stop cancelled gets its result."""
+
+
+def _send_last_results(executor: MultiThreadedExecutor, node: PlannerNode) -> None:
+    """After `node.stop()` (Ctrl-C): spin until every goal's result is given, PREEMPTED for a
+    plan it cancelled, as ErrorCode.msg promises, and the responses have gone out."""
+    if not node.context.ok():
+        return                           # shut down from outside: nothing can be sent
+    deadline = time.monotonic() + SHUTDOWN_GRACE
+    sent = None
+    while time.monotonic() < deadline:
+        executor.spin_once(timeout_sec=0.05)
+        if node._plan_action.answering == 0:
+            sent = sent or time.monotonic()
+            if time.monotonic() - sent > 0.3:
+                return
 
 
 if __name__ == "__main__":

@@ -1227,6 +1227,24 @@ def test_action_answers_fragile_and_internal(ros, monkeypatch, judge_says):
     assert result.error_code.val == ErrorCode.SUCCESS, result.message
 
 
+def test_a_burst_of_goals_is_answered_whole(ros):
+    """20 goals sent at once: each is accepted or refused (one at a time: one accepted, the
+    rest refused while it runs), none left unanswered; the accepted one is cancelled."""
+    client = ros["client"]
+    client.wait_inputs_flowing()
+    assert client.action.wait_for_server(timeout_sec=10.0)
+    futures = [client.action.send_goal_async(_far_goal(time_limit=30.0)) for _ in range(20)]
+    assert wait_until(lambda: all(f.done() for f in futures), 30.0), \
+        f"{sum(not f.done() for f in futures)} of 20 goals got no answer"
+    accepted = [f.result() for f in futures if f.result().accepted]
+    assert len(accepted) == 1
+    cancel = accepted[0].cancel_goal_async()
+    assert wait_until(cancel.done, 10.0)
+    result = accepted[0].get_result_async()
+    assert wait_until(result.done, 20.0)
+    assert result.result().result.error_code.val == ErrorCode.PREEMPTED
+
+
 class _HeldSend:
     """An action client's handle that holds each goal request `hold` s after sending it, so
     that the spinning thread could take the response before the request is registered

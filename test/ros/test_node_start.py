@@ -33,8 +33,9 @@ def test_a_bad_scene_stops_the_node_with_one_fatal_line(tmp_path, content, expec
 
 
 def test_ctrl_c_while_a_goal_plans_is_quiet(tmp_path):
-    """SIGINT mid-plan cancels the plan, joins the worker and exits 0, with no traceback (the
-    worker used to publish on a context that the signal had already shut down)."""
+    """SIGINT mid-plan cancels the plan, answers the goal PREEMPTED, joins the worker and exits
+    0, with no traceback (the worker used to publish on a context that the signal had already
+    shut down)."""
     import signal
     import threading
     import time
@@ -48,6 +49,7 @@ def test_ctrl_c_while_a_goal_plans_is_quiet(tmp_path):
 
     from msg_adapters import configuration_to_joint_state, objects_to_pose_array
     from rearrangement_interfaces.action import PlanRearrangement
+    from rearrangement_interfaces.msg import ErrorCode
     from rearrangement_planner.physics.validation import load_scene
     from rearrangement_planner.ros.client import action_client
     from rearrangement_planner.ros.sim.replay import wait_until
@@ -87,8 +89,12 @@ def test_ctrl_c_while_a_goal_plans_is_quiet(tmp_path):
             m.feedback))
         assert wait_until(sent.done, 10.0) and sent.result().accepted
         assert wait_until(lambda: any(f.iterations > 0 for f in feedback), 30.0)
+        result = sent.result().get_result_async()
         node.send_signal(signal.SIGINT)
         _, stderr = node.communicate(timeout=60)
+        # the goal the shutdown cancelled got its result: PREEMPTED, as ErrorCode.msg says
+        assert wait_until(result.done, 10.0), "no result for the goal the shutdown cancelled"
+        assert result.result().result.error_code.val == ErrorCode.PREEMPTED
     finally:
         if node.poll() is None:
             node.kill()
