@@ -87,6 +87,9 @@ _NODE_LAST: tuple[ParameterSpec, ...] = (
     ParameterSpec("record_dir", "~/.ros/rearrangement_plans", "Folder of the MCAP recordings "
                   "(<plan id>.mcap); '~' is expanded."),
     ParameterSpec("record", True, "Record every plan (success or failure) to MCAP."),
+    ParameterSpec("record_limit_mb", 1000.0, "The recordings in record_dir take at most this "
+                  "many MB: the oldest .mcap files there are deleted after each new one; "
+                  "0 = no limit.", 0.0, 1e7),
     ParameterSpec("auto_execute", False, "Publish every successful plan on joint_trajectory "
                   "right away (a fragile one only with execute_fragile)."),
     ParameterSpec("execute_fragile", False, "With auto_execute, publish a fragile plan too (one "

@@ -311,9 +311,39 @@ def record(job: Job, output: PlanOutput | None, params: dict[str, Any], frame: s
         logger.error(f"plan {plan_id}: {traceback.format_exc()}")
         reason = f"internal error {type(exc).__name__}: {exc}"
     else:
+        prune_recordings(path.parent, params["record_limit_mb"] * 1e6, keep=path)
         return str(written), None
     return (f"not recorded: {reason}",
             f"plan {plan_id}: recording to {path} failed: {reason}")
+
+
+def prune_recordings(folder: Path, limit_bytes: float, keep: Path) -> list[Path]:
+    """Delete the oldest recordings (`*.mcap` in `folder`, by modification time) until the
+    folder's recordings take at most `limit_bytes` (0: no limit), never `keep` (the one just
+    written); returns those deleted. A file that cannot be deleted is left."""
+    if limit_bytes <= 0:
+        return []
+    files = []
+    for file in folder.glob("*.mcap"):
+        try:
+            stat = file.stat()
+        except OSError:
+            continue
+        files.append((stat.st_mtime, stat.st_size, file))
+    total = sum(size for _, size, _ in files)
+    deleted = []
+    for _, size, file in sorted(files):
+        if total <= limit_bytes:
+            break
+        if file == keep:
+            continue
+        try:
+            file.unlink()
+        except OSError:
+            continue
+        total -= size
+        deleted.append(file)
+    return deleted
 
 
 def planning_status(job: Job, progress: Progress | None, message: str) -> PlannerStatus:
