@@ -1,18 +1,23 @@
-"""The reference docs stay true to the code: every setting they name exists, and the README's
-layout map lists every module of the package.
+"""The reference docs stay true to the code: every setting they name exists, the README's
+layout map lists every module of the package, the results tables are what
+`rearrangement-bench report` prints from the committed summaries, and every link to a section
+lands on a heading.
 
 docs/experiments.md and CHANGELOG.md are logs: they name settings that were removed (with the
 commit to revive them from), so they are not checked here."""
 
 from __future__ import annotations
 
+import functools
 import re
+import unicodedata
 from pathlib import Path
 
 import pytest
 
 from rearrangement_planner.planning.requests.request import request_settings
 from rearrangement_planner.ros.parameters import PARAMETERS
+from rearrangement_planner.tools.report import report
 
 ROOT = Path(__file__).resolve().parents[1]
 REFERENCE = ["README.md", "docs/design.md", "docs/benchmark.md"]
@@ -78,3 +83,87 @@ def test_the_code_cites_what_a_reader_can_follow():
              if LOST_CITATIONS.search(line)]
     assert not found, "\n".join(found)
     assert LOST_CITATIONS.search("(DESIGN §5, issue 18)") and LOST_CITATIONS.search("§V of 000")
+
+
+RESULTS = re.compile(r"<!-- results: rearrangement-bench report (?P<files>[^>]*?) -->\n"
+                     r"(?P<table>.*?)<!-- /results -->", re.S)
+"""A generated results table: the command that prints it in the opening comment, the files
+it reads named there and nowhere else."""
+
+
+@pytest.mark.parametrize("doc", ["README.md", "docs/benchmark.md"])
+def test_the_results_tables_are_what_the_report_prints(doc):
+    """Each marked block equals `rearrangement-bench report` run on the summaries its marker
+    names (paths from the repository's root), so no figure of it is retyped or drifts."""
+    text = (ROOT / doc).read_text()
+    blocks = RESULTS.findall(text)
+    assert blocks, f"{doc} has no results table (<!-- results: rearrangement-bench report ... -->)"
+    assert len(blocks) == text.count("<!-- results:") == text.count("<!-- /results -->"), \
+        f"{doc}: a results marker without its pair"
+    for files, table in blocks:
+        printed = report([ROOT / name for name in files.split()])
+        assert table.strip() == printed, (
+            f"{doc}: the table differs from what `rearrangement-bench report {files}` prints; "
+            f"paste its output between the markers")
+
+
+LINK = re.compile(r"\[[^\]]*\]\((?!https?:)([^)#\s]*)#([^)\s]+)\)")
+"""A Markdown link to a section: [text](path#anchor) or [text](#anchor)."""
+
+
+def _outside_code(text: str) -> list[str]:
+    """The lines of a Markdown text outside fenced code blocks."""
+    lines, fenced = [], False
+    for line in text.splitlines():
+        if line.startswith("```"):
+            fenced = not fenced
+        elif not fenced:
+            lines.append(line)
+    return lines
+
+
+def anchor(heading: str) -> str:
+    """GitHub's anchor of a heading: its text (link targets dropped) in lower case, every
+    character but letters, digits, '-', '_' and spaces removed, spaces made '-'."""
+    text = re.sub(r"\[([^\]]*)\]\([^)]*\)", r"\1", heading).strip().lower()
+    kept = "".join(c for c in text if c in " -_" or unicodedata.category(c)[0] in "LNM")
+    return kept.replace(" ", "-")
+
+
+@functools.lru_cache
+def _anchors(path: Path) -> frozenset[str]:
+    """The anchors of a Markdown file's headings (a repeated one gets -1, -2, ...)."""
+    anchors, counts = set(), {}
+    for line in _outside_code(path.read_text()):
+        match = re.match(r"#{1,6} (.*)", line)
+        if match:
+            slug = anchor(match.group(1))
+            n = counts.get(slug, 0)
+            counts[slug] = n + 1
+            anchors.add(slug if n == 0 else f"{slug}-{n}")
+    return frozenset(anchors)
+
+
+def test_every_link_to_a_section_lands_on_a_heading():
+    """README.md and docs/*.md: a relative link with a #anchor names a heading of its file (a
+    section that moved, as the benchmark's dated ones to docs/experiments.md, breaks it)."""
+    broken = []
+    for doc in [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]:
+        for line in _outside_code(doc.read_text()):
+            for target, slug in LINK.findall(line):
+                path = (doc.parent / target).resolve() if target else doc
+                if not path.is_file() or slug not in _anchors(path):
+                    broken.append(f"{doc.relative_to(ROOT)}: {target}#{slug}")
+    assert not broken, "links to no heading:\n" + "\n".join(broken)
+
+
+def test_the_anchor_rule_is_githubs():
+    assert anchor("Plans that survive the world: the one protocol at the close (2026-11-30)") == \
+        "plans-that-survive-the-world-the-one-protocol-at-the-close-2026-11-30"
+    assert anchor("End to end: the shipped default against first plans (seeds 0–2)") == \
+        "end-to-end-the-shipped-default-against-first-plans-seeds-02"
+    assert anchor("A fragile best's extra candidates within 10,000 iterations each") == \
+        "a-fragile-bests-extra-candidates-within-10000-iterations-each"
+    assert anchor("2026-12-06 — The 3D judge's timestep: 2 ms (adopted)") == \
+        "2026-12-06--the-3d-judges-timestep-2-ms-adopted"
+    assert anchor("`graze_penalty` in [docs](x.md)") == "graze_penalty-in-docs"

@@ -13,6 +13,7 @@
                                    [--address HOST:PORT] [--workers N] [--out DIR]
     rearrangement-bench states [--weights NPZ] [--out PNG]
     rearrangement-bench calibrate [--out DIR] [--rollouts N] [--perturb NAME=VALUE ...]
+    rearrangement-bench report SUMMARY.json [SUMMARY.json ...]
 
 `run` (the default) is the benchmark of King et al. 2015, §V (`benchmark.py`): each planner on each
 of the 35 scenes of config/benchmark/scenes with each seed, each trial the product's default plan
@@ -44,6 +45,9 @@ from the default robot's shipped weights or --weights.
 perturbed rollouts, under the shipped perturbation or one changed by --perturb, and prints how
 well the score predicts the plans' perturbed MuJoCo executions (Brier score, reliability bins):
 the instrument for tuning the perturbation set.
+
+`report` prints the results table of finished runs from their summary.json files (`report.py`):
+one Markdown row per run and planner. README.md and docs/benchmark.md carry it verbatim.
 """
 
 from __future__ import annotations
@@ -75,7 +79,8 @@ from rearrangement_planner.planning.requests.robustness import RobustOptions
 from rearrangement_planner.tools import benchmark, ompl_log
 from rearrangement_planner.tools.engine import EngineError
 
-COMMANDS = ("run", "generate", "physics", "scenes", "candidates", "states", "calibrate")
+COMMANDS = ("run", "generate", "physics", "scenes", "candidates", "states", "calibrate",
+            "report")
 
 PHYSICS_DOC = """`rearrangement-bench physics` measures the throughput of the quasistatic physics
 step on the default scene's arm and table: the arm, folded low so that forearm and
@@ -270,6 +275,15 @@ def build_parser() -> argparse.ArgumentParser:
                      help="change a field of the perturbation (model/perturbation.py "
                           "Perturbation: friction, mass, pose_noise, yaw_noise, "
                           "contact_offset, centre_offset; pressure=LOW,HIGH); repeatable")
+    rep = sub.add_parser(
+        "report", help="the results table of finished runs, from their summary.json files",
+        description="Print a Markdown table, one row per run and planner in the order given: "
+                    "scenes and seeds, solved, reached when executed (both engines, MuJoCo, "
+                    "PyBullet), plans toppling, perturbed executions reached, calibration, "
+                    "request median / p90 and the closed loop's time to goal; '–' where a "
+                    "summary does not hold the figure.")
+    rep.add_argument("summaries", nargs="+", type=Path, metavar="SUMMARY.json",
+                     help="summary.json files written by `rearrangement-bench run`")
     states = sub.add_parser(
         "states", help="Fig. 2a of Haustein et al. 2018: the learned generator's manipulation "
                        "states around an object")
@@ -406,6 +420,10 @@ def main(argv: list[str] | None = None) -> int:
             return states_command(args)
         if args.command == "calibrate":
             return calibrate_command(args)
+        if args.command == "report":
+            from rearrangement_planner.tools.report import report_command
+
+            return report_command(args.summaries)
         return physics_command(args)
     except benchmark.BenchmarkError as exc:
         print(f"rearrangement-bench: {exc}", file=sys.stderr)
