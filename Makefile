@@ -39,9 +39,14 @@ $(STAMP): $(IFACES) setup.py setup.cfg package.xml
 	$(PIP) --no-deps --no-build-isolation -e . 2>&1 | { grep -v '^WARNING: Location' || true; }
 	touch $(STAMP)
 
+# LIVE: the live view's port (open Foxglove on ws://127.0.0.1:$(LIVE) while the demo runs);
+# LIVE_HOLD: seconds it stays up after the demo ends (make demo LIVE_HOLD=60).
+LIVE ?= 8765
+LIVE_HOLD ?= 0
+
 demo: $(STAMP)
 	mkdir -p out
-	$(PY) -m rearrangement_planner.ros.sim.node_demo --scene default --seed 1 --time-limit 60 --time-scale 10 --record-dir out --plot out/default.png --pose-noise 0.01 --friction-scale 0.8 --world-seed 4 --replan 2 --divergence-bound 0
+	$(PY) -m rearrangement_planner.ros.sim.node_demo --scene default --seed 1 --time-limit 60 --time-scale 10 --record-dir out --plot out/default.png --pose-noise 0.01 --friction-scale 0.8 --world-seed 4 --replan 2 --divergence-bound 0 --live $(LIVE) --live-hold $(LIVE_HOLD)
 
 test: $(STAMP)
 	$(PY) -m pytest -q -n 2 test

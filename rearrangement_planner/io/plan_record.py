@@ -34,9 +34,11 @@ from typing import Any
 
 import numpy as np
 import yaml
+from foxglove import messages as fg
 
-from rearrangement_planner.io import messages
-from rearrangement_planner.io.recording import McapRecorder, RecordingError
+from rearrangement_planner.io import foxglove_ros2, messages, scene3d
+from rearrangement_planner.io.foxglove_ros2 import SCENE_UPDATE
+from rearrangement_planner.io.recording import McapRecorder, RecordingError, define
 from rearrangement_planner.model.errors import RearrangementError
 from rearrangement_planner.model.resources import NODE_NAME
 from rearrangement_planner.model.scene import Scene
@@ -52,7 +54,12 @@ TOPICS = {
     "trajectory": f"{NODE_NAMESPACE}/trajectory",
     "predicted_object_poses": f"{NODE_NAMESPACE}/predicted_object_poses",
     "markers": f"{NODE_NAMESPACE}/markers",
+    "scene_3d": f"{NODE_NAMESPACE}/scene_3d",
+    "plan_3d": f"{NODE_NAMESPACE}/plan_3d",
+    "motion_3d": f"{NODE_NAMESPACE}/motion_3d",
 }
+MOTION_PERIOD = 0.5
+"""s of trajectory between two recorded frames of the plan's motion (the arm and objects)."""
 
 
 def record_plan(path: str | os.PathLike[str], output: PlanOutput, *, plan_id: str,
@@ -76,6 +83,7 @@ def record_plan(path: str | os.PathLike[str], output: PlanOutput, *, plan_id: st
     except (RearrangementError, ValueError, TypeError) as exc:
         raise RecordingError(f"cannot record to {path}: building the messages failed: "
                              f"{exc}") from exc
+    define(foxglove_ros2.definitions())
     with McapRecorder(path) as recorder:
         for topic, type_name, message, log_time, qos in recorded:
             recorder.write(topic, type_name, message, log_time, qos)
@@ -120,6 +128,33 @@ def _messages(output: PlanOutput, frame: str, start: int, joint_state: Any,
     recorded.append((TOPICS["markers"], "visualization_msgs/msg/MarkerArray",
                      messages.plan_markers(scene, object_paths, ee_path, frame, stamp), start,
                      "reliable"))
+    return recorded + _scene_3d(output, start_state.q, start, object_paths, ee_path)
+
+
+def _scene_3d(output: PlanOutput, q: np.ndarray, start: int, object_paths: Any,
+              ee_path: Any) -> list[tuple]:
+    """The scene at the start, the answer's paths and its motion as Foxglove SceneUpdates
+    (`io.scene3d`) recorded as foxglove_msgs/msg/SceneUpdate (`io.foxglove_ros2`), so that a
+    recording opened in Foxglove shows the 3D scene at once."""
+    scene = output.scene
+    def entry(topic: str, update: fg.SceneUpdate, t: int) -> tuple:
+        return topic, SCENE_UPDATE, foxglove_ros2.as_ros2(update), t, "reliable"
+
+    recorded: list[tuple] = [entry(TOPICS["scene_3d"], scene3d.scene_update(scene, q), start)]
+    trajectory = output.trajectory
+    if trajectory is None or object_paths is None:
+        return recorded
+    recorded.append(entry(TOPICS["plan_3d"], scene3d.paths_update(scene, object_paths, ee_path),
+                          start))
+    shown = -math.inf
+    for t, q_t, state in zip(trajectory.times, trajectory.positions, output.trajectory_states,
+                             strict=True):
+        if t - shown < MOTION_PERIOD and t < trajectory.duration:
+            continue
+        shown = t
+        update = fg.SceneUpdate(entities=[scene3d.arm_entity(scene, q_t),
+                                          *scene3d.object_entities(scene, state.objects)])
+        recorded.append(entry(TOPICS["motion_3d"], update, start + int(t * 1e9)))
     return recorded
 
 

@@ -107,11 +107,28 @@ def _find_share_file(type_name: str, extension: str) -> Path | None:
     return None
 
 
+_DEFINED: dict[str, str] = {}
+"""Definitions known beside the installed packages' (`define`)."""
+
+
+def define(texts: Mapping[str, str]) -> None:
+    """Make the recorder know message types no installed package defines: `texts` maps
+    "pkg/msg/Type" to its .msg text (`io.foxglove_ros2`: Foxglove's SceneUpdate)."""
+    if all(_DEFINED.get(name) == text for name, text in texts.items()):
+        return
+    _DEFINED.update(texts)
+    _load_spec.cache_clear()
+    message_definition.cache_clear()
+
+
 @functools.cache
 def _load_spec(type_name: str) -> tuple[str, tuple[str, ...]]:
     """(.msg text, dependencies as sorted "pkg/Type") of `type_name` (an action's goal,
     result or feedback: its section of the .action file)."""
     package, namespace, name = _split_type(type_name)
+    defined = _DEFINED.get(f"{package}/{namespace}/{name}")
+    if defined is not None:
+        return _dependencies(defined, package)
     path = _find_share_file(type_name, ".msg")
     if path is None:
         raise RecordingError(
@@ -130,6 +147,11 @@ def _load_spec(type_name: str) -> tuple[str, tuple[str, ...]]:
             raise RecordingError(f"{path} has {len(sections)} sections, not goal, result and "
                                  f"feedback")
         text = sections[part[1]]
+    return _dependencies(text, package)
+
+
+def _dependencies(text: str, package: str) -> tuple[str, tuple[str, ...]]:
+    """(`text`, the types its fields use as sorted "pkg/Type")."""
     dependencies = set()
     for match in _FIELD_TYPE.finditer(text):
         field_type = match.group(1)

@@ -66,6 +66,7 @@ from rearrangement_planner.ros.action import (
     recorded_action,
 )
 from rearrangement_planner.ros.latest import Latest, LazyInput
+from rearrangement_planner.ros.live_view import NodeLive
 from rearrangement_planner.ros.outputs import Outputs
 from rearrangement_planner.ros.parameters import PARAMETERS, declare_parameters, read_parameters
 from rearrangement_planner.ros.plan_request import (
@@ -158,6 +159,8 @@ class PlannerNode(Node):
         self._out.publish(self._out.markers, plan_markers(
             self._scene, None, None, self._planning_frame(), self._stamp()))
         self._publish_status(self._status)
+        self.live = NodeLive.open(self.get_parameter("live_view_port").value, self._scene,
+                                  self.get_logger())
         _warm_up(self)
         self.get_logger().info(
             f"ready: scene {self._scene.source} ({len(self._scene.objects)} objects, goal "
@@ -176,6 +179,7 @@ class PlannerNode(Node):
 
     def destroy_node(self) -> None:
         self.stop()
+        self.live.close()
         self._plan_action.destroy()
         self._joints.latest.destroy()
         self._objects.latest.destroy()
@@ -313,6 +317,7 @@ class PlannerNode(Node):
         params = job.params      # with the goal's changes
         job.output = output
         job.planned.set()
+        self.live.answer(scene, output)
 
         fragile = bool(output and output.fragile)
         sendable = not fragile or params["execute_fragile"]
@@ -355,6 +360,7 @@ class PlannerNode(Node):
             self._status = final
             self._publish_status(final)
         job.outcome, job.summary = outcome, summary
+        self.live.log(summary)
         line = f"{summary} (done {time.monotonic() - job.submitted:.2f} s after the request)"
         if outcome == Outcome.SUCCEEDED.value and not final.fragile:
             self.get_logger().info(line)
@@ -396,6 +402,7 @@ class PlannerNode(Node):
     def _on_progress(self, progress: Progress) -> None:
         with self._lock:
             self._progress = progress
+        self.live.search(progress)
 
 
 
@@ -418,8 +425,8 @@ def _execute_goal(node: PlannerNode, job: Job, msg: JointTrajectory, planned: tu
 
     def send(command: JointTrajectory, watched: Any) -> tuple[str, str]:
         watch = (DivergenceWatch(watched, bound, lambda: node._latest()["object_poses"],
-                                 tilted)
-                 if watched is not None and attempts > 0 else None)
+                                 tilted, node.live.executing)
+                 if watched is not None and (attempts > 0 or node.live.view) else None)
         return execute(job, command, job.params["execution_timeout"], node.send,
                        node._joints.get, watch)
 

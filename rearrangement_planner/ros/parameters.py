@@ -90,6 +90,9 @@ _NODE_LAST: tuple[ParameterSpec, ...] = (
     ParameterSpec("record_limit_mb", 1000.0, "The recordings in record_dir take at most this "
                   "many MB: the oldest .mcap files there are deleted after each new one; "
                   "0 = no limit.", 0.0, 1e7),
+    ParameterSpec("live_view_port", 0, "Serve the live view (Foxglove WebSocket: the scene, the "
+                  "search, the answer, the executions) on this port of 127.0.0.1; 0 = off. "
+                  "Read at start.", 0, 65535, read_only=True),
     ParameterSpec("auto_execute", False, "Publish every successful plan on joint_trajectory "
                   "right away (a fragile one only with execute_fragile)."),
     ParameterSpec("execute_fragile", False, "With auto_execute, publish a fragile plan too (one "

@@ -59,16 +59,19 @@ class DivergenceWatch:
     `bound` m of a pose the plan predicts for it around the arm's progress (bound 0: not
     compared), else the sentence that says which began to tip or strayed. "Around": at any
     trajectory point the arm has passed since FRESH s before the object poses were received
-    (the poses and the joint state arrive on different topics, each with its own delay)."""
+    (the poses and the joint state arrive on different topics, each with its own delay).
+    `shown(q, observed objects or None, predicted objects)` sees every step (the live view)."""
 
     def __init__(self, output: PlanOutput, bound: float,
                  objects: Callable[[], Any],
-                 tilted: Callable[[], tuple[float, ObjectTilted] | None] = lambda: None):
+                 tilted: Callable[[], tuple[float, ObjectTilted] | None] = lambda: None,
+                 shown: Callable[[np.ndarray, np.ndarray | None, np.ndarray], None]
+                 | None = None):
         assert output.trajectory is not None
         self.path = output.trajectory.positions
         self.predicted = np.array([s.objects for s in output.trajectory_states])
         self.names = output.scene.object_names
-        self.bound, self.objects, self.tilted = bound, objects, tilted
+        self.bound, self.objects, self.tilted, self.shown = bound, objects, tilted, shown
         self.began = time.monotonic()
         self.passed: list[tuple[float, int]] = [(-math.inf, 0)]
         """(time.monotonic(), point) of every match."""
@@ -78,6 +81,8 @@ class DivergenceWatch:
         point += int(np.argmin(np.max(np.abs(self.path[point:] - q), axis=1)))
         self.passed.append((time.monotonic(), point))
         seen = self.objects()           # the newest poses, converted (or refused) now
+        if self.shown is not None:      # the live view: the arm, the objects seen, predicted
+            self.shown(q, seen.value if seen is not None else None, self.predicted[point])
         tilted = self.tilted()
         if tilted is not None and tilted[0] > self.began:
             tilt = tilted[1]

@@ -19,6 +19,7 @@ from typing import Any
 
 import numpy as np
 
+from rearrangement_planner.io.live import DEFAULT_PORT, LiveView
 from rearrangement_planner.model.errors import RearrangementError
 from rearrangement_planner.model.files import quote
 from rearrangement_planner.model.scene import Scene
@@ -125,6 +126,12 @@ def build_parser() -> argparse.ArgumentParser:
                              "up to N times (JSON 'executions', one entry per attempt, and "
                              "'verdict'; with --trials, in each perturbed world too)")
     parser.add_argument("--quiet", action="store_true", help="no progress line on stderr")
+    parser.add_argument("--live", nargs="?", type=int, const=DEFAULT_PORT, default=None,
+                        metavar="PORT",
+                        help=f"serve a live 3D view of the scene, the search, the answer and "
+                             f"its executions for Foxglove on ws://127.0.0.1:PORT (default "
+                             f"{DEFAULT_PORT}; 0: any free port); kept open until Enter when "
+                             f"standard input is a terminal")
     return parser
 
 
@@ -186,13 +193,45 @@ def main(argv: list[str] | None = None) -> int:
         for option, path in (("--json", args.json), ("--record", args.record),
                              ("--plot", args.plot)):
             _check_output(option, path)
+        if args.live is not None and not 0 <= args.live <= 65535:
+            raise RearrangementError(f"--live: a port is 0 to 65535, got {args.live}")
         scene = load_scene(args.scene)
         request = plan_request(args, scene)
+        live = LiveView(args.live) if args.live is not None else None
     except RearrangementError as exc:
         print(f"rearrangement-plan: {exc}", file=sys.stderr)
         return 2
+    try:
+        return _plan_and_report(args, scene, request, live)
+    finally:
+        if live is not None:
+            _hold(live)
+
+
+def _hold(live: LiveView) -> None:
+    """Keep the live view open until Enter when a person is at the terminal; then close it."""
+    if sys.stdin.isatty():
+        print(f"live view still on {live.url}; Enter closes it", file=sys.stderr)
+        try:
+            input()
+        except (EOFError, KeyboardInterrupt):
+            pass
+    live.close()
+
+
+def _plan_and_report(args: argparse.Namespace, scene: Scene, request: PlanRequest,
+                     live: LiveView | None) -> int:
+    """Plan `request`, print and write what was asked; the exit code."""
+    progress = _progress_printer(args.quiet)
+    if live is not None:
+        print(f"live view: {live.url} (in Foxglove: Open connection; layout "
+              f"config/foxglove_layout.json)", file=sys.stderr)
+        live.scene(scene)
+        progress = live.progress_of(scene, progress)
     started = time.monotonic()
-    output = plan_scene(request, progress=_progress_printer(args.quiet))
+    output = plan_scene(request, progress=progress)
+    if live is not None:
+        live.answer(output)
     result = output.result
     if not args.quiet:
         print(f"\r{result.outcome.value}: {result.message} "
@@ -215,6 +254,11 @@ def main(argv: list[str] | None = None) -> int:
 
         try:
             record["execution"], executed = _check_execution(output, args)
+            if live is not None and len(executed):
+                live.execution(scene, output.trajectory.positions[-1], executed[-1],
+                               output.trajectory_states[-1].objects,
+                               "executed in MuJoCo (ideal arm): the objects where they "
+                               "ended (cyan) and where the plan predicted them")
             if args.replan:
                 record.update(_closed_loop(request, output, args))
         except ExecutionCheckError as exc:      # the plan stands; the check could not run

@@ -30,7 +30,7 @@ from msg_adapters.conversions import (
     trajectory_to_msg,
 )
 from msg_adapters.markers import plan_markers
-from rearrangement_planner.io.plan_record import METADATA_NAME, TOPICS, record_plan
+from rearrangement_planner.io.plan_record import METADATA_NAME, MOTION_PERIOD, TOPICS, record_plan
 from rearrangement_planner.io.recording import (
     McapRecorder,
     RecordingError,
@@ -52,7 +52,12 @@ TYPES = {
     TOPICS["trajectory"]: "trajectory_msgs/msg/JointTrajectory",
     TOPICS["predicted_object_poses"]: "geometry_msgs/msg/PoseArray",
     TOPICS["markers"]: "visualization_msgs/msg/MarkerArray",
+    TOPICS["scene_3d"]: "foxglove_msgs/msg/SceneUpdate",
+    TOPICS["plan_3d"]: "foxglove_msgs/msg/SceneUpdate",
+    TOPICS["motion_3d"]: "foxglove_msgs/msg/SceneUpdate",
 }
+"""The recorded topics' types; Foxglove's 3D scene (`io.foxglove_ros2`) has no rclpy package
+here, so only mcap_ros2 decodes it."""
 QOS = {TOPICS["joint_state"]: ("best_effort", "volatile", 5),
        TOPICS["trajectory"]: ("reliable", "transient_local", 1)}   # others: reliable, volatile, 10
 METADATA_KEYS = {"plan_id", "planner", "seed", "outcome", "message", "fragile", "parameters",
@@ -127,7 +132,8 @@ def test_file_follows_the_ros2_profile(which, request):
     assert header.profile == "ros2"
     assert "rearrangement_planner" in header.library
     expected = set(TYPES) if output.solved else set(TYPES) - {
-        TOPICS["trajectory"], TOPICS["predicted_object_poses"]}
+        TOPICS["trajectory"], TOPICS["predicted_object_poses"], TOPICS["plan_3d"],
+        TOPICS["motion_3d"]}
     channels = {c.topic: c for c in summary.channels.values()}
     assert set(channels) == expected
     for topic, channel in channels.items():
@@ -147,11 +153,17 @@ def test_file_follows_the_ros2_profile(which, request):
         assert profile["avoid_ros_namespace_conventions"] is False
         for key in ("deadline", "lifespan", "liveliness_lease_duration"):
             assert profile[key] == {"sec": 9223372036, "nsec": 854775807}
+        if TYPES[topic].startswith("foxglove_msgs/"):       # no installed type description
+            assert channel.metadata["topic_type_hash"] == ""
+            continue
         description = json.loads(_share_file(TYPES[topic], ".json").read_text())
         assert channel.metadata["topic_type_hash"] == description["type_hashes"][0]["hash_string"]
         assert channel.metadata["topic_type_hash"].startswith("RIHS01_")
     counts = summary.statistics.channel_message_counts
     for channel_id, channel in summary.channels.items():
+        if channel.topic == TOPICS["motion_3d"]:      # a frame every MOTION_PERIOD s or so
+            assert counts[channel_id] >= output.trajectory.duration / (2 * MOTION_PERIOD)
+            continue
         n = len(output.trajectory.times) if channel.topic == TOPICS["predicted_object_poses"] else 1
         assert counts[channel_id] == n, channel.topic
 
@@ -163,6 +175,8 @@ def test_every_message_decodes_with_mcap_ros2_and_rclpy(solved):
     assert len(decoded) == len(raw) > 0
     for (topic, type_name, log_time, data), message in zip(raw, decoded, strict=True):
         assert message.channel.topic == topic and message.log_time_ns == log_time
+        if type_name.startswith("foxglove_msgs/"):
+            continue
         ros = deserialize_message(data, _ros_type(type_name))
         if hasattr(ros, "header"):
             assert message.ros_msg.header.frame_id == ros.header.frame_id

@@ -390,7 +390,8 @@ def test_parameters_declared_once_with_descriptions_and_yaml_defaults(ros):
         assert descriptor.description, spec.name
         numeric = isinstance(spec.default, (int, float)) and not isinstance(spec.default, bool)
         assert bool(descriptor.floating_point_range or descriptor.integer_range) == numeric
-        assert descriptor.read_only == (spec.name in ("scene", "robot_description"))
+        assert descriptor.read_only == (spec.name in ("scene", "robot_description",
+                                                      "live_view_port"))
     for setting in request_settings():      # the planners', the pushing model's, the stages'
         assert DEFAULTS[setting.name] == setting.default, setting.name
     data = yaml.safe_load((config_dir() / "planner.yaml").read_text())

@@ -479,9 +479,13 @@ def test_node_demo_exit_code_is_the_open_loop_outcome(tmp_path, monkeypatch, cap
     node_demo.main(demo)
     out = capsys.readouterr().out
     assert "FRAGILE" not in out and "outcome: execution 1: " in out
-    make_demo = next(line for line in (BAGS.parent / "Makefile").read_text().splitlines()
-                     if "node_demo" in line).split("node_demo", 1)[1].split()
-    assert not node_demo.build_parser().parse_args(make_demo).execute_fragile
+    makefile = (BAGS.parent / "Makefile").read_text().splitlines()
+    defaults = dict(line.replace(" ", "").split("?=") for line in makefile if "?=" in line)
+    make_demo = [defaults.get(arg[2:-1], arg) if arg.startswith("$(") else arg
+                 for arg in next(line for line in makefile if "node_demo" in line
+                                 and not line.startswith("#")).split("node_demo", 1)[1].split()]
+    parsed = node_demo.build_parser().parse_args(make_demo)
+    assert not parsed.execute_fragile and parsed.live == 8765   # make demo shows the live view
 
     # A fragile plan (every candidate judged to reach in a quarter of the perturbed 3D
     # worlds, below fragile_below): without --execute-fragile the node does not send it, and

@@ -100,6 +100,10 @@ class Progress:
     tree_size: int
     best_goal_distance: float
     elapsed: float
+    goal_positions: Callable[[], np.ndarray] | None = None
+    """The goal object's (x, y) (m) at every node of the tree so far, (N, 2), computed when
+    called (a live view asks; nothing else pays for it); None when the planner has no tree to
+    show."""
 
 
 @dataclass(frozen=True)

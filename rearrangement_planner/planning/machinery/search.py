@@ -86,9 +86,14 @@ class Search:
             return self.failure(*ended)
         now = time.monotonic()
         if self.progress is not None and now - self.last_report >= self.options.progress_period:
-            self.progress(Progress(self.iterations, self.tree.n, self.best, now - self.t0))
+            self.progress(Progress(self.iterations, self.tree.n, self.best, now - self.t0,
+                                   self.goal_positions))
             self.last_report = now
         return None
+
+    def goal_positions(self) -> np.ndarray:
+        """The goal object's (x, y) at every node of the tree so far (`Progress`)."""
+        return self.tree.objects[:self.tree.n, self.goal_index, :2].copy()
 
     def check_start(self, physics: Physics, start: State, pushes: bool = True
                     ) -> PlanResult | None:

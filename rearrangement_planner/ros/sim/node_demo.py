@@ -68,6 +68,14 @@ def build_parser() -> argparse.ArgumentParser:
                         help="with --replan: stop the arm when an object strays this far from "
                              "its predicted path, m (default the node's parameter; 0: do not "
                              "watch)")
+    parser.add_argument("--live", nargs="?", type=int, const=8765, default=None,
+                        metavar="PORT",
+                        help="the node serves its live view (the scene, the search, the answer "
+                             "and the executions, for Foxglove) on ws://127.0.0.1:PORT (default "
+                             "8765; the node's live_view_port)")
+    parser.add_argument("--live-hold", type=float, default=0.0, metavar="S",
+                        help="with --live: keep the nodes up S seconds after the demo ends, to "
+                             "look at the live view (default 0)")
     world = parser.add_argument_group(
         "simulated world", "make world_sim differ from what the planner sees, to probe "
                            "open-loop robustness")
@@ -105,6 +113,8 @@ def main(argv: list[str] | None = None) -> int:
                                   ("--friction-scale", args.friction_scale, 100.0),
                                   ("--world-seed", args.world_seed, 2**31 - 1),
                                   ("--replan", args.replan, 20),
+                                  ("--live", args.live or 0, 65535),
+                                  ("--live-hold", args.live_hold, 3600.0),
                                   ("--divergence-bound", args.divergence_bound or 0.0, 10.0)):
             if not 0 <= value <= high:
                 raise RearrangementError(f"{flag} must be in [0, {high:g}], got {value}")
@@ -121,6 +131,8 @@ def main(argv: list[str] | None = None) -> int:
                                                            value=float(args.goal_margin))]
     if args.divergence_bound is not None:
         extra.append(Parameter("divergence_bound", value=float(args.divergence_bound)))
+    if args.live is not None:
+        extra.append(Parameter("live_view_port", value=int(args.live)))
 
     with Session(name="demo") as session:
         try:
@@ -140,7 +152,14 @@ def main(argv: list[str] | None = None) -> int:
             print(f"node_demo: {exc}", file=sys.stderr)
             return 2
         planning_radius = scene.goal.radius - planner.get_parameter("goal_margin").value
-        return _run(session, world, planner, scene, args, planning_radius, plot_path)
+        if planner.live.view is not None:
+            print(f"live view: {planner.live.view.url} (in Foxglove: Open connection; layout "
+                  f"config/foxglove_layout.json)", flush=True)
+        code = _run(session, world, planner, scene, args, planning_radius, plot_path)
+        if planner.live.view is not None and args.live_hold > 0:
+            print(f"live view stays up {args.live_hold:g} s", flush=True)
+            time.sleep(args.live_hold)
+        return code
 
 
 def _run(session, world, planner, scene, args, planning_radius: float, plot_path: Path) -> int:
