@@ -125,6 +125,11 @@ def build_parser() -> argparse.ArgumentParser:
                              "back out of contact, observe, plan again from there and execute, "
                              "up to N times (JSON 'executions', one entry per attempt, and "
                              "'verdict'; with --trials, in each perturbed world too)")
+    _add_output_options(parser)
+    return parser
+
+
+def _add_output_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--quiet", action="store_true", help="no progress line on stderr")
     parser.add_argument("--live", nargs="?", type=int, const=DEFAULT_PORT, default=None,
                         metavar="PORT",
@@ -132,7 +137,6 @@ def build_parser() -> argparse.ArgumentParser:
                              f"its executions for Foxglove on ws://127.0.0.1:PORT (default "
                              f"{DEFAULT_PORT}; 0: any free port); kept open until Enter when "
                              f"standard input is a terminal")
-    return parser
 
 
 def _progress_printer(quiet: bool):

@@ -115,7 +115,7 @@ def test_waypoints_nanoradians_apart_are_a_microsecond_apart(panda):
     assert np.min(np.diff(traj.times)) >= 0.999 * MIN_SEGMENT       # up to rounding
     times = [p["time_from_start"] for p in joint_trajectory(traj)["points"]]
     assert all(b["sec"] * 10**9 + b["nanosec"] > a["sec"] * 10**9 + a["nanosec"]
-               for a, b in zip(times, times[1:]))
+               for a, b in zip(times, times[1:], strict=False))
 
 
 def test_sample_hits_waypoints_at_their_times(panda):
