@@ -2,6 +2,7 @@
 
 import json
 from itertools import pairwise
+from pathlib import Path
 
 import pytest
 
@@ -295,3 +296,41 @@ def test_set_reaches_the_planner(tmp_path):
     record = json.loads(out.read_text())
     assert code == 1 and record["solved"] is False
     assert record["outcome"] == "PLANNING_FAILED"          # the budget that ran out, named
+
+
+def test_live_serves_the_answer_to_foxglove(tmp_path):
+    """--live PORT: a Foxglove client connected during the request gets the scene and the
+    answer's paths (the answer is replayed to a subscriber that comes after it)."""
+    import asyncio
+    import socket
+    import sys
+    import threading
+    import time
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "io"))
+    from test_live import watch
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    received: dict = {}
+
+    def client():
+        for _ in range(200):                   # until the server is up
+            try:
+                received.update(asyncio.run(watch(
+                    f"ws://127.0.0.1:{port}", ["/scene", "/plan"],
+                    lambda got: any(u.entities for u in got["/plan"]))))
+                return
+            except OSError:
+                time.sleep(0.05)
+
+    thread = threading.Thread(target=client, daemon=True)
+    thread.start()
+    code = main(["easy_push", "--seed", "1", "--trees", "1", "--quiet", "--live", str(port),
+                 "--check-execution", "--json", str(tmp_path / "plan.json")])
+    thread.join(30.0)
+    assert code == 0
+    assert {"table", "arm", "object/target"} <= {e.id for u in received["/scene"]
+                                                 for e in u.entities}
+    assert "plan/path/target" in {e.id for u in received["/plan"] for e in u.entities}
