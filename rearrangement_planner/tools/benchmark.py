@@ -1028,7 +1028,7 @@ PHASES = ("search_s", "shortcuts_s", "rollouts_s", "timing_s", "judge_s", "warm_
 
 def time_breakdown(rows: Sequence[dict]) -> dict:
     """Where the requests' time went: each phase's total (s) and share of all phases, over
-    the trials that recorded them (docs/benchmark.md, "Where the time goes")."""
+    the trials that recorded them (docs/experiments.md, "Where the time goes")."""
     timed = [r for r in rows if r.get("search_s", "") != ""]
     totals = {p: sum(float(r.get(p) or 0.0) for r in timed) for p in PHASES}
     whole = sum(totals.values())
@@ -1170,7 +1170,7 @@ CALIBRATION_BINS = 5
 
 
 def calibration(rows: Sequence[dict]) -> dict[str, Any]:
-    """How well the robustness score predicts execution (docs/benchmark.md, "Calibration"): over
+    """How well the robustness score predicts execution (docs/benchmark.md, "How to read them"): over
     the solved plans with a score and perturbed MuJoCo executions, the Brier score (the mean
     of (score - outcome)^2 over every perturbed execution, 0 for a perfect forecast, 0.25 for
     a constant 0.5 on a fair coin) and a reliability diagram: per fifth of the score range the
@@ -1207,7 +1207,7 @@ def rescore(out: Path, rollouts: int, perturbation: Any = None) -> list[dict]:
     (seeded by its trial's seed) in worlds drawn by `perturbation` (None: the shipped one), in
     the planner's default physics. With the plans' perturbed MuJoCo executions, which stay as
     they were, `calibration` then says how honest that perturbation set makes the score: the
-    instrument for tuning it (docs/benchmark.md, "Calibration")."""
+    instrument for tuning it (docs/benchmark.md, "How to read them")."""
     from rearrangement_planner.planning.requests.robustness import arm_path_robustness
 
     rows = []

@@ -5,8 +5,9 @@ benchmark command, not a test (docs/benchmark.md, "The node at a robot's rates")
 
 For each joint_states rate it starts planner_node (easy_push) in a process of its own, on a
 ROS domain of its own and localhost discovery, publishes joint_states at that rate and the
-object poses at 30 Hz from this process, waits for the node to be ready, and reads the node
-process's CPU time (user + system, /proc/PID/stat) over `--seconds`: the share of one core.
+object poses at 30 Hz from this process, waits for the node to log that it is ready (its
+compiled core loaded), and reads the node process's CPU time (user + system, /proc/PID/stat)
+over `--seconds`: the share of one core.
 """
 
 from __future__ import annotations
@@ -15,6 +16,7 @@ import argparse
 import os
 import subprocess
 import sys
+import threading
 import time
 from pathlib import Path
 
@@ -43,7 +45,15 @@ def measure(rate: float, seconds: float) -> dict[str, float]:
            "ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST"}
     node = subprocess.Popen([str(Path(sys.executable).parent / "planner_node"), "--ros-args",
                              "-p", "scene:=easy_push", "-p", "record:=false"], env=env,
-                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    ready = threading.Event()
+
+    def read_log() -> None:          # the node logs "ready: ... call ~/plan" once warmed up
+        for line in node.stderr:
+            if "ready: scene" in line and "call " in line:
+                ready.set()
+
+    threading.Thread(target=read_log, daemon=True).start()
     context = Context()
     rclpy.init(context=context, domain_id=DOMAIN_ID)
     try:
@@ -53,7 +63,9 @@ def measure(rate: float, seconds: float) -> dict[str, float]:
         state = JointState(name=list(scene.robot.joint_names),
                            position=[float(v) for v in scene.start_configuration])
         poses = objects_to_pose_array(scene.object_poses, "world")
-        time.sleep(15.0)                    # the node starts and loads its compiled core
+        if not ready.wait(600.0):           # loading (or compiling) its core is not waiting
+            raise RuntimeError("planner_node did not log that it is ready within 600 s")
+        time.sleep(3.0)
         start_cpu, start, sent = cpu_seconds(node.pid), time.monotonic(), 0
         next_joint = next_objects = start
         while (now := time.monotonic()) < start + seconds:

@@ -19,7 +19,7 @@ call, with the tool velocity either held (an action) or fed back (the closed-loo
 `push_policy`, `PushTarget`); the clock and the cancel flag are read between batches.
 `replay` re-simulates a whole arm path in one call (`_replay_kernel`). Batching further (the
 k actions of an iteration, the robustness rollouts) would save only the Python call around
-each, under 2 % of their time (docs/benchmark.md, "The compiled core").
+each, under 2 % of their time (docs/experiments.md, "The compiled core").
 """
 
 from __future__ import annotations

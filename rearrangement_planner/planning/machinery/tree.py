@@ -197,7 +197,7 @@ def nearest_kernel(arms: np.ndarray, n: int, arrays: tuple, arm: np.ndarray,
     once (`_add_object_term`), and each node of an arrangement adds its arm's to it. No node
     is nearer than its arrangement's objects' term, so only arrangements whose term is no
     larger than the best distance found so far are scanned, the one of least term first
-    (docs/benchmark.md, "Nearest skips far arrangements"). The same sums as `metric` node by
+    (docs/experiments.md, "Nearest skips far arrangements"). The same sums as `metric` node by
     node, and the same node: the least (distance, index)."""
     arrangement, first_node, arrangements, distance, last_node, next_node, places = arrays
     count = arrangements[0]

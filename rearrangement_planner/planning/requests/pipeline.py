@@ -94,7 +94,7 @@ class PathMetrics:
 
 @dataclass
 class Phases:
-    """Where a request's wall time went (s), phase by phase (docs/benchmark.md, "Where the
+    """Where a request's wall time went (s), phase by phase (docs/experiments.md, "Where the
     time goes"): the searches (every candidate's, raced trees and the wait on their workers
     included), shortcutting and the finishing push, the robustness rollouts, trajectory
     timing, and loading or compiling the compiled core (once per process, outside the plan's

@@ -55,27 +55,27 @@ class RobustOptions(Settings):
     fewer than `fragile_below` of its rollouts (within the time limit and `candidate_effort`):
     a fragile best is worth another look, a sound one is not. The score is calibrated (a plan
     scored s reaches in about s of its perturbed executions), so a best below 0.3 is a plan
-    that mostly misses. 0 = none. Measured: docs/benchmark.md ("More candidates for a fragile
+    that mostly misses. 0 = none. Measured: docs/experiments.md ("More candidates for a fragile
     best")."""
     fragile_below: float = setting(0.3, low=0.0, high=1.0)
     """The robustness below which a plan is fragile: the best candidate so far earns
     `fragile_candidates`, and an answer below it says FRAGILE and is not executed unless asked
     (`PlanOutput.fragile`). Measured: of 204 answers on varied and fixed seeds 0–2, the 37
     below 0.3 reached the goal in 11 nominal MuJoCo executions, the rest in 109 of 167
-    (docs/benchmark.md, "Plans that survive the world: the one protocol at the close")."""
+    (docs/experiments.md, "Plans that survive the world: the one protocol at the close")."""
     candidate_effort: float = setting(1.0, low=0.0, high=1000.0)
     """A candidate after the first may search at most this many times the iterations the
     first plan took (at least `MIN_CANDIDATE_ITERATIONS`), so a request does not spend its
     whole budget looking for a better plan than the one its first seconds gave; counted in
     iterations, so the answer does not depend on the machine's speed. 0 = only the time
-    limit bounds them. Measured: docs/benchmark.md ("A robust plan sooner")."""
+    limit bounds them. Measured: docs/experiments.md ("A robust plan sooner")."""
     fragile_search_iterations: int = setting(10000, low=0, high=10**9)
     """Each of a fragile best's extra candidates (`fragile_candidates`) searches at most this
     many iterations, besides `candidate_effort`'s bound: the extra candidates that rescue a
     fragile best are mostly plans found quickly, and the long ones mostly find another
     fragile plan, on the scenes whose every search is long. Counted in iterations, so the
     answer does not depend on the machine's speed. 0 = only `candidate_effort` and the time
-    limit bound them. Measured: docs/benchmark.md ("A fragile best's extra candidates within
+    limit bound them. Measured: docs/experiments.md ("A fragile best's extra candidates within
     10,000 iterations each")."""
     travel_penalty: float = setting(0.5, low=0.0, high=100.0)
     """Candidates are ranked by robustness less this much per metre their goal object is
