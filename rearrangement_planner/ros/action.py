@@ -168,6 +168,10 @@ REQUESTS = QoSProfile(depth=REQUEST_DEPTH, reliability=ReliabilityPolicy.RELIABL
 default 10, a burst of 20 goals (or 60 cancels) sent at once lost requests that were then never
 answered, accepted or refused."""
 
+RESULT_TIMEOUT = 120
+"""s a finished goal and its result are kept for a client to fetch (rclpy's default is 900 s:
+each goal, whatever it carried, stayed in memory for a quarter of an hour)."""
+
 RESULT_CHARS = 4000
 """A result's message is cut to this many characters: a message quotes what was wrong with
 the goal, and a goal may hold a 100 kB string (the closed loop's longest answers, a line per
@@ -269,7 +273,8 @@ class PlanActionServer:
                                     cancel_callback=self._on_cancel, callback_group=group,
                                     goal_service_qos_profile=REQUESTS,
                                     result_service_qos_profile=REQUESTS,
-                                    cancel_service_qos_profile=REQUESTS)
+                                    cancel_service_qos_profile=REQUESTS,
+                                    result_timeout=RESULT_TIMEOUT)
 
     def destroy(self) -> None:
         self._server.destroy()

@@ -1,5 +1,6 @@
-"""The node's live view over real DDS and a real WebSocket: planner_node with live_view_port
-serves the scene at once, and a ~/plan call's answer and summary reach a Foxglove client."""
+"""planner_node instances of their own, over real DDS: the live view (with live_view_port the
+node serves the scene at once, and a ~/plan call's answer and summary reach a Foxglove client
+over a real WebSocket), and the action server letting finished goals go (RESULT_TIMEOUT)."""
 
 from __future__ import annotations
 
@@ -95,3 +96,41 @@ def test_the_node_serves_the_scene_and_each_answer(node_with_live_view):
     plan_ids = {e.id for update in received["/plan"] for e in update.entities}
     assert {"plan/path/target", "plan/tool", "plan/end/target"} <= plan_ids
     assert any(log.message.startswith("plan: SUCCEEDED") for log in received["/log"])
+
+
+def test_a_finished_goal_is_let_go_after_the_result_timeout(monkeypatch, tmp_path):
+    """A finished goal and its result stay RESULT_TIMEOUT s for a client to fetch (rclpy's
+    900 s kept every goal a quarter of an hour); here 1 s."""
+    from rearrangement_interfaces.action import PlanRearrangement
+    from rearrangement_planner.ros import action
+    from rearrangement_planner.ros.client import action_client
+
+    monkeypatch.setattr(action, "RESULT_TIMEOUT", 1)
+    context = Context()
+    rclpy.init(context=context, domain_id=DOMAIN_ID)
+    planner = PlannerNode(context=context, parameter_overrides=[
+        Parameter("scene", value="easy_push"), Parameter("record", value=False)])
+    client = rclpy.create_node("timeout_client", context=context)
+    executors = [MultiThreadedExecutor(num_threads=4, context=context),
+                 SingleThreadedExecutor(context=context)]
+    executors[0].add_node(planner)
+    executors[1].add_node(client)
+    threads = [threading.Thread(target=e.spin, daemon=True) for e in executors]
+    for thread in threads:
+        thread.start()
+    try:
+        goals = action_client(client, PlanRearrangement,
+                              "/rearrangement_planner/plan_rearrangement")
+        assert goals.wait_for_server(timeout_sec=10.0)
+        sent = goals.send_goal_async(PlanRearrangement.Goal(goal_object="nope"))
+        assert wait_until(sent.done, 10.0) and sent.result().accepted
+        result = sent.result().get_result_async()
+        assert wait_until(result.done, 20.0)
+        server = planner._plan_action._server
+        assert wait_until(lambda: not server._goal_handles, 10.0), "the goal was kept"
+    finally:
+        for executor in executors:
+            executor.shutdown()
+        planner.destroy_node()
+        client.destroy_node()
+        rclpy.shutdown(context=context)
