@@ -17,7 +17,7 @@ import pytest
 
 from rearrangement_planner.planning.requests.request import request_settings
 from rearrangement_planner.ros.parameters import PARAMETERS
-from rearrangement_planner.tools.report import report
+from rearrangement_planner.tools.bench.report import report
 
 ROOT = Path(__file__).resolve().parents[1]
 REFERENCE = ["README.md", "docs/design.md", "docs/benchmark.md"]

@@ -480,7 +480,7 @@ def volume_inside(first: list[Capsule], second: list[Capsule], samples: int = 20
 
 
 def posture_targets() -> list[tuple[float, float, float]]:
-    """(x, y, yaw) tool poses across the benchmark's workspace (`tools.benchmark`: the
+    """(x, y, yaw) tool poses across the benchmark's workspace (`tools.bench.trials`: the
     annulus REACH_MIN..REACH_MAX in front of the base): radii 0.35, 0.5, 0.65 m at bearings
     -45, 0, 45 degrees, each pushing outward, inward and sideways."""
     targets = []

@@ -101,7 +101,7 @@ def test_static_rrt_shortcuts_never_move_a_non_goal_object(panda):
     RRT's world. Benchmark scene n4_s1, seed 0: in the all-movable physics 20 shortcut
     attempts pushed cylinder1 and cylinder2 (found by `rearrangement-bench --quick`)."""
     from rearrangement_planner.planning import plan_scene
-    from rearrangement_planner.tools.benchmark import scene_set_dir
+    from rearrangement_planner.tools.bench.trials import scene_set_dir
 
     scene = load_scene(scene_set_dir() / "n4_s1.yaml", robot=panda)
     output = plan_scene(PlanRequest.first_plan(scene, "static-rrt", PCRRTOptions(time_limit=60.0),

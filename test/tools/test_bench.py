@@ -4,7 +4,7 @@ import json
 
 import pytest
 
-from rearrangement_planner.tools.bench import main
+from rearrangement_planner.tools.bench.command import main
 
 
 def test_physics_benchmark_writes_a_complete_record(tmp_path, capsys):
@@ -45,7 +45,7 @@ def test_physics_and_scenes_reject_non_positive_times(capsys):
 
 
 def test_scenes_benchmark_reports_one_line_per_run(tmp_path, capsys):
-    from rearrangement_planner.tools.bench import main
+    from rearrangement_planner.tools.bench.command import main
 
     out = tmp_path / "runs.jsonl"
     assert main(["scenes", "--scenes", "easy_push", "--planners", "darrt", "static-rrt",

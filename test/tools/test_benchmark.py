@@ -19,8 +19,9 @@ from rearrangement_planner.physics.options import simulation_options
 from rearrangement_planner.physics.step import Physics
 from rearrangement_planner.physics.validation import load_scene
 from rearrangement_planner.planning.requests.registry import PLANNERS
-from rearrangement_planner.tools import bench, benchmark
-from rearrangement_planner.tools.benchmark import CSV_COLUMNS
+from rearrangement_planner.tools.bench import command as bench
+from rearrangement_planner.tools.bench import trials as benchmark
+from rearrangement_planner.tools.bench.trials import CSV_COLUMNS
 
 SCENE_DIR = benchmark.scene_set_dir()
 TIMING = ("plan_time_s", "shortcut_time_s", "trial_wall_s", "search_s", "shortcuts_s",
@@ -659,8 +660,8 @@ def test_ctrl_c_keeps_complete_rows_stops_the_workers_and_says_how_to_resume(tmp
             "--set", "min_robustness=0",
             "--workers", "1", "--perturbed", "0", "--out", str(out)]
     proc = subprocess.Popen(
-        [sys.executable, "-m", "rearrangement_planner.tools.bench", *args], stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE, text=True, start_new_session=True,
+        [sys.executable, "-m", "rearrangement_planner.tools.bench.command", *args],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True,
         # a shell's background job starts with SIGINT ignored; give the bench the default
         preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     csv_path = out / "trials.csv"
@@ -739,7 +740,7 @@ def _exit_code(argv: list[str]) -> int:
 
 
 def test_a_plotted_label_puts_its_settings_on_lines_of_their_own():
-    from rearrangement_planner.tools.bench_plots import _color, _label
+    from rearrangement_planner.tools.bench.plots import _color, _label
 
     assert _label("pc-rrt:min_robustness=0,trees=1") == "PC-RRT\nmin_robustness=0\ntrees=1"
     assert _label("slice-rrt:oracle=hand") == "slice-RRT, hand-made"

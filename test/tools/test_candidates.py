@@ -1,13 +1,13 @@
-"""`rearrangement-bench candidates` (tools/candidates.py): candidate plans recorded and executed
-in MuJoCo, selection rules replayed over them as `pipeline._robust_search` chooses."""
+"""`rearrangement-bench candidates` (tools/bench/candidates.py): candidate plans recorded and
+executed in MuJoCo, selection rules replayed over them as `pipeline._robust_search` chooses."""
 
 import json
 
 import pytest
 
 from rearrangement_planner.model.resources import scenes_dir
-from rearrangement_planner.tools.bench import main
-from rearrangement_planner.tools.candidates import Rule, choose, replay_table, rules
+from rearrangement_planner.tools.bench.candidates import Rule, choose, replay_table, rules
+from rearrangement_planner.tools.bench.command import main
 
 
 def _candidate(k, search, robustness=0.0, travel=0.3, reached=False, toppled=0, solved=True):
@@ -102,7 +102,7 @@ def test_candidates_command_names_a_bad_option(option, value, capsys, tmp_path):
 
 def test_record_request_plans_with_the_given_settings():
     """`--set` reaches every candidate search: one iteration cannot solve easy_push."""
-    from rearrangement_planner.tools.candidates import record_request
+    from rearrangement_planner.tools.bench.candidates import record_request
 
     scene = scenes_dir() / "easy_push.yaml"
     records = record_request(scene, 1, 1, 20.0, {"max_iterations": 1, "rollouts": 1})

@@ -1,4 +1,4 @@
-"""The benchmarks' execution engine (`tools.engine`): Ray tasks streamed as they finish, the
+"""The benchmarks' execution engine (`tools.bench.engine`): Ray tasks streamed as they finish, the
 progress bar, and a real two-node Ray cluster on this machine (`ray start --head` and
 `ray start --address` as separate process groups) that a benchmark run spreads its trials over."""
 
@@ -17,8 +17,8 @@ from pathlib import Path
 
 import pytest
 
-from rearrangement_planner.tools import bench
-from rearrangement_planner.tools.engine import Engine, EngineError, Job, Progress
+from rearrangement_planner.tools.bench import command as bench
+from rearrangement_planner.tools.bench.engine import Engine, EngineError, Job, Progress
 
 
 class _Tty(io.StringIO):
@@ -165,7 +165,7 @@ def test_a_benchmark_runs_on_both_nodes_of_a_local_cluster(two_node_cluster, tmp
     row names the node that ran it."""
     out = tmp_path / "bench"
     run = subprocess.run(
-        [sys.executable, "-m", "rearrangement_planner.tools.bench", "run", "--address",
+        [sys.executable, "-m", "rearrangement_planner.tools.bench.command", "run", "--address",
          two_node_cluster, "--scenes", "n1_s0", "n1_s1", "n2_s0", "n2_s1", "--planners",
          "pc-rrt", "--seeds", "0", "--time-limit", "4", "--set", "min_robustness=0", "--set",
          "trees=1", "--set", "shortcut_time=0", "--perturbed", "0", "--out", str(out)],

@@ -9,9 +9,9 @@ from pathlib import Path
 
 import pytest
 
-from rearrangement_planner.tools import benchmark
-from rearrangement_planner.tools.bench import main
-from rearrangement_planner.tools.report import HEAD, protocol_cell, report
+from rearrangement_planner.tools.bench import trials as benchmark
+from rearrangement_planner.tools.bench.command import main
+from rearrangement_planner.tools.bench.report import HEAD, protocol_cell, report
 
 ROOT = Path(__file__).resolve().parents[2]
 ONE_PROTOCOL = ROOT / "docs/benchmark/one_protocol"

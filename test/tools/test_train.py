@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 
 from rearrangement_planner.planning.planners import learned_oracle as lo
-from rearrangement_planner.tools import push_data, train
+from rearrangement_planner.tools.training import command as train
+from rearrangement_planner.tools.training import push_data
 
 
 @pytest.fixture(scope="module")
@@ -107,7 +108,7 @@ def test_the_training_command_writes_weights_and_a_report(tmp_path):
 
 
 def test_the_states_figure_is_drawn_from_weights(tiny, tmp_path, capsys):
-    from rearrangement_planner.tools import bench
+    from rearrangement_planner.tools.bench import command as bench
 
     _, _, path = tiny
     out = tmp_path / "states.png"

@@ -1,5 +1,5 @@
-"""The tables of docs/benchmark.md, "Judged in 3D: plans that reach in two engines", printed
-from the runs' summary.json files (each run holds both arms: the shipped request, judged in 3D,
+"""The tables of docs/experiments.md, "Judged in 3D and mended, with candidates from both
+planners", printed from the runs' summary.json files (each run holds both arms: the shipped request, judged in 3D,
 and `pc-rrt:judge_worlds=0`, the model's answer as before).
 
     python docs/benchmark/judged/table.py
@@ -18,10 +18,10 @@ def share(k: int, n: int) -> str:
 
 
 def main() -> None:
-    print("| seeds 0–2, 105 requests each | solved | reached, both engines | MuJoCo | PyBullet "
+    print("| scene set, arm | requests | solved | reached, both engines | MuJoCo | PyBullet "
           "| plans toppling (either engine) | perturbed executions, both engines | request "
           "median / p90 | of it the 3D judge, median |")
-    print("|---|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|---|")
     for name, path in RUNS:
         if not path.exists():
             print(f"| {name} | (not run) |")
@@ -32,7 +32,7 @@ def main() -> None:
             e2e, pert = p["end_to_end"], p["executed"]["perturbed"]
             top = p["toppled"]
             judged = p.get("judged") or {}
-            cells = [f"{name}, {label}", str(p["solved"]),
+            cells = [f"{name}, {label}", str(p["trials"]), str(p["solved"]),
                      share(e2e["reached"], e2e["requests"]),
                      str(e2e["reached_mujoco"]), str(e2e["reached_pybullet"]),
                      share(top["plans_toppling"], top["checked"]),

@@ -15,7 +15,7 @@ expected successor state and its variance after u, Eq. 3-4), the policy π_θ(x_
 → u, trained by deterministic policy gradient through them on the loss of Eq. 2, and the
 generator G(z, x_o^d, ν_o) → x_r, a conditional GAN trained on MCMC samples of
 p(x_r) ∝ exp(-λ L_θ) (Eq. 5-7). The feature encodings below are shared with the training code
-(`tools/train.py`), which runs the same functions on JAX arrays.
+(`tools/training/command.py`), which runs the same functions on JAX arrays.
 """
 
 from __future__ import annotations

@@ -459,7 +459,7 @@ class Candidate:
 class Candidates:
     """The plans of one request, each from its own seed: the first answers a request without
     robust selection, several are what robust selection (`robust_search`) and the benchmark's
-    candidate recording (`tools.candidates`) choose among."""
+    candidate recording (`tools.bench.candidates`) choose among."""
 
     request: PlanRequest
     physics: Physics

@@ -27,7 +27,7 @@ from collections.abc import Callable, Sequence
 from datetime import UTC, datetime
 from pathlib import Path
 
-from rearrangement_planner.tools.benchmark import scene_name
+from rearrangement_planner.tools.bench.trials import scene_name
 
 LIBRARY = "rearrangement_planner"
 VERSION = "0.1.0"

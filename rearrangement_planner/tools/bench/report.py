@@ -18,7 +18,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from rearrangement_planner.tools.benchmark import BenchmarkError
+from rearrangement_planner.tools.bench.trials import BenchmarkError
 
 MISSING = "–"
 HEAD = ["scenes, seeds, budget", "planner", "solved", "reached, executed", "in MuJoCo",

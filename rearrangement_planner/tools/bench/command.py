@@ -76,8 +76,9 @@ from rearrangement_planner.planning.requests.parallel import RaceOptions
 from rearrangement_planner.planning.requests.registry import PLANNER_NAMES as PLANNERS
 from rearrangement_planner.planning.requests.request import request_settings
 from rearrangement_planner.planning.requests.robustness import RobustOptions
-from rearrangement_planner.tools import benchmark, ompl_log
-from rearrangement_planner.tools.engine import EngineError
+from rearrangement_planner.tools.bench import ompl_log
+from rearrangement_planner.tools.bench import trials as benchmark
+from rearrangement_planner.tools.bench.engine import EngineError
 
 COMMANDS = ("run", "generate", "physics", "scenes", "candidates", "states", "calibrate",
             "report")
@@ -421,7 +422,7 @@ def main(argv: list[str] | None = None) -> int:
         if args.command == "calibrate":
             return calibrate_command(args)
         if args.command == "report":
-            from rearrangement_planner.tools.report import report_command
+            from rearrangement_planner.tools.bench.report import report_command
 
             return report_command(args.summaries)
         return physics_command(args)
@@ -435,7 +436,7 @@ def main(argv: list[str] | None = None) -> int:
 
 def states_command(args: argparse.Namespace) -> int:
     from rearrangement_planner.planning.planners.learned_oracle import load_models, model_path
-    from rearrangement_planner.tools.bench_plots import plot_manipulation_states
+    from rearrangement_planner.tools.bench.plots import plot_manipulation_states
 
     weights = args.weights or model_path(default_robot())
     try:
@@ -494,7 +495,7 @@ def scenes_command(args: argparse.Namespace) -> int:
     if not args.time_limit > 0:
         raise benchmark.BenchmarkError("--time-limit", f"must be positive, got "
                                                        f"{args.time_limit}")
-    from rearrangement_planner.tools.engine import Engine, EngineError, Job
+    from rearrangement_planner.tools.bench.engine import Engine, EngineError, Job
 
     settings = request_overrides(args.set, args.planners)
     trees = RaceOptions(**{k: v for k, v in settings.items() if k == "trees"}).trees
@@ -526,7 +527,7 @@ def scenes_command(args: argparse.Namespace) -> int:
 
 
 def candidates_command(args: argparse.Namespace) -> int:
-    from rearrangement_planner.tools import candidates
+    from rearrangement_planner.tools.bench import candidates
 
     for option, ok, problem in (
             ("--time-limit", 0 < args.time_limit < math.inf, "a positive number of seconds"),
@@ -732,7 +733,7 @@ def run_command(args: argparse.Namespace, argv: list[str]) -> int:
     summary = benchmark.summarize(rows, protocol,
                                   benchmark.end_effector_links(scenes[0][1].robot))
     (args.out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
-    from rearrangement_planner.tools.bench_plots import plot_all  # matplotlib only here
+    from rearrangement_planner.tools.bench.plots import plot_all  # matplotlib only here
 
     plots = plot_all(rows, summary, args.out)
     logs = ompl_log.write_logs(rows, protocol, args.out / "ompl")

@@ -31,7 +31,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from rearrangement_planner.tools.benchmark import (  # noqa: E402
+from rearrangement_planner.tools.bench.trials import (  # noqa: E402
     PAPER,
     SHORTCUT_PLANNERS,
     calibration,

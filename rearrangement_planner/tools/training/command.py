@@ -5,7 +5,7 @@
 Stages, each from the same seed (the same seed and options give the same weights):
 
 1. data: single-object pushes through the planner's physics under pose and friction noise
-   (`tools/push_data.py`);
+   (`tools/training/push_data.py`);
 2. the forward models f_μ and f_σ² (Eq. 3-4), supervised on each sample's mean successor
    and the log of its variance;
 3. the policy π_θ(x_r, x_o^d, ν_o), by deterministic policy gradient (Silver et al. 2014)
@@ -48,7 +48,7 @@ from rearrangement_planner.planning.planners.learned_oracle import (
     save_models,
     tool_features,
 )
-from rearrangement_planner.tools.push_data import DataOptions, PushData, generate
+from rearrangement_planner.tools.training.push_data import DataOptions, PushData, generate
 
 
 @dataclass(frozen=True)
@@ -454,7 +454,7 @@ def main(argv: list[str] | None = None) -> int:
     total = time.monotonic() - started
     print(f"wrote {out} ({out.stat().st_size / 1e3:.0f} kB) in {total:.0f} s")
     if args.report is not None:
-        from rearrangement_planner.tools.bench_plots import plot_training
+        from rearrangement_planner.tools.bench.plots import plot_training
 
         report = trainer.report() | {"total_seconds": total}
         args.report.write_text(json.dumps(report, indent=1))

@@ -18,7 +18,7 @@ different places and yaws over the table (`_arm_states`); for each sample the ob
 where x_r says relative to one of them. A sample whose start is invalid (the object would
 overlap the arm or leave the table) is drawn again.
 
-The object is drawn from the benchmark's distribution (`tools.benchmark`: box sides, cylinder
+The object is drawn from the benchmark's distribution (`tools.bench.trials`: box sides, cylinder
 radii, heights, masses and frictions), the goal object's size included.
 """
 
@@ -48,7 +48,7 @@ from rearrangement_planner.planning.planners.learned_oracle import (
     to_base,
     to_local,
 )
-from rearrangement_planner.tools import benchmark
+from rearrangement_planner.tools.bench import trials as benchmark
 
 DT = 0.1
 """s: the planner's step (PlannerOptions.dt)."""

@@ -189,7 +189,7 @@ def record_all(requests: Sequence[tuple[Path, int]], out: Path, workers: int | N
     each request's records as it finishes; each request a Ray task (`engine`: the embedded Ray
     or the cluster at `address`), at most `workers` at once; progress on stderr. Returns how
     many requests failed with an internal error (their tracebacks on stderr)."""
-    from rearrangement_planner.tools.engine import Engine, Job, Progress
+    from rearrangement_planner.tools.bench.engine import Engine, Job, Progress
 
     done = {(r["scene"], r["seed"]) for r in read_records(out)}
     jobs = [Job((path.stem, seed), (path, seed, candidates, time_limit, settings), 1,

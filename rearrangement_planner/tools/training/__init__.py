@@ -1,0 +1,1 @@
+"""The learned oracle's training: `rearrangement-train` (command.py) and its push data."""
