@@ -92,6 +92,7 @@ from rearrangement_planner.world3d.execution import (
     ObjectOutcome,
     PerturbedReport,
     TimedPath,
+    check_predicted,
     controller_command,
     perturbed_worlds,
 )
@@ -170,9 +171,7 @@ def check_execution_pybullet(scene: Scene, trajectory: TimedPath,
     (`PlanOutput.trajectory_states`), is compared with what happens, object by object, as
     `world3d.execution.check_execution` does."""
     options = options or PybulletOptions()
-    if predicted is not None and len(predicted) != len(trajectory):
-        raise ExecutionCheckError(f"{len(predicted)} predicted states for {len(trajectory)} "
-                                  f"trajectory points")
+    check_predicted(trajectory, predicted)
     started = time.perf_counter()
     command = controller_command(trajectory, scene.robot.joint_names)
     effort = _effort(scene.robot, options)

@@ -125,6 +125,14 @@ class ExecutionReport:
 # -- the execution --------------------------------------------------------------------------------
 
 
+def check_predicted(trajectory: TimedPath, predicted: Sequence[State] | None) -> None:
+    """Raise ExecutionCheckError unless `predicted` (when given) has a state for every
+    trajectory point."""
+    if predicted is not None and len(predicted) != len(trajectory):
+        raise ExecutionCheckError(f"{len(predicted)} predicted states for {len(trajectory)} "
+                                  f"trajectory points")
+
+
 def check_execution(scene: Scene, trajectory: TimedPath,
                     predicted: Sequence[State] | None = None,
                     options: ExecutionOptions | None = None) -> ExecutionReport:
@@ -132,9 +140,7 @@ def check_execution(scene: Scene, trajectory: TimedPath,
     state at every trajectory point (`PlanOutput.trajectory_states`), is compared with what
     happens, object by object."""
     options = options or ExecutionOptions()
-    if predicted is not None and len(predicted) != len(trajectory):
-        raise ExecutionCheckError(f"{len(predicted)} predicted states for {len(trajectory)} "
-                                  f"trajectory points")
+    check_predicted(trajectory, predicted)
     started = time.perf_counter()
     command = controller_command(trajectory, scene.robot.joint_names)
     run = Execution(build_model(scene, options), scene, command, predicted, options)
