@@ -86,6 +86,29 @@ def test_a_mend_turns_a_3d_miss_into_a_3d_reach_on_a_shipped_scene(v3_s0):
     np.testing.assert_array_equal(again.trajectory.positions, output.trajectory.positions)
 
 
+def test_a_mend_backs_out_from_where_the_servo_holds_the_arm(v3_s0, monkeypatch):
+    """The 3D arm ends 2.5 mrad from its last commanded point in every joint (a servo's
+    tracking error while it presses on an object; v7_s2, seed 1, ended INTERNAL so: "the
+    second trajectory starts 0.0025 rad from where the first ends"). The retreat continues the
+    command from that point, so the spliced answer does not jump and the mend is made."""
+    from rearrangement_planner.model.state import State
+    from rearrangement_planner.planning.requests import judging
+
+    real = judging.judge
+
+    def lagging(scene, trajectory, worlds=(), **kwargs):
+        verdict = real(scene, trajectory, worlds, **kwargs)
+        final = verdict.nominal.final
+        off = dataclasses.replace(verdict.nominal, final=State(final.q + 0.0025, final.objects))
+        return dataclasses.replace(verdict, nominal=off)
+
+    monkeypatch.setattr(judging, "judge", lagging)
+    output = plan_scene(PlanRequest.from_settings(
+        v3_s0, "pc-rrt", {"judge_worlds": 2, "both_planners": False}, seed=0))
+    assert output.solved and output.judged.mends >= 1, output.judged.candidates
+    assert np.all(np.diff(output.trajectory.times) > 0)
+
+
 def test_a_plan_the_judge_says_fails_is_fragile(easy_push_request, judge_says):
     asked = judge_says(reached=False, share=0.5, tipped=("target",))
     output = plan_scene(easy_push_request(mends=0, both_planners=False))

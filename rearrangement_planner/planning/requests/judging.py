@@ -262,7 +262,11 @@ def _mend(judging: Judging, candidate: Judged, replan: Replan) -> Judged | str:
     head = trajectory if point == len(trajectory) - 1 else cut(trajectory, point)
     states = candidate.states[:point + 1]
     after = nominal.final if head is trajectory else judging.nominal_only(head).nominal.final
-    moves = retreat_path(scene.with_start(after.q, after.objects), after, head.positions)
+    # The retreat continues the command from where it stopped: the servo holds the arm at the
+    # last commanded point, which the 3D arm may miss by its tracking error (a few mrad while it
+    # presses on an object), and a spliced trajectory must not jump.
+    rest = State(head.positions[-1], after.objects)
+    moves = retreat_path(scene.with_start(rest.q, rest.objects), rest, head.positions)
     if moves is None:
         return "no retreat out of contact is clear"
     if len(moves) > 1:
