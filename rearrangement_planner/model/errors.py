@@ -2,6 +2,14 @@
 be right."""
 
 
+def cut_text(message: str, limit: int) -> str:
+    """`message` as an answer quotes it: cut to `limit` characters with a note of how many more
+    there were (a goal's setting may hold a 100 kB string)."""
+    if len(message) <= limit:
+        return message
+    return f"{message[:limit]} ... ({len(message) - limit} more characters)"
+
+
 class RearrangementError(Exception):
     """Base class of every error the core raises on purpose."""
 

@@ -26,6 +26,8 @@ from dataclasses import dataclass
 from functools import cache
 from typing import Any, cast
 
+from rearrangement_planner.model.errors import cut_text
+
 Value = bool | int | float | str
 
 
@@ -118,23 +120,15 @@ def parse_assignments(specs: Sequence[SettingSpec], items: Sequence[str]) -> dic
     values: dict[str, Value] = {}
     for item in items:
         name, sep, text = (part.strip() for part in item.partition("="))
-        shown = _shown(item)
+        shown = cut_text(item, 80)
         if not sep or name not in by_name:
             raise ValueError(f"{shown}: expected NAME=VALUE with NAME one of "
                              f"{', '.join(by_name)}")
         try:
             values[name] = by_name[name].parse(text)
         except ValueError as exc:
-            raise ValueError(f"{shown}: {_shown(str(exc), 200)}") from None
+            raise ValueError(f"{shown}: {cut_text(str(exc), 200)}") from None
     return values
-
-
-def _shown(text: str, limit: int = 80) -> str:
-    """`text` as a message quotes it: at most `limit` characters, and how many more there
-    were (a setting may be a 100 kB string)."""
-    if len(text) <= limit:
-        return text
-    return f"{text[:limit]}... ({len(text) - limit} more characters)"
 
 
 def check_value(spec: SettingSpec, value: Any) -> None:

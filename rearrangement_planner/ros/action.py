@@ -25,7 +25,7 @@ from msg_adapters import goal_to_pose_stamped, objects_to_pose_array
 from rearrangement_interfaces.action import PlanRearrangement
 from rearrangement_interfaces.msg import ErrorCode
 from rearrangement_planner.io.plan_record import NODE_NAMESPACE
-from rearrangement_planner.model.errors import InputError
+from rearrangement_planner.model.errors import InputError, cut_text
 from rearrangement_planner.model.settings import parse_assignments
 from rearrangement_planner.planning.machinery.interface import Outcome, Progress
 from rearrangement_planner.planning.requests.pipeline import PlanOutput
@@ -176,13 +176,6 @@ RESULT_CHARS = 4000
 """A result's message is cut to this many characters: a message quotes what was wrong with
 the goal, and a goal may hold a 100 kB string (the closed loop's longest answers, a line per
 attempt, stay within 1,500)."""
-
-
-def cut_text(message: str, limit: int) -> str:
-    """`message`, cut to `limit` characters with a note of how many more there were."""
-    if len(message) <= limit:
-        return message
-    return f"{message[:limit]} ... ({len(message) - limit} more characters)"
 
 
 def plain_result(code: int, message: str) -> PlanRearrangement.Result:

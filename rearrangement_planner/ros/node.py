@@ -52,7 +52,7 @@ from msg_adapters import (
     pose_stamped_to_goal,
     trajectory_to_msg,
 )
-from rearrangement_planner.model.errors import ObjectTilted, RearrangementError
+from rearrangement_planner.model.errors import ObjectTilted, RearrangementError, cut_text
 from rearrangement_planner.model.resources import NODE_NAME
 from rearrangement_planner.planning.machinery.interface import Outcome, Progress
 from rearrangement_planner.planning.requests.parallel import start_workers
@@ -61,7 +61,6 @@ from rearrangement_planner.planning.requests.warmup import warm_up
 from rearrangement_planner.ros.action import (
     DIVERGED,
     PlanActionServer,
-    cut_text,
     execute,
     recorded_action,
 )
