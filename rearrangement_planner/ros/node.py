@@ -80,7 +80,7 @@ from rearrangement_planner.ros.plan_request import (
     result_markers,
     run_plan,
 )
-from rearrangement_planner.ros.replan import DivergenceWatch, LoopIO, close_the_loop
+from rearrangement_planner.ros.replan import LoopIO, close_the_loop, goal_watch
 from rearrangement_planner.ros.services import TriggerServices
 
 EXECUTOR_THREADS = 6
@@ -423,9 +423,8 @@ def _execute_goal(node: PlannerNode, job: Job, msg: JointTrajectory, planned: tu
         return node._objects_tilted
 
     def send(command: JointTrajectory, watched: Any) -> tuple[str, str]:
-        watch = (DivergenceWatch(watched, bound, lambda: node._latest()["object_poses"],
-                                 tilted, node.live.executing)
-                 if watched is not None and (attempts > 0 or node.live.view) else None)
+        watch = goal_watch(watched, attempts, bound, lambda: node._latest()["object_poses"],
+                           tilted, node.live.executing if node.live.view else None)
         return execute(job, command, job.params["execution_timeout"], node.send,
                        node._joints.get, watch)
 

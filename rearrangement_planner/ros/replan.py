@@ -102,6 +102,24 @@ class DivergenceWatch:
                 f"{self.bound:g} m)")
 
 
+def goal_watch(output: PlanOutput | None, attempts: int, bound: float,
+               objects: Callable[[], Any],
+               tilted: Callable[[], tuple[float, ObjectTilted] | None],
+               shown: Callable[[np.ndarray, np.ndarray | None, np.ndarray], None] | None
+               ) -> DivergenceWatch | None:
+    """The watch over one execution of an action goal's plan `output`: with re-plans
+    (`attempts` > 0), one that stops the arm on an object that tips or strays `bound` m; without,
+    only the live view's (`shown`; None: no watch), which never stops the arm, since whether
+    someone watches must not change what the arm does."""
+    if output is None:
+        return None
+    if attempts > 0:
+        return DivergenceWatch(output, bound, objects, tilted, shown)
+    if shown is not None:
+        return DivergenceWatch(output, 0.0, objects, shown=shown)
+    return None
+
+
 @dataclass
 class Attempt:
     """One executed plan of the loop and what was observed after it."""

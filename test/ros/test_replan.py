@@ -64,3 +64,28 @@ def test_a_replan_refused_its_start_gets_a_farther_retreat(planned, monkeypatch)
     assert outcome == Outcome.SUCCEEDED.value, message
     assert plans == [2, 2] and retreats == [replan.RETREAT_CLEARANCE, replan.FARTHER]
     assert message.endswith("goal reached after 1 re-plans")
+
+
+def test_a_live_view_watches_an_execution_without_stopping_it(planned):
+    """Without re-plans the watch only shows the execution (the live view): an object seen far
+    off its path, or tilted, stops the arm only when the loop has re-plans to make."""
+    scene, output = planned
+    far = Input(scene.object_poses + np.array([0.3, 0.0, 0.0]), None, time.monotonic())
+    tipped = (time.monotonic() + 1.0, SimpleNamespace(object_id="target", tilt=0.3, bound=0.05))
+    shown: list = []
+    q = output.trajectory.positions[len(output.trajectory) // 2]
+
+    def watch(attempts, live=True):
+        return replan.goal_watch(output, attempts, 0.05, lambda: far, lambda: None,
+                                 (lambda *seen: shown.append(seen)) if live else None)
+
+    assert watch(0)(q) is None and len(shown) == 1
+    np.testing.assert_array_equal(shown[0][1], far.value)
+    assert "strayed" in watch(1)(q)
+    assert watch(0, live=False) is None and replan.goal_watch(
+        None, 1, 0.05, lambda: far, lambda: None, None) is None
+    tilting = replan.goal_watch(output, 1, 0.0, lambda: None, lambda: tipped, None)
+    assert "began to tip" in tilting(q)
+    shows_only = replan.goal_watch(output, 0, 0.05, lambda: None, lambda: tipped,
+                                   lambda *seen: None)
+    assert shows_only(q) is None
