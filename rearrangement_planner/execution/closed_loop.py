@@ -145,7 +145,9 @@ def execute_closed_loop(request: PlanRequest, replans: int, world: Scene | None 
         ended = (REACHED if report.reached else TOPPLED if report.toppled else MISSED)
         attempts.append(Attempt(output, report, retreat_s, ended,
                                 f"stopped: {report.stopped}" if report.stopped else ""))
-        if ended != MISSED or not _replans_left(attempts, replans, closing):
+        distances = [a.execution.goal_distance_m if a.execution is not None else None
+                     for a in attempts]
+        if ended != MISSED or not replans_left(distances, replans, closing):
             break
         following = _following(request, world, report.final_state(),
                                output.trajectory.positions, options, plan)
@@ -157,14 +159,17 @@ def execute_closed_loop(request: PlanRequest, replans: int, world: Scene | None 
     return ClosedLoop(tuple(attempts))
 
 
-def _replans_left(attempts: list[Attempt], replans: int, closing: int) -> bool:
-    """Another re-plan: within `replans`, or within `closing` more while the last attempt left
-    the goal object CLOSING_IN nearer its goal than the one before."""
-    made = len(attempts) - 1
+def replans_left(distances: Sequence[float | None], replans: int, closing: int) -> bool:
+    """Another re-plan after the attempts that left the goal object `distances` from its goal
+    (one an attempt, the newest last; None: not executed): within `replans`, or within `closing`
+    more while the newest left it CLOSING_IN nearer than the one before (this loop's and the
+    node's, `ros.replan`)."""
+    made = len(distances) - 1
     if made < replans:
         return True
-    distances = [a.execution.goal_distance_m for a in attempts[-2:] if a.execution is not None]
-    nearer = len(distances) == 2 and distances[0] - distances[1] >= CLOSING_IN
+    last = list(distances[-2:])
+    nearer = (len(last) == 2 and last[0] is not None and last[1] is not None
+              and last[0] - last[1] >= CLOSING_IN)
     return nearer and made < replans + closing
 
 

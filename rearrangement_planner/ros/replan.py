@@ -33,7 +33,7 @@ from typing import Any
 import numpy as np
 
 from msg_adapters import trajectory_to_msg
-from rearrangement_planner.execution.closed_loop import CLOSING_IN, FARTHER
+from rearrangement_planner.execution.closed_loop import FARTHER, replans_left
 from rearrangement_planner.model.errors import ObjectTilted
 from rearrangement_planner.model.scene import Scene
 from rearrangement_planner.model.state import State
@@ -150,7 +150,7 @@ def close_the_loop(job: Any, io: LoopIO, scene: Scene, output: PlanOutput,
                                                                  dict[str, Any]]:
     """Observe after the executed `output` (executed at time.monotonic() `executed_at`;
     `stopped`: why its watch stopped it) and re-plan up to `attempts` times, and up to
-    `closing` more while each attempt leaves the goal object CLOSING_IN nearer its goal than
+    `closing` more while each attempt leaves the goal object 1 cm nearer its goal than
     the one before (module doc). Returns the last (outcome, message, scene, output, inputs);
     every attempt's line is in `job.attempts`."""
     job.attempts = [Attempt(job.plan_id, stopped + "; " if stopped else "")]
@@ -167,8 +167,7 @@ def close_the_loop(job: Any, io: LoopIO, scene: Scene, output: PlanOutput,
         if distance <= scene.goal.radius:
             return (Outcome.SUCCEEDED.value, _lines(job) + f"; goal reached after {k - 1} "
                                                              f"re-plans", scene, output, inputs)
-        nearer = len(distances) > 1 and distances[-2] - distances[-1] >= CLOSING_IN
-        if k > attempts and not (nearer and k <= attempts + closing):
+        if not replans_left(distances, attempts, closing):
             break
         io.record(output, inputs, f"{job.plan_id}-attempt{k}")
         ended, why = _retreat(job, io, scene, observed, output)

@@ -184,15 +184,11 @@ def test_a_replan_refused_its_start_gets_a_farther_retreat_in_mujoco(easy_push, 
 
 
 def test_the_loop_goes_past_its_replans_only_while_it_closes_in():
-    from types import SimpleNamespace
+    from rearrangement_planner.execution.closed_loop import CLOSING_IN, replans_left
 
-    from rearrangement_planner.execution.closed_loop import CLOSING_IN, _replans_left
-
-    def attempts(*distances):
-        return [SimpleNamespace(execution=SimpleNamespace(goal_distance_m=d)) for d in distances]
-
-    assert _replans_left(attempts(0.3), 1, 2)                       # within replans
-    assert not _replans_left(attempts(0.3, 0.29 + 1e-9), 1, 2)       # not 1 cm nearer
-    assert _replans_left(attempts(0.3, 0.3 - CLOSING_IN), 1, 2)      # nearer: one more
-    assert not _replans_left(attempts(0.3, 0.2, 0.1, 0.05), 1, 2)    # closing used up
-    assert not _replans_left(attempts(0.3, 0.2), 1, 0)               # closing 0: never past
+    assert replans_left([0.3], 1, 2)                                 # within replans
+    assert not replans_left([0.3, 0.29 + 1e-9], 1, 2)                 # not 1 cm nearer
+    assert replans_left([0.3, 0.3 - CLOSING_IN], 1, 2)                # nearer: one more
+    assert not replans_left([0.3, 0.2, 0.1, 0.05], 1, 2)              # closing used up
+    assert not replans_left([0.3, 0.2], 1, 0)                         # closing 0: never past
+    assert not replans_left([0.3, None], 1, 2)                        # not executed: not nearer
